@@ -1,0 +1,219 @@
+"""Wind models: the shared contract, the shear power law, Dryden vs MIL-F-8785C."""
+import math
+
+import numpy as np
+import pytest
+from scipy.signal import welch
+
+import uavwind as uw
+from uavwind.wind import FEET, dryden_parameters, dryden_psd
+
+
+def _models():
+    return {
+        "constant": uw.ConstantWind([[1.0, 1.0, 0.0], [2.0, -1.0, 0.5]]),
+        "shear": uw.ShearWind([[2.1, 10.1, 0.0], [1.0, 1.0, 0.0]]),
+        "dryden": uw.DrydenWind([11.5, 13.0], seed=3),
+        "combined": uw.CombinedWind(uw.ConstantWind([[1.0, 0, 0]]),
+                                    uw.ShearWind([[0, 2.0, 0]] * 2),
+                                    uw.DrydenWind([12.0], seed=1)),
+    }
+
+
+@pytest.mark.parametrize("name", list(_models()))
+def test_every_model_honours_the_contract(name):
+    model = _models()[name]
+    assert isinstance(model, uw.WindModel)
+    n = model.n_env
+    assert len(model) == n
+    pos = np.column_stack([np.zeros(n), np.zeros(n), np.linspace(1, 30, n)])
+    for t in (0.0, 0.05, 1.0, 11.95, 30.0):
+        v = model.velocity(t, pos)
+        assert v.shape == (n, 3) and v.dtype == float and np.all(np.isfinite(v))
+        assert np.array_equal(v, model.velocity(t, pos))  # pure function of (t, r)
+    with pytest.raises(ValueError, match="positions"):
+        model.velocity(0.0, np.zeros((n + 1, 3)))
+    with pytest.raises(ValueError, match="positions"):
+        model.velocity(0.0, np.full((n, 3), np.nan))
+    with pytest.raises(ValueError, match="t must"):
+        model.velocity(-1.0, pos)
+
+
+def test_constant_wind_is_constant():
+    w = uw.ConstantWind([[1.1, 1.1, 0.0]])
+    for t, z in ((0, 10), (5, -3), (12, 500)):
+        assert np.array_equal(w.velocity(t, [[3, 4, z]]), [[1.1, 1.1, 0.0]])
+
+
+def test_shear_follows_power_law_and_floor():
+    ref = np.array([[2.1, 10.1, 0.0], [1.0, 0.5, 0.0]])
+    w = uw.ShearWind(ref, reference_height=10.0, alpha=0.143, floor=0.5)
+    for z in (0.5, 3.0, 10.0, 25.0, 120.0):
+        v = w.velocity(0.0, [[0, 0, z]] * 2)
+        assert np.allclose(v, ref * (z / 10.0) ** 0.143, rtol=1e-14)
+    at_floor = w.velocity(0.0, [[0, 0, 0.5]] * 2)
+    for z in (0.49, 0.0, -20.0):  # below the floor the wind is held
+        assert np.array_equal(w.velocity(0.0, [[0, 0, z]] * 2), at_floor)
+    assert np.array_equal(w.velocity(0.0, [[0, 0, 10.0]] * 2), ref)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"reference_height": 0.0}, "reference_height"), ({"alpha": -0.1}, "alpha"),
+    ({"alpha": 1.5}, "alpha"), ({"floor": 0.0}, "floor"),
+])
+def test_shear_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        uw.ShearWind([[1.0, 1.0, 0.0]], **kwargs)
+
+
+@pytest.mark.parametrize("bad, err, match", [
+    ([[1.0, 1.0]], ValueError, "shape"), ([1.0, 1.0, 0.0], ValueError, "velocities"),
+    ([[np.nan, 1.0, 0.0]], ValueError, "finite"), ([[np.inf, 1.0, 0.0]], ValueError, "finite"),
+    (np.zeros((0, 3)), ValueError, "at least one"), ([["a", "b", "c"]], TypeError, "velocities"),
+])
+def test_constant_validation(bad, err, match):
+    with pytest.raises(err, match=match):
+        uw.ConstantWind(bad)
+
+
+@pytest.mark.parametrize("kwargs, err, match", [
+    ({"w20": [0.0]}, ValueError, "w20"), ({"w20": [-3.0]}, ValueError, "w20"),
+    ({"w20": [np.nan]}, ValueError, "w20"), ({"w20": [[1.0]]}, ValueError, "w20"),
+    ({"w20": [12.0], "altitude": 0.0}, ValueError, "altitude"),
+    ({"w20": [12.0], "dt": 0.0}, ValueError, "dt"),
+    ({"w20": [12.0], "airspeed": -1.0}, ValueError, "airspeed"),
+    ({"w20": [12.0, 11.0], "airspeed": [1.0, 2.0, 3.0]}, ValueError, "airspeed"),
+    ({"w20": [12.0], "seed": "x"}, TypeError, "seed"),
+    ({"w20": [12.0], "discretisation": "tustin"}, ValueError, "discretisation"),
+])
+def test_dryden_validation(kwargs, err, match):
+    with pytest.raises(err, match=match):
+        uw.DrydenWind(**kwargs)
+
+
+def test_combined_validation_and_groups():
+    with pytest.raises(ValueError, match="models"):
+        uw.CombinedWind()
+    with pytest.raises(TypeError, match="models\\[1\\]"):
+        uw.CombinedWind(uw.ConstantWind([[1, 0, 0]]), "shear")
+    w = uw.CombinedWind([uw.ConstantWind([[1, 0, 0]] * 2), uw.ShearWind([[0, 1, 0]] * 3)])
+    assert w.groups.tolist() == [0, 0, 1, 1, 1]
+    pos = np.array([[0, 0, 10.0]] * 2 + [[0, 0, 20.0]] * 3)
+    v = w.velocity(0.0, pos)
+    assert np.array_equal(v[:2], [[1, 0, 0]] * 2)
+    assert np.allclose(v[2:, 1], 2 ** 0.143)
+
+
+# --------------------------------------------------------------------------- #
+# Dryden
+# --------------------------------------------------------------------------- #
+def test_dryden_parameters_match_mil_f_8785c():
+    h_ft = 10.0 / FEET
+    p = dryden_parameters(12.0, 10.0)
+    base = 0.177 + 0.000823 * h_ft
+    assert math.isclose(p["sigma_w"], 1.2)
+    assert math.isclose(p["sigma_u"], 1.2 / base ** 0.4)
+    assert p["sigma_u"] == p["sigma_v"]
+    assert math.isclose(p["L_w"], 10.0)
+    assert math.isclose(p["L_u"], h_ft / base ** 1.2 * FEET)
+    # altitude clamped to [10, 1000] ft
+    assert dryden_parameters(12.0, 1.0)["L_w"] == pytest.approx(10 * FEET)
+    assert dryden_parameters(12.0, 5000.0)["L_w"] == pytest.approx(1000 * FEET)
+
+
+N_ENS = 4000
+W20 = 12.5
+
+
+@pytest.fixture(scope="module")
+def ensemble():
+    w = uw.DrydenWind(np.full(N_ENS, W20), altitude=10.0, dt=0.1, seed=2024)
+    return w, w.gusts(121)
+
+
+def test_dryden_ensemble_sigma_from_the_first_second(ensemble):
+    w, g = ensemble
+    sig = w.sigmas[0]
+    std = g.std(axis=0)  # (time, axis) across environments
+    assert np.all(np.abs(std[:10] / sig - 1) < 0.05), std[:10] / sig  # stationary from t = 0
+    assert np.all(np.abs(std / sig - 1) < 0.05)
+    assert np.all(np.abs(g.mean(axis=0)) < 0.1 * sig)  # zero mean
+
+
+def test_dryden_u_autocorrelation_at_one_second(ensemble):
+    w, g = ensemble
+    p = w.parameters
+    rho = np.corrcoef(g[:, 0, 0], g[:, 10, 0])[0, 1]
+    assert rho == pytest.approx(math.exp(-W20 * 1.0 / p["L_u"]), abs=0.03)
+
+
+def test_dryden_discrete_variance_is_sigma_squared():
+    """White noise of std sqrt(pi/dt) makes the stationary output variance sigma^2."""
+    from uavwind.wind import _stationary_covariance
+
+    w = uw.DrydenWind([11.18, 12.5, 13.86], dt=0.1, seed=0)
+    for j, ax in enumerate("uvw"):
+        A, B, C = w.filters[ax]
+        P = _stationary_covariance(A, B, math.pi / 0.1)
+        var = np.einsum("ni,nij,nj->n", C, P, C)
+        assert np.allclose(var / w.sigmas[:, j] ** 2, 1, atol=0.03)
+
+
+def test_dryden_spectrum_matches_analytic():
+    w = uw.DrydenWind(np.full(200, W20), dt=0.1, seed=11)
+    g = w.gusts(2048)
+    f, S = welch(g, fs=10.0, nperseg=512, axis=1)  # one-sided, per Hz
+    S = S.mean(axis=0)  # (freq, axis)
+    band = (f > 0.05) & (f < 1.0)
+    p = w.parameters
+    for j, ax in enumerate("uvw"):
+        analytic = dryden_psd(2 * np.pi * f[band], p[f"sigma_{ax}"][0], p[f"L_{ax}"], W20, ax)
+        ratio = S[band, j] / (2 * np.pi) / analytic
+        assert np.all(np.abs(ratio - 1) < 0.15), (ax, ratio)
+        assert abs(ratio.mean() - 1) < 0.05
+
+
+def test_dryden_psd_integrates_to_variance():
+    from scipy.integrate import quad
+    for ax in "uvw":
+        val, _ = quad(lambda om: dryden_psd(om, 2.0, 60.0, 12.0, ax), 0, np.inf, limit=200)
+        assert val == pytest.approx(4.0, rel=1e-6)
+
+
+def test_dryden_seeds_repeat_and_differ():
+    a = uw.DrydenWind([12.0, 13.0], seed=5).gusts(120)
+    b = uw.DrydenWind([12.0, 13.0], seed=5).gusts(120)
+    c = uw.DrydenWind([12.0, 13.0], seed=6).gusts(120)
+    assert np.array_equal(a, b)
+    assert not np.allclose(a, c)
+    # adding environments keeps the gusts of the existing ones
+    d = uw.DrydenWind([12.0, 13.0, 11.5], seed=5).gusts(120)
+    assert np.array_equal(a, d[:2])
+    # lazy extension draws the same numbers as one long draw
+    w = uw.DrydenWind([12.0, 13.0], seed=5)
+    w.gusts(10)
+    w.velocity(30.0, np.zeros((2, 3)))
+    assert np.array_equal(w.gusts(400), uw.DrydenWind([12.0, 13.0], seed=5).gusts(400))
+
+
+def test_dryden_control_and_exact_discretisation_agree():
+    """The closed-form ZOH equals python-control's sample_system(..., 'zoh')."""
+    w20 = np.linspace(11.18, 13.86, 7)
+    exact = uw.DrydenWind(w20, seed=9)
+    ctrl = uw.DrydenWind(w20, seed=9, discretisation="control")
+    for ax in "uvw":
+        for a, b in zip(exact.transfer_functions[ax], ctrl.transfer_functions[ax]):
+            assert np.allclose(a, b, rtol=1e-12, atol=1e-14)
+    assert np.allclose(exact.gusts(200), ctrl.gusts(200), atol=1e-8)
+
+
+def test_dryden_transfer_functions_are_eqs_10_12():
+    Hu, Hv, Hw = uw.dryden_transfer_functions(2.0, 2.0, 1.2, 60.0, 60.0, 3.0, 12.0)
+    s = 0.7j
+    T = 60.0 / 12.0
+    assert complex(Hu(s)) == pytest.approx(2.0 * math.sqrt(2 * 60 / (math.pi * 12)) / (1 + T * s))
+    assert complex(Hv(s)) == pytest.approx(
+        2.0 * math.sqrt(60 / (math.pi * 12)) * (1 + math.sqrt(3) * T * s) / (1 + T * s) ** 2)
+    Tw = 3.0 / 12.0
+    assert complex(Hw(s)) == pytest.approx(
+        1.2 * math.sqrt(3 / (math.pi * 12)) * (1 + math.sqrt(3) * Tw * s) / (1 + Tw * s) ** 2)

@@ -1,0 +1,24 @@
+"""uavwind: wind estimation for UAVs with causal curiosity, a reproducible replication.
+
+A point-mass UAV flies one open-loop thrust sequence through two groups of wind
+environments; its position trajectories are clustered with soft-DTW k-means
+and the silhouette score rewards thrust sequences that separate the groups.
+
+>>> import uavwind as uw
+>>> setting = uw.table3_setting()
+>>> traj = setting.simulate(uw.PAPER_EXAMPLE)
+>>> traj.shape
+(10, 120, 3)
+"""
+
+from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
+                      sample_paper)
+from .config import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
+from .dynamics import Flight, simulate, simulate_flight
+from .scenarios import (PAPER_SCENARIOS, SPEED_RANGES, EnvironmentGroup, Setting, WindCondition,
+                        direction_settings, environment_count_settings, group_speeds, make_group,
+                        make_setting, range_similarity_settings, scenario_table, table3_setting)
+from .wind import (CombinedWind, ConstantWind, DrydenWind, ShearWind, WindModel,
+                   dryden_parameters, dryden_psd, dryden_transfer_functions)
+
+__version__ = "0.1.0"

@@ -1,0 +1,246 @@
+"""Open-loop thrust sequences: the UAV's actions.
+
+This module owns :class:`ThrustSequence` (piecewise-constant thrust: change
+times [s], magnitudes [N], unit directions), the two samplers of DESIGN
+decision 2 (:func:`sample_paper`, :func:`sample_continuous`), and the flat
+vector form the Cross-Entropy Method searches over (:meth:`ThrustSequence.to_vector`,
+:meth:`ThrustSequence.from_vector`). Every sampler takes an explicit
+``numpy.random.Generator``; nothing here touches global random state.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import check_array, check_scalar
+
+__all__ = ["ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
+           "MAX_THRUST", "PAPER_EXAMPLE"]
+
+#: Upper bound of the thrust magnitude [N] (paper Table 4c).
+MAX_THRUST = 50.0
+
+_AXES = np.eye(3)
+
+
+class ThrustSequence:
+    """Piecewise-constant thrust: segment ``i`` holds from ``times[i]`` to the next change.
+
+    Parameters
+    ----------
+    times : array_like, shape (k,)
+        Start time of each segment [s]; ``times[0] == 0``, strictly increasing.
+    magnitudes : array_like, shape (k,)
+        Thrust magnitude of each segment [N], >= 0.
+    directions : array_like, shape (k, 3)
+        Direction of each segment (x, y, z); any non-zero vector, normalised
+        here to unit length.
+
+    Examples
+    --------
+    The paper's example loop (40 N up for 4 s, 15 N along x for 6 s, 45 N along y):
+
+    >>> seq = ThrustSequence([0, 4, 10], [40, 15, 45], [[0, 0, 1], [1, 0, 0], [0, 1, 0]])
+    >>> seq.thrust(5.0)
+    array([15.,  0.,  0.])
+    >>> seq.n_changes
+    2
+    """
+
+    __slots__ = ("times", "magnitudes", "directions")
+
+    def __init__(self, times, magnitudes, directions):
+        times = check_array(times, "times", ndim=1)
+        k = times.shape[0]
+        if k == 0:
+            raise ValueError("times must hold at least one segment start (0.0)")
+        magnitudes = check_array(magnitudes, "magnitudes", shape=(k,))
+        directions = check_array(directions, "directions", shape=(k, 3))
+        if times[0] != 0.0:
+            raise ValueError(f"times[0] must be 0 s (the first segment starts the flight), "
+                             f"got {times[0]}")
+        if np.any(np.diff(times) <= 0):
+            raise ValueError(f"times must be strictly increasing, got {times.tolist()}")
+        if np.any(magnitudes < 0):
+            raise ValueError(f"magnitudes must be >= 0 N, got {magnitudes.tolist()}")
+        norms = np.linalg.norm(directions, axis=1)
+        if np.any(norms == 0):
+            raise ValueError("directions must be non-zero vectors, got a zero row at index "
+                             f"{int(np.flatnonzero(norms == 0)[0])}")
+        for name, arr in (("times", times), ("magnitudes", magnitudes),
+                          ("directions", directions / norms[:, None])):
+            arr = np.array(arr, dtype=float)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def __setattr__(self, name, value):
+        raise AttributeError("ThrustSequence is immutable")
+
+    def __reduce__(self):
+        # bypass re-normalisation so a pickled copy is bit-identical
+        return (_restore, (self.times, self.magnitudes, self.directions))
+
+    # -- evaluation ---------------------------------------------------------- #
+    @property
+    def n_segments(self) -> int:
+        """Number of constant-thrust segments."""
+        return self.times.shape[0]
+
+    @property
+    def n_changes(self) -> int:
+        """Number of thrust changes after the start (segments - 1)."""
+        return self.n_segments - 1
+
+    @property
+    def vectors(self) -> np.ndarray:
+        """Thrust vector of each segment, shape (k, 3) [N]."""
+        return self.magnitudes[:, None] * self.directions
+
+    def segment(self, t):
+        """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
+        t = np.asarray(t, dtype=float)
+        return np.searchsorted(self.times, t + 1e-9, side="right") - 1
+
+    def thrust(self, t):
+        """Thrust vector [N] at time(s) ``t`` [s]: shape (3,) or (len(t), 3)."""
+        t_arr = np.asarray(t, dtype=float)
+        if np.any(t_arr < -1e-9) or not np.all(np.isfinite(t_arr)):
+            raise ValueError("t must be finite and >= 0 s")
+        idx = np.maximum(self.segment(t_arr), 0)
+        return self.vectors[idx]
+
+    def check_within(self, duration: float):
+        """Raise ``ValueError`` unless every change happens inside ``[0, duration)``."""
+        if self.times[-1] >= duration:
+            raise ValueError(f"thrust change times must lie inside the flight [0, {duration}) s, "
+                             f"got {self.times[-1]}")
+
+    # -- vector form for CEM ------------------------------------------------- #
+    def to_vector(self) -> np.ndarray:
+        """Flat vector ``[m_0, d_0x, d_0y, d_0z, m_1, ...]``, shape (4 k,)."""
+        return np.column_stack([self.magnitudes, self.directions]).ravel()
+
+    @classmethod
+    def from_vector(cls, vector, times, max_magnitude=MAX_THRUST):
+        """Thrust sequence from a CEM sample (DESIGN decision 7).
+
+        Magnitudes are clipped to ``[0, max_magnitude]`` [N] and direction
+        components normalised to unit length; an all-zero direction (probability
+        zero for Gaussian samples) becomes +z.
+
+        Parameters
+        ----------
+        vector : array_like, shape (4 k,)
+            ``[m_0, d_0x, d_0y, d_0z, m_1, ...]``.
+        times : array_like, shape (k,)
+            Segment start times [s].
+        """
+        times = check_array(times, "times", ndim=1)
+        vector = check_array(vector, "vector", shape=(4 * times.shape[0],))
+        v = vector.reshape(-1, 4)
+        mags = np.clip(v[:, 0], 0.0, max_magnitude)
+        dirs = v[:, 1:].copy()
+        dirs[np.linalg.norm(dirs, axis=1) == 0] = (0.0, 0.0, 1.0)
+        return cls(times, mags, dirs)
+
+    # -- dunder -------------------------------------------------------------- #
+    def __eq__(self, other):
+        if not isinstance(other, ThrustSequence):
+            return NotImplemented
+        return (np.array_equal(self.times, other.times)
+                and np.array_equal(self.magnitudes, other.magnitudes)
+                and np.array_equal(self.directions, other.directions))
+
+    def __hash__(self):
+        return hash((self.times.tobytes(), self.magnitudes.tobytes(), self.directions.tobytes()))
+
+    def __repr__(self):
+        return (f"ThrustSequence(times={self.times.tolist()}, "
+                f"magnitudes={self.magnitudes.tolist()}, "
+                f"directions={np.round(self.directions, 4).tolist()})")
+
+    def to_dict(self):
+        """Plain lists, for tables: times [s], magnitudes [N], directions."""
+        return {"times": self.times.tolist(), "magnitudes": self.magnitudes.tolist(),
+                "directions": self.directions.tolist()}
+
+
+def _restore(times, magnitudes, directions):
+    seq = object.__new__(ThrustSequence)
+    for name, arr in (("times", times), ("magnitudes", magnitudes), ("directions", directions)):
+        object.__setattr__(seq, name, arr)
+    return seq
+
+
+def _check_rng(rng):
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+
+
+def _change_times(rng, n_changes, duration, step):
+    """Distinct change times on the grid ``step, 2 step, ... < duration``, sorted, after 0."""
+    slots = np.arange(1, int(np.ceil(duration / step - 1e-9))) * step
+    n_changes = check_scalar(n_changes, "n_changes", low=0, high=len(slots), integer=True)
+    chosen = np.sort(rng.choice(slots, size=n_changes, replace=False)) if n_changes else []
+    return np.concatenate([[0.0], chosen])
+
+
+def sample_paper(rng, n_changes=6, duration=12.0, magnitude_step=5.0,
+                 max_magnitude=MAX_THRUST, axes="positive", time_step=1.0):
+    """The paper's thrust sampler (DESIGN decision 2).
+
+    Change times are ``n_changes`` distinct whole multiples of ``time_step``
+    inside (0, duration), sorted, after the first segment at t = 0; magnitudes
+    are multiples of ``magnitude_step`` in [0, max_magnitude] [N]; directions
+    are unit axes (``axes="positive"``: +x, +y, +z as in the paper's example;
+    ``"signed"``: the six signed axes).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of randomness.
+    n_changes : int
+        Number of changes after t = 0, in [0, duration/time_step - 1]
+        (11 for the paper's 12 s flight on a whole-second grid).
+
+    Examples
+    --------
+    >>> seq = sample_paper(np.random.default_rng(0))
+    >>> seq.n_changes, bool(np.all(seq.magnitudes % 5 == 0))
+    (6, True)
+    """
+    _check_rng(rng)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    times = _change_times(rng, n_changes, duration, time_step)
+    k = times.shape[0]
+    n_levels = int(round(max_magnitude / magnitude_step)) + 1
+    mags = rng.integers(0, n_levels, size=k) * float(magnitude_step)
+    if axes == "positive":
+        dirs = _AXES[rng.integers(0, 3, size=k)]
+    elif axes == "signed":
+        idx = rng.integers(0, 6, size=k)
+        dirs = _AXES[idx % 3] * np.where(idx < 3, 1.0, -1.0)[:, None]
+    else:
+        raise ValueError(f"axes must be 'positive' or 'signed', got {axes!r}")
+    return ThrustSequence(times, mags, dirs)
+
+
+def sample_continuous(rng, n_changes=6, duration=12.0, max_magnitude=MAX_THRUST, time_step=1.0):
+    """Continuous variant: uniform magnitudes in [0, max_magnitude] [N], directions
+    uniform on the unit sphere; change times as in :func:`sample_paper`."""
+    _check_rng(rng)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    times = _change_times(rng, n_changes, duration, time_step)
+    k = times.shape[0]
+    mags = rng.uniform(0.0, max_magnitude, size=k)
+    dirs = rng.standard_normal((k, 3))
+    dirs[np.linalg.norm(dirs, axis=1) == 0] = (0.0, 0.0, 1.0)
+    return ThrustSequence(times, mags, dirs)
+
+
+#: Samplers by name (settings refer to them by these names).
+SAMPLERS = {"paper": sample_paper, "continuous": sample_continuous}
+
+#: The paper's worked-example thrust (Table "Simulation parameters and outputs").
+PAPER_EXAMPLE = ThrustSequence([0.0, 4.0, 10.0], [40.0, 15.0, 45.0],
+                               [[0, 0, 1], [1, 0, 0], [0, 1, 0]])

@@ -1,0 +1,167 @@
+"""Point-mass flight through wind: the integrator of paper eqs 2-8.
+
+This module owns :func:`simulate` (positions only, the input of clustering) and
+:func:`simulate_flight` (positions plus the velocities and winds along the path,
+for figures). Both fly one open-loop :class:`~uavwind.actions.ThrustSequence`
+through every environment of a :class:`~uavwind.wind.WindModel` at once: the
+only Python loop is over time steps; environments are a NumPy axis.
+
+One step of length ``dt`` from time ``t_k = k dt`` (DESIGN decision 1)::
+
+    F      = F_thrust(t_k) - 1/2 rho C_D S |v_air| v_air + (0, 0, -m g)
+    v_air += F / m * dt
+    v_gnd  = v_air + v_wind(t_k, r)
+    r     += v_gnd * dt                 -> recorded as sample k (time t_k + dt)
+
+with ``v_air = 0`` and ``r = (0, 0, z0)`` at t = 0. There is no ground: the
+altitude may become negative, as in the paper.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .actions import ThrustSequence
+from .config import UAV, check_array, check_scalar, n_steps as _n_steps
+from .wind import WindModel
+
+__all__ = ["simulate", "simulate_flight", "Flight"]
+
+
+@dataclass(frozen=True)
+class Flight:
+    """Everything recorded along one simulated flight.
+
+    Attributes
+    ----------
+    times : ndarray, shape (n_steps,)
+        Sample times [s]: ``dt, 2 dt, ..., duration``.
+    positions : ndarray, shape (n_env, n_steps, 3)
+        Position after each step [m].
+    ground_velocities : ndarray, shape (n_env, n_steps, 3)
+        Velocity over ground used during each step [m/s].
+    air_velocities : ndarray, shape (n_env, n_steps, 3)
+        Velocity relative to the air during each step [m/s].
+    winds : ndarray, shape (n_env, n_steps, 3)
+        Wind velocity met during each step, at the position where the step
+        started [m/s].
+    thrust : ndarray, shape (n_steps, 3)
+        Thrust applied during each step [N].
+    start : ndarray, shape (3,)
+        Initial position [m].
+    """
+
+    times: np.ndarray
+    positions: np.ndarray
+    ground_velocities: np.ndarray
+    air_velocities: np.ndarray
+    winds: np.ndarray
+    thrust: np.ndarray
+    start: np.ndarray
+
+    @property
+    def n_env(self) -> int:
+        return self.positions.shape[0]
+
+
+def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
+    if not isinstance(thrust, ThrustSequence):
+        raise TypeError(f"thrust must be a ThrustSequence, got {type(thrust).__name__}")
+    if not isinstance(wind, WindModel):
+        raise TypeError(f"wind must be a WindModel, got {type(wind).__name__}")
+    if not isinstance(uav, UAV):
+        raise TypeError(f"uav must be a UAV, got {type(uav).__name__}")
+    dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    n = _n_steps(dt, duration)
+    thrust.check_within(duration)
+    if start_position is None:
+        start = np.array([0.0, 0.0, check_scalar(start_altitude, "start_altitude")])
+    else:
+        start = check_array(start_position, "start_position", shape=(3,))
+    t_start = np.arange(n) * dt
+    forces = thrust.thrust(t_start)
+    return n, t_start, forces, start
+
+
+def _integrate(wind, uav, dt, n, t_start, forces, start, record_all):
+    n_env = wind.n_env
+    m, kd = uav.mass, uav.drag_factor
+    accel = forces / m  # (n, 3)
+    accel[:, 2] -= uav.gravity
+    r = np.broadcast_to(start, (n_env, 3)).copy()
+    v_air = np.zeros((n_env, 3))
+    positions = np.empty((n_env, n, 3))
+    if record_all:
+        v_gnd_all = np.empty((n_env, n, 3))
+        v_air_all = np.empty((n_env, n, 3))
+        wind_all = np.empty((n_env, n, 3))
+    drag = kd / m
+    for k in range(n):
+        if drag:
+            speed = np.sqrt(np.einsum("ij,ij->i", v_air, v_air))
+            v_air = v_air + (accel[k] - drag * speed[:, None] * v_air) * dt
+        else:
+            v_air = v_air + accel[k] * dt
+        w = wind._velocity(t_start[k], r)
+        v_gnd = v_air + w
+        r = r + v_gnd * dt
+        positions[:, k] = r
+        if record_all:
+            v_gnd_all[:, k] = v_gnd
+            v_air_all[:, k] = v_air
+            wind_all[:, k] = w
+    if record_all:
+        return positions, v_gnd_all, v_air_all, wind_all
+    return positions
+
+
+def simulate(thrust, wind, uav=None, dt=0.1, duration=12.0, start_altitude=10.0,
+             start_position=None):
+    """Fly one thrust sequence through every environment of ``wind``.
+
+    Parameters
+    ----------
+    thrust : ThrustSequence
+        The open-loop action, shared by all environments.
+    wind : WindModel
+        ``n_env`` environments (e.g. a :class:`~uavwind.wind.CombinedWind`).
+    uav : UAV, optional
+        The vehicle; default ``UAV()`` (paper Table 4a).
+    dt : float
+        Time step [s], > 0. Default 0.1 s.
+    duration : float
+        Flight time [s], a whole multiple of ``dt``. Default 12 s.
+    start_altitude : float
+        Initial height z0 [m] (start at (0, 0, z0)). Default 10 m.
+    start_position : array_like, shape (3,), optional
+        Initial position [m]; overrides ``start_altitude``.
+
+    Returns
+    -------
+    ndarray, shape (n_env, n_steps, 3)
+        Positions [m] after each step, ``n_steps = duration / dt`` (120).
+
+    Examples
+    --------
+    >>> from uavwind import ConstantWind, PAPER_EXAMPLE
+    >>> simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]])).shape
+    (1, 120, 3)
+    """
+    uav = UAV() if uav is None else uav
+    n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
+                                         start_position)
+    return _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=False)
+
+
+def simulate_flight(thrust, wind, uav=None, dt=0.1, duration=12.0, start_altitude=10.0,
+                    start_position=None) -> Flight:
+    """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too."""
+    uav = UAV() if uav is None else uav
+    n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
+                                         start_position)
+    pos, vg, va, w = _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=True)
+    return Flight(times=t_start + dt, positions=pos, ground_velocities=vg, air_velocities=va,
+                  winds=w, thrust=forces, start=start)

@@ -1,0 +1,343 @@
+"""Searching for informative thrust sequences: random exploration and CEM.
+
+This module owns the loops of the paper (DESIGN decisions 7 and 8):
+
+* :func:`evaluate` -- fly a batch of thrust sequences through a setting and score each;
+* :func:`random_search` -- ``n_loops`` fresh random thrust sequences, one row each;
+* :func:`cem` -- the Cross-Entropy Method over magnitudes and direction components.
+
+Randomness: one ``numpy.random.SeedSequence`` per call. Loop ``i`` draws its
+thrust from the child with spawn key ``(i, 0)`` and its turbulence from
+``(i, 1)``; CEM iteration ``t`` draws its samples from ``(t + 1,)`` and sample
+``j``'s turbulence from ``(t + 1, j + 1)``. Seeds are fixed before any work is
+handed out, so results are bit-identical whatever the number of workers or the
+order in which they finish. Thrust sequences depend only on the seed and the
+loop index, so two settings run with the same seed fly the same manoeuvres
+(common random numbers).
+
+Work is spread with joblib (``n_jobs``; default all cores). Any joblib backend
+works, including Dask through ``joblib.parallel_config(backend="dask")``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .actions import MAX_THRUST, ThrustSequence
+from .clustering import default_engine, score_loop
+from .config import check_scalar
+from .scenarios import Setting
+
+__all__ = ["evaluate", "random_search", "cem", "CEMResult", "child_seed", "summarise"]
+
+
+def _root(seed):
+    if isinstance(seed, np.random.SeedSequence):
+        return seed
+    if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        return np.random.SeedSequence(seed)
+    raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, "
+                    f"got {type(seed).__name__}")
+
+
+def child_seed(root, *key):
+    """The descendant of ``root`` with spawn key ``root.spawn_key + key`` (no state touched)."""
+    return np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + tuple(key),
+                                  pool_size=root.pool_size)
+
+
+def _rng(root, *key):
+    return np.random.Generator(np.random.PCG64(child_seed(root, *key)))
+
+
+_PINNED = False
+
+
+def _pin_threads():
+    """Limit BLAS/OpenMP/numba to one thread in this process (once)."""
+    global _PINNED
+    if _PINNED:
+        return
+    _PINNED = True
+    try:
+        from threadpoolctl import threadpool_limits
+        threadpool_limits(1)
+    except Exception:  # pragma: no cover - threadpoolctl ships with scikit-learn
+        pass
+    try:
+        import numba
+        numba.set_num_threads(1)
+    except Exception:  # pragma: no cover
+        pass
+
+
+def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
+    if pin:  # inside a worker process: do not oversubscribe the cores
+        _pin_threads()
+    traj = setting.simulate(thrust, seed=wind_seed)
+    return score_loop(traj, setting.groups, engine=engine, **params)
+
+
+def _check_jobs(n_jobs):
+    if n_jobs is None:
+        return -1
+    n_jobs = check_scalar(n_jobs, "n_jobs", integer=True)
+    if n_jobs == 0:
+        raise ValueError("n_jobs must be a non-zero integer (-1 = all cores), got 0")
+    return n_jobs
+
+
+def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=True,
+             desc="loops", **params):
+    """Score every thrust sequence of ``thrusts`` on ``setting``.
+
+    Parameters
+    ----------
+    setting : Setting
+    thrusts : sequence of ThrustSequence
+    wind_seeds : sequence of SeedSequence
+        Turbulence seed of each loop (same length as ``thrusts``).
+    engine : str, optional
+        Clustering engine (see :func:`uavwind.clustering.score_loop`).
+    n_jobs : int, optional
+        Worker processes (joblib); -1 or None = all cores, 1 = in this process.
+    progress : bool
+        Show a tqdm progress bar.
+
+    Returns
+    -------
+    list of LoopResult, in the order of ``thrusts``.
+    """
+    from joblib import Parallel, delayed
+
+    if not isinstance(setting, Setting):
+        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    if len(thrusts) != len(wind_seeds):
+        raise ValueError(f"thrusts and wind_seeds must have the same length, "
+                         f"got {len(thrusts)} and {len(wind_seeds)}")
+    n_jobs = _check_jobs(n_jobs)
+    engine = default_engine() if engine is None else engine
+    tasks = [delayed(_one_loop)(setting, th, ws, engine, params, pin=True)
+             for th, ws in zip(thrusts, wind_seeds)]
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+        bar = tqdm(total=len(tasks), desc=desc, leave=False)
+    results = []
+    if n_jobs == 1:
+        for th, ws in zip(thrusts, wind_seeds):
+            results.append(_one_loop(setting, th, ws, engine, params))
+            if bar is not None:
+                bar.update()
+    else:
+        for res in Parallel(n_jobs=n_jobs, return_as="generator")(tasks):
+            results.append(res)
+            if bar is not None:
+                bar.update()
+    if bar is not None:
+        bar.close()
+    return results
+
+
+def _rows(results, thrusts):
+    rows = []
+    for i, (res, th) in enumerate(zip(results, thrusts)):
+        rows.append({"loop": i, "score": res.score, "silhouette": res.silhouette,
+                     "correct": res.correct, "n_iter": res.n_iter,
+                     "labels": res.labels.tolist(), "times": th.times.tolist(),
+                     "magnitudes": th.magnitudes.tolist(),
+                     "directions": th.directions.tolist()})
+    return rows
+
+
+def summarise(scores):
+    """``{"max", "mean", "n", "correct_rate"}`` of a score column (or DataFrame)."""
+    if isinstance(scores, pd.DataFrame):
+        scores = scores["score"]
+    s = np.asarray(scores, dtype=float)
+    return {"max": float(s.max()), "mean": float(s.mean()), "n": int(s.size),
+            "correct_rate": float(np.mean(s > 0))}
+
+
+def random_search(setting, n_loops=50, seed=0, n_jobs=None, engine=None, progress=True,
+                  loop_offset=0, **params):
+    """Random exploration: ``n_loops`` fresh thrust sequences, each scored on ``setting``.
+
+    Parameters
+    ----------
+    setting : Setting
+        The two environment groups, sampler, UAV and time grid.
+    n_loops : int
+        Number of loops, >= 1. Paper: 50 (500 for one Exp 1 case).
+    seed : int or SeedSequence
+        Root seed; loop ``i`` uses its children ``(i, 0)`` (thrust) and ``(i, 1)``
+        (turbulence), so the first ``k`` loops do not depend on ``n_loops``.
+    n_jobs : int, optional
+        Worker processes; -1/None = all cores. Results do not depend on it.
+    engine : str, optional
+        Clustering engine.
+    loop_offset : int
+        Index of the first loop (to extend a run: loops ``offset .. offset+n-1``).
+    **params
+        Clustering parameters (see :func:`uavwind.clustering.score_loop`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per loop: ``loop, score, silhouette, correct, n_iter, labels,
+        times, magnitudes, directions``; ``df.attrs`` holds ``max``, ``mean``,
+        ``setting`` (name) and ``seed``.
+
+    Examples
+    --------
+    >>> import uavwind as uw
+    >>> df = random_search(uw.table3_setting(), n_loops=2, seed=1, n_jobs=1,
+    ...                    progress=False, engine="tslearn")
+    >>> list(df.columns[:4])
+    ['loop', 'score', 'silhouette', 'correct']
+    """
+    if not isinstance(setting, Setting):
+        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    n_loops = check_scalar(n_loops, "n_loops", low=1, integer=True)
+    loop_offset = check_scalar(loop_offset, "loop_offset", low=0, integer=True)
+    root = _root(seed)
+    idx = range(loop_offset, loop_offset + n_loops)
+    thrusts = [setting.sample_thrust(_rng(root, i, 0)) for i in idx]
+    wind_seeds = [child_seed(root, i, 1) for i in idx]
+    results = evaluate(setting, thrusts, wind_seeds, engine=engine, n_jobs=n_jobs,
+                       progress=progress, desc=setting.name or "random search", **params)
+    df = pd.DataFrame(_rows(results, thrusts))
+    df["loop"] += loop_offset
+    df.attrs.update(summarise(df), setting=setting.name, seed=repr(seed))
+    return df
+
+
+@dataclass
+class CEMResult:
+    """Outcome of :func:`cem`.
+
+    Attributes
+    ----------
+    history : pandas.DataFrame
+        One row per iteration: ``iteration, max, mean, elite_mean, best_so_far``
+        (scores) and the distribution after the update (``mu``, ``sigma``, lists).
+    samples : pandas.DataFrame
+        One row per evaluated sample (``iteration, sample, score, ...`` as in
+        :func:`random_search`, plus ``elite``).
+    best_thrust : ThrustSequence
+        Best sequence found.
+    best_score : float
+    times : ndarray
+        The change times [s] fixed for the run.
+    stopped_early : bool
+    """
+
+    history: pd.DataFrame
+    samples: pd.DataFrame
+    best_thrust: ThrustSequence
+    best_score: float
+    times: np.ndarray
+    stopped_early: bool
+
+
+def cem_step(samples, scores, n_elite):
+    """One CEM update (eqs CEM1-2): mean and (population) standard deviation of the
+    ``n_elite`` best rows of ``samples`` (ties keep the lower index)."""
+    order = np.argsort(-np.asarray(scores, dtype=float), kind="stable")
+    elite = np.asarray(samples)[order[:n_elite]]
+    mu = elite.mean(axis=0)
+    sigma = np.sqrt(((elite - mu) ** 2).mean(axis=0))
+    return mu, sigma, order[:n_elite]
+
+
+def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
+        magnitude_mean=25.0, magnitude_std=50.0, direction_mean=0.0, direction_std=0.33,
+        max_magnitude=MAX_THRUST, n_jobs=None, engine=None, progress=True, objective=None,
+        **params):
+    """Cross-Entropy Method over thrust magnitudes and direction components.
+
+    The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``
+    (see :meth:`ThrustSequence.to_vector`). Each iteration draws ``n_samples``
+    vectors from independent Gaussians N(mu, sigma^2); each draw is turned into a
+    thrust sequence by clipping magnitudes to [0, max_magnitude] and normalising
+    directions; the ``n_elite`` best-scoring *draws* refit mu and sigma (eqs
+    CEM1-2). The change times are drawn once per run with the setting's sampler.
+
+    Parameters
+    ----------
+    setting : Setting
+    n_samples, n_elite : int
+        N and N_e (paper: 30 and 4); ``1 <= n_elite <= n_samples``.
+    n_iter : int
+        Maximum number of iterations (default 20).
+    seed : int or SeedSequence
+    patience : int, optional
+        Stop when the best score has not improved for this many iterations
+        (default: never stop early).
+    magnitude_mean, magnitude_std : float
+        mu_0 and sigma_0 of the magnitudes [N] (paper: 25 and 50).
+    direction_mean, direction_std : float
+        mu_0 and sigma_0 of each direction component (paper: 0 and 0.33).
+    objective : callable, optional
+        ``f(samples (n, dim)) -> scores (n,)`` replacing the simulation (for tests
+        and other uses); the setting then only provides the change times.
+
+    Returns
+    -------
+    CEMResult
+    """
+    if not isinstance(setting, Setting):
+        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    n_samples = check_scalar(n_samples, "n_samples", low=1, integer=True)
+    n_elite = check_scalar(n_elite, "n_elite", low=1, high=n_samples, integer=True)
+    n_iter = check_scalar(n_iter, "n_iter", low=1, integer=True)
+    if patience is not None:
+        patience = check_scalar(patience, "patience", low=1, integer=True)
+    magnitude_std = check_scalar(magnitude_std, "magnitude_std", low=0)
+    direction_std = check_scalar(direction_std, "direction_std", low=0)
+    magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
+    direction_mean = check_scalar(direction_mean, "direction_mean")
+    root = _root(seed)
+
+    times = setting.sample_thrust(_rng(root, 0)).times
+    k = times.shape[0]
+    mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
+    sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
+
+    history, sample_rows = [], []
+    best_score, best_thrust, best_iter = -np.inf, None, -1
+    stopped = False
+    for it in range(n_iter):
+        draws = _rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
+        thrusts = [ThrustSequence.from_vector(x, times, max_magnitude) for x in draws]
+        if objective is None:
+            seeds = [child_seed(root, it + 1, j + 1) for j in range(n_samples)]
+            results = evaluate(setting, thrusts, seeds, engine=engine, n_jobs=n_jobs,
+                               progress=progress, desc=f"CEM iteration {it + 1}", **params)
+            scores = np.array([r.score for r in results])
+            rows = _rows(results, thrusts)
+        else:
+            scores = np.asarray(objective(draws), dtype=float)
+            rows = [{"loop": j, "score": s} for j, s in enumerate(scores)]
+        mu, sigma, elite = cem_step(draws, scores, n_elite)
+        for j, row in enumerate(rows):
+            row.pop("loop", None)
+            sample_rows.append({"iteration": it + 1, "sample": j, **row,
+                                "elite": bool(j in set(elite.tolist())),
+                                "vector": draws[j].tolist()})
+        j_best = int(np.argmax(scores))
+        if scores[j_best] > best_score:
+            best_score, best_thrust, best_iter = float(scores[j_best]), thrusts[j_best], it
+        history.append({"iteration": it + 1, "max": float(scores.max()),
+                        "mean": float(scores.mean()),
+                        "elite_mean": float(scores[elite].mean()),
+                        "best_so_far": best_score, "mu": mu.tolist(), "sigma": sigma.tolist()})
+        if patience is not None and it - best_iter >= patience:
+            stopped = it + 1 < n_iter
+            break
+    return CEMResult(history=pd.DataFrame(history), samples=pd.DataFrame(sample_rows),
+                     best_thrust=best_thrust, best_score=best_score, times=times,
+                     stopped_early=stopped)
