@@ -13,12 +13,15 @@ and the silhouette score rewards thrust sequences that separate the groups.
 
 from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
                       sample_paper)
+from .clustering import LoopResult, score_loop
 from .config import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
 from .dynamics import Flight, simulate, simulate_flight
 from .scenarios import (PAPER_SCENARIOS, SPEED_RANGES, EnvironmentGroup, Setting, WindCondition,
                         direction_settings, environment_count_settings, group_speeds, make_group,
                         make_setting, range_similarity_settings, scenario_table, table3_setting)
+from .search import CEMResult, cem, random_search, summarise
 from .wind import (CombinedWind, ConstantWind, DrydenWind, ShearWind, WindModel,
                    dryden_parameters, dryden_psd, dryden_transfer_functions)
+
 
 __version__ = "0.1.0"

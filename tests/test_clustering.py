@@ -1,0 +1,103 @@
+"""score_loop against tslearn itself, the paper's scoring rule, and bad input."""
+import numpy as np
+import pytest
+from tslearn.clustering import TimeSeriesKMeans, silhouette_score
+
+import uavwind as uw
+from uavwind.clustering import ENGINES, score_loop
+
+
+def _reference(X):
+    km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 0.5},
+                          max_iter=100, max_iter_barycenter=5, random_state=0)
+    labels = km.fit_predict(X)
+    return labels, silhouette_score(X, labels, metric="dtw")
+
+
+def _short(a, b, n=3, seed=0, **kw):
+    """A small loop (n per group, 4 s at dt = 0.2 s) to keep tslearn quick."""
+    s = uw.make_setting(a, b, n, dt=0.2, duration=4.0, n_changes=3, **kw)
+    thrust = s.sample_thrust(np.random.default_rng(seed))
+    return s.simulate(thrust, seed=seed), s.groups
+
+
+CASES = [("light constant", "strong shear", 0), ("light shear", "light shear", 1),
+         ("light constant", "strong turbulence", 2)]
+
+
+@pytest.mark.parametrize("a, b, seed", CASES)
+def test_tslearn_engine_is_tslearn(a, b, seed):
+    X, groups = _short(a, b, seed=seed)
+    labels, sil = _reference(X)
+    res = score_loop(X, groups, engine="tslearn")
+    assert np.array_equal(res.labels, labels)
+    assert res.silhouette == sil
+    assert res.correct == (np.array_equal(labels, groups) or np.array_equal(labels, 1 - groups))
+    assert res.score == (100 * sil if res.correct else 0.0)
+
+
+def test_worked_example_is_grouped(worked_example):
+    res = score_loop(worked_example.simulate(uw.PAPER_EXAMPLE), worked_example.groups,
+                     engine="tslearn")
+    assert res.correct and 90 < res.score <= 100
+    o1, o2 = res.observations
+    assert len(set(o1)) == 1 and len(set(o2)) == 1 and o1[0] != o2[0]
+    table = res.to_table(uw.PAPER_EXAMPLE)
+    assert table.loc["Thrust change times (s)", "value"] == "[0 4 10]"
+    assert table.loc["Thrust directions [x y z]", "value"] == "[[0 0 1] [1 0 0] [0 1 0]]"
+    assert "Observations1" in str(res)
+    row = res.to_dict()
+    assert row["score"] == res.score and len(row["labels"]) == 10
+
+
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_wrong_grouping_scores_zero_and_swap_is_invariant(engine):
+    X, groups = _short("light constant", "strong constant", seed=3)
+    right = score_loop(X, groups, engine=engine)
+    assert right.correct and right.score > 0
+    swapped = score_loop(X, 1 - groups, engine=engine)
+    assert swapped.score == right.score and swapped.correct
+    wrong = groups.copy()
+    wrong[[0, -1]] = wrong[[-1, 0]]
+    res = score_loop(X, wrong, engine=engine)
+    assert not res.correct and res.score == 0.0
+    assert res.silhouette == right.silhouette  # the clustering itself is unchanged
+
+
+@pytest.mark.parametrize("engine", sorted(ENGINES))
+def test_identical_trajectories_score_zero(engine):
+    X = np.zeros((6, 10, 3))
+    res = score_loop(X, [0, 0, 0, 1, 1, 1], engine=engine)
+    assert res.score == 0.0 and not res.correct
+
+
+@pytest.mark.parametrize("kwargs, err, match", [
+    ({"trajectories": np.full((4, 5, 3), np.nan)}, ValueError, "finite"),
+    ({"trajectories": np.full((4, 5, 3), np.inf)}, ValueError, "finite"),
+    ({"trajectories": np.zeros((4, 5))}, ValueError, "trajectories"),
+    ({"trajectories": np.zeros((1, 5, 3)), "groups": [0]}, ValueError, "at least 2"),
+    ({"groups": [0, 0, 1]}, ValueError, "groups must have shape"),
+    ({"groups": [0, 0, 0, 0]}, ValueError, "two non-empty"),
+    ({"groups": [0, 1, 2, 1]}, ValueError, "only 0 and 1"),
+    ({"groups": ["a", "b", "a", "b"]}, TypeError, "groups"),
+    ({"engine": "gpu"}, ValueError, "engine"),
+    ({"gamma": 0.0}, ValueError, "gamma"),
+    ({"max_iter": 0}, ValueError, "max_iter"),
+    ({"silhouette_metric": "euclid"}, ValueError, "silhouette_metric"),
+    ({"metric": "dtw"}, TypeError, "unknown clustering parameter"),
+])
+def test_bad_input(kwargs, err, match):
+    args = {"trajectories": np.random.default_rng(0).normal(size=(4, 5, 3)), "groups": [0, 0, 1, 1],
+            "engine": "tslearn", **kwargs}
+    with pytest.raises(err, match=match):
+        score_loop(args.pop("trajectories"), args.pop("groups"), **args)
+
+
+def test_parameters_reach_tslearn():
+    X, groups = _short("light constant", "strong constant", seed=4)
+    a = score_loop(X, groups, engine="tslearn", silhouette_metric="softdtw", gamma=1.0)
+    km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 1.0},
+                          max_iter=100, max_iter_barycenter=5, random_state=0)
+    labels = km.fit_predict(X)
+    sil = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": 1.0})
+    assert np.array_equal(a.labels, labels) and a.silhouette == sil

@@ -1,0 +1,120 @@
+"""Random exploration and CEM: determinism, workers, convergence, physics sanity."""
+import numpy as np
+import pandas as pd
+import pytest
+
+import uavwind as uw
+from uavwind.search import cem_step
+
+
+def small(a="light constant", b="strong shear", n=3):
+    return uw.make_setting(a, b, n, dt=0.2, duration=4.0, n_changes=3)
+
+
+def test_random_search_table_and_determinism():
+    s = small()
+    a = uw.random_search(s, n_loops=4, seed=7, n_jobs=1, progress=False)
+    b = uw.random_search(s, n_loops=4, seed=7, n_jobs=1, progress=False)
+    pd.testing.assert_frame_equal(a, b)
+    assert list(a["loop"]) == [0, 1, 2, 3]
+    assert {"score", "silhouette", "correct", "labels", "times", "magnitudes",
+            "directions"} <= set(a.columns)
+    assert a.attrs["max"] == a["score"].max() and a.attrs["mean"] == a["score"].mean()
+    c = uw.random_search(s, n_loops=4, seed=8, n_jobs=1, progress=False)
+    assert not a["magnitudes"].equals(c["magnitudes"])
+
+
+def test_workers_do_not_change_results():
+    s = small("light constant", "strong turbulence")
+    one = uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False)
+    two = uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
+    pd.testing.assert_frame_equal(one, two)
+
+
+def test_loops_are_prefix_stable_and_extendable():
+    s = small()
+    full = uw.random_search(s, n_loops=4, seed=1, n_jobs=1, progress=False)
+    head = uw.random_search(s, n_loops=2, seed=1, n_jobs=1, progress=False)
+    tail = uw.random_search(s, n_loops=2, seed=1, n_jobs=1, progress=False, loop_offset=2)
+    pd.testing.assert_frame_equal(pd.concat([head, tail], ignore_index=True), full,
+                                  check_like=False)
+
+
+def test_common_random_numbers_across_settings():
+    a = uw.random_search(small(n=2), n_loops=3, seed=5, n_jobs=1, progress=False)
+    b = uw.random_search(small("light shear", "light shear", n=3), n_loops=3, seed=5, n_jobs=1,
+                         progress=False)
+    assert a["magnitudes"].equals(b["magnitudes"]) and a["times"].equals(b["times"])
+
+
+def test_cem_step_is_eqs_cem1_cem2():
+    x = np.arange(12.0).reshape(6, 2)
+    scores = [1, 5, 3, 5, 0, 2]
+    mu, sigma, elite = cem_step(x, scores, 3)
+    assert elite.tolist() == [1, 3, 2]  # ties keep the lower index
+    sel = x[[1, 3, 2]]
+    assert np.allclose(mu, sel.mean(0)) and np.allclose(sigma, sel.std(0))
+
+
+def test_cem_converges_on_a_known_optimum():
+    s = uw.make_setting("light constant", "strong shear", n_changes=0)  # one segment: 4 dims
+    k = 1
+    target = np.tile([30.0, 0.5, -0.5, 0.2], k)
+    scale = np.tile([50.0, 0.33, 0.33, 0.33], k)  # each coordinate on its initial spread
+
+    def objective(samples):
+        return -np.sum(((samples - target) / scale) ** 2, axis=1)
+
+    res = uw.cem(s, n_samples=100, n_elite=10, n_iter=40, seed=2, objective=objective,
+                 progress=False)
+    mu = np.array(res.history["mu"].iloc[-1])
+    assert np.all(np.abs(mu - target) < 0.05 * scale), mu
+    assert res.history["max"].iloc[-1] > -0.01 > res.history["max"].iloc[0]
+    assert np.all(np.diff(res.history["best_so_far"]) >= 0)
+
+
+def test_cem_patience_stops_early():
+    s = small()
+    res = uw.cem(s, n_samples=5, n_elite=2, n_iter=30, seed=0, patience=3, progress=False,
+                 objective=lambda x: np.zeros(len(x)))
+    assert res.stopped_early and len(res.history) == 4
+
+
+def test_cem_on_the_worked_example_never_loses_its_best():
+    s = uw.table3_setting(n_changes=2)
+    res = uw.cem(s, n_samples=6, n_elite=2, n_iter=3, seed=1, n_jobs=1, progress=False)
+    h = res.history
+    assert len(h) == 3 and len(res.samples) == 18
+    assert np.all(h["best_so_far"] >= h["max"].iloc[0])
+    assert np.all(np.diff(h["best_so_far"]) >= 0)
+    assert res.best_score == h["max"].max()
+    assert res.samples["elite"].sum() == 6
+    traj = s.simulate(res.best_thrust)
+    assert uw.score_loop(traj, s.groups).score == res.best_score
+
+
+@pytest.mark.parametrize("call, err, match", [
+    (lambda: uw.random_search("setting"), TypeError, "setting"),
+    (lambda: uw.random_search(small(), n_loops=0), ValueError, "n_loops"),
+    (lambda: uw.random_search(small(), n_loops=1, n_jobs=0), ValueError, "n_jobs"),
+    (lambda: uw.random_search(small(), n_loops=1, seed="a"), TypeError, "seed"),
+    (lambda: uw.cem(small(), n_samples=3, n_elite=4), ValueError, "n_elite"),
+    (lambda: uw.cem(small(), magnitude_std=-1), ValueError, "magnitude_std"),
+])
+def test_bad_input(call, err, match):
+    with pytest.raises(err, match=match):
+        call()
+
+
+def test_physics_sanity_on_paper_settings():
+    """Strong shear vs light constant is nearly always grouped; light/light scores lower
+    than light/strong on the same 20 thrust sequences."""
+    shear = uw.random_search(uw.make_setting("strong shear", "light constant", 5), n_loops=20,
+                             seed=0, progress=False)
+    assert shear["correct"].mean() >= 0.9
+    ll = uw.random_search(uw.make_setting("light constant", "light constant", 5), n_loops=20,
+                          seed=0, progress=False)
+    ls = uw.random_search(uw.make_setting("light constant", "strong constant", 5), n_loops=20,
+                          seed=0, progress=False)
+    assert ll["magnitudes"].equals(ls["magnitudes"])
+    assert ll["score"].mean() < ls["score"].mean()
