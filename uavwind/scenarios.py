@@ -271,8 +271,10 @@ class Setting:
         return asdict(self)
 
     def key(self):
-        """Stable 16-hex-digit digest of every field (for result caching)."""
-        blob = json.dumps(self.to_dict(), sort_keys=True, default=str)
+        """Stable 16-hex-digit digest of every field that changes results (all but ``name``)."""
+        fields = self.to_dict()
+        fields.pop("name")
+        blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
     def to_frame(self):

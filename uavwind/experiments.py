@@ -1,0 +1,365 @@
+"""The paper's six experiments, declared as data, run with cached, resumable results.
+
+This module owns the registry :data:`EXPERIMENTS` (id, title, notebook, cases,
+loop counts per profile), :func:`run_experiment` (one tidy ``pandas`` table per
+experiment: one row per loop, or per CEM sample), the result cache under
+``data/results/`` and the paper-style summary tables (:func:`summary_table`).
+
+A *case* is one row of an experiment: a :class:`~uavwind.scenarios.Setting`
+plus the labels that place it in the paper's table (scenario, number of
+environments, thrust changes, direction). Profiles scale the work:
+
+* ``paper`` -- the paper's counts (50 loops per case, 500 for the Exp 1
+  light/light case, CEM with N = 30, Ne = 4 for 20 iterations);
+* ``quick`` -- a few loops per case, for CI and first looks.
+
+Common random numbers: every case of an experiment uses the experiment's seed,
+so loop ``i`` flies the same thrust sequence in every case (for Exp 4 the number
+of changes differs, so the sequences share their random stream, not their
+shape). Cases are therefore compared pairwise, loop by loop.
+
+Caching: results are stored per *chunk* (one case, a range of at most
+``CHUNK`` loops) as Parquet files named by a digest of everything that
+determines them (setting, seed, loop range, engine, clustering parameters,
+:data:`RESULTS_VERSION`). A finished chunk is never recomputed; an interrupted
+run resumes at the first missing chunk; changing a setting recomputes only
+that setting's chunks. Files are written atomically.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from .clustering import DEFAULT_PARAMS, default_engine
+from .config import check_scalar
+from .scenarios import (PAPER_SCENARIOS, Setting, direction_settings,
+                        environment_count_settings, make_setting, range_similarity_settings)
+from .search import cem, random_search
+
+__all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
+           "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK"]
+
+#: Bump when a change to the library alters results; it is part of every cache key.
+RESULTS_VERSION = "1"
+#: Loops per cached chunk.
+CHUNK = 50
+#: Profiles: loop counts and CEM sizes.
+PROFILES = {
+    "paper": {"loops": 50, "long_loops": 500, "cem": {"n_samples": 30, "n_elite": 4, "n_iter": 20}},
+    "quick": {"loops": 4, "long_loops": 8, "cem": {"n_samples": 6, "n_elite": 2, "n_iter": 3}},
+}
+#: Default seed of every experiment (its SeedSequence root).
+DEFAULT_SEED = 20240101
+
+
+def results_dir():
+    """``$UAVWIND_RESULTS`` or ``data/results`` next to the package."""
+    env = os.environ.get("UAVWIND_RESULTS")
+    return Path(env) if env else Path(__file__).resolve().parents[1] / "data" / "results"
+
+
+@dataclass(frozen=True)
+class Case:
+    """One row of an experiment: a setting and its labels in the paper's table."""
+
+    setting: Setting
+    labels: dict = field(hash=False, compare=False)
+    long: bool = False  # uses the profile's long loop count (Exp 1's 500-loop case)
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """An experiment of the paper, as data.
+
+    Attributes
+    ----------
+    id : str
+        ``"exp1"`` ... ``"exp6"``.
+    title : str
+    question : str
+    notebook : str
+        Notebook file (under ``notebooks/``) that presents it.
+    paper_table : str
+        The paper's table (or figure) it regenerates.
+    kind : {"random", "cem"}
+    build : callable
+        ``() -> list[Case]``.
+    """
+
+    id: str
+    title: str
+    question: str
+    notebook: str
+    paper_table: str
+    kind: str
+    build: object = field(repr=False)
+
+    def cases(self):
+        return self.build()
+
+
+# --------------------------------------------------------------------------- #
+# the six experiments
+# --------------------------------------------------------------------------- #
+def _scenario_label(a, b):
+    return f"{a.label.capitalize()} vs {b.label}"
+
+
+def _exp1():
+    cases = []
+    for k, (a, b) in PAPER_SCENARIOS.items():
+        s = make_setting(a, b, 5)
+        cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k}))
+    a, b = PAPER_SCENARIOS[1]
+    cases.append(Case(make_setting(a, b, 5),
+                      {"scenario": _scenario_label(a, b) + " (long run)", "scenario_id": 8},
+                      long=True))
+    return cases
+
+
+def _sweep(builder, label_key):
+    def build():
+        cases = []
+        for k in (1, 2, 3, 4):
+            a, b = PAPER_SCENARIOS[k]
+            for s in builder(a, b):
+                cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k,
+                                      label_key: s.n_env}))
+        return cases
+    return build
+
+
+#: Exp 4's thrust-change counts: the paper's labels and the change times they mean
+#: (its "12 changes, a change every second" is 11 changes after t = 0 on the
+#: whole-second grid: a new thrust every second, 12 segments).
+THRUST_CHANGES = {0: 0, 2: 2, 4: 4, 6: 6, 8: 8, 10: 10, 12: 11}
+
+
+def _exp4():
+    cases = []
+    for k in (1, 2, 3, 4):
+        a, b = PAPER_SCENARIOS[k]
+        for label, n in THRUST_CHANGES.items():
+            cases.append(Case(make_setting(a, b, 10, n_changes=n),
+                              {"scenario": _scenario_label(a, b), "scenario_id": k,
+                               "thrust_changes": label}))
+    return cases
+
+
+def _exp5():
+    same, opposite = direction_settings("light constant", "light shear", 10)
+    base = "Light constant vs light shear"
+    return [Case(same, {"scenario": f"{base} - similar direction", "direction": "similar"}),
+            Case(opposite, {"scenario": f"{base} - opposite direction", "direction": "opposite"})]
+
+
+def _exp6():
+    # the same setting as Exp 5's similar-direction case, so CEM and random search
+    # are compared on identical environments (as the paper compares Fig 9 with Fig 8)
+    same, _ = direction_settings("light constant", "light shear", 10)
+    return [Case(same, {"scenario": "Light constant vs light shear"})]
+
+
+EXPERIMENTS = {e.id: e for e in [
+    Experiment("exp1", "Wind speed", "How does the wind speed of the two conditions affect "
+               "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1),
+    Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
+               "raise the score?", "exp2_range_similarity.md", "Table 5, Figure 5", "random",
+               _sweep(range_similarity_settings, "n_env")),
+    Experiment("exp3", "Number of environments", "Do more environments per group raise the "
+               "score, with the gap fixed?", "exp3_environment_count.md", "Table 6, Figure 6",
+               "random", _sweep(environment_count_settings, "n_env")),
+    Experiment("exp4", "Thrust changes", "Does the number of thrust changes matter?",
+               "exp4_thrust_changes.md", "Table 7, Figure 7", "random", _exp4),
+    Experiment("exp5", "Wind direction", "Do opposite wind directions remove the "
+               "misclassifications?", "exp5_wind_direction.md", "Table 8, Figure 8", "random",
+               _exp5),
+    Experiment("exp6", "Cross-Entropy Method", "Does CEM find better thrust sequences than "
+               "random search?", "exp6_cem.md", "Figure 9", "cem", _exp6),
+]}
+
+
+def get_experiment(exp_id):
+    """The :class:`Experiment` called ``exp_id``; ``ValueError`` naming the valid ids."""
+    if not isinstance(exp_id, str):
+        raise TypeError(f"experiment id must be a string, got {type(exp_id).__name__}")
+    if exp_id not in EXPERIMENTS:
+        raise ValueError(f"unknown experiment {exp_id!r}; valid: {', '.join(EXPERIMENTS)}")
+    return EXPERIMENTS[exp_id]
+
+
+def _check_profile(profile):
+    if profile not in PROFILES:
+        raise ValueError(f"profile must be one of {sorted(PROFILES)}, got {profile!r}")
+    return PROFILES[profile]
+
+
+# --------------------------------------------------------------------------- #
+# caching
+# --------------------------------------------------------------------------- #
+def cache_key(setting, seed, start, stop, engine, params, extra=None):
+    """Digest of everything that determines a chunk of results."""
+    blob = json.dumps({"setting": setting.to_dict(), "seed": seed, "loops": [start, stop],
+                       "engine": engine, "params": {**DEFAULT_PARAMS, **params},
+                       "version": RESULTS_VERSION, "extra": extra},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def _atomic_write(df, path):
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(f".tmp{os.getpid()}")
+    df.to_parquet(tmp, index=False)
+    os.replace(tmp, path)
+
+
+def _cached(path, compute, meta):
+    if path.exists():
+        return pd.read_parquet(path), True
+    df = compute()
+    for k, v in meta.items():
+        df[k] = v
+    _atomic_write(df, path)
+    return df, False
+
+
+# --------------------------------------------------------------------------- #
+# running
+# --------------------------------------------------------------------------- #
+def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
+                   results=None, progress=True, cases=None, **params):
+    """Run (or load from the cache) one experiment.
+
+    Parameters
+    ----------
+    exp_id : str
+        ``"exp1"`` ... ``"exp6"``.
+    profile : {"quick", "paper"}
+    seed : int
+        Root seed (one SeedSequence for the experiment).
+    n_jobs : int, optional
+        Worker processes (-1/None = all cores); results do not depend on it.
+    engine : str, optional
+        Clustering engine (default: fast when available).
+    results : path-like, optional
+        Cache folder (default :func:`results_dir`).
+    cases : list of int, optional
+        Run only these case indices (for partial runs and tests).
+    **params
+        Clustering parameters (see :func:`uavwind.clustering.score_loop`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Random experiments: one row per loop with the case labels (``case``,
+        ``scenario``, ...), ``loop``, ``score``, ``silhouette``, ``correct``, the
+        thrust sequence and provenance columns. CEM: one row per sample with
+        ``iteration`` and ``sample``. ``df.attrs["cached"]`` counts the chunks
+        loaded rather than computed.
+    """
+    exp = get_experiment(exp_id)
+    prof = _check_profile(profile)
+    seed = check_scalar(seed, "seed", low=0, integer=True)
+    engine = default_engine() if engine is None else engine
+    folder = Path(results) if results is not None else results_dir()
+    all_cases = exp.cases()
+    chosen = range(len(all_cases)) if cases is None else cases
+    from . import __version__
+    frames, n_cached, n_chunks = [], 0, 0
+    for ci in chosen:
+        case = all_cases[ci]
+        s = case.setting
+        labels = {"experiment": exp.id, "case": ci, **case.labels}
+        meta = {"setting_key": s.key(), "seed": seed, "engine": engine,
+                "uavwind_version": __version__, "results_version": RESULTS_VERSION}
+        if exp.kind == "cem":
+            cfg = prof["cem"]
+            key = cache_key(s, seed, 0, cfg["n_iter"], engine, params, extra=cfg)
+            path = folder / exp.id / f"cem-{key}.parquet"
+
+            def compute(s=s, cfg=cfg):
+                res = cem(s, seed=seed, n_jobs=n_jobs, engine=engine, progress=progress,
+                          **cfg, **params)
+                return res.samples
+            df, hit = _cached(path, compute, meta)
+            n_cached += hit
+            n_chunks += 1
+            frames.append(df.assign(**labels))
+            continue
+        n_loops = prof["long_loops"] if case.long else prof["loops"]
+        for start in range(0, n_loops, CHUNK):
+            stop = min(start + CHUNK, n_loops)
+            key = cache_key(s, seed, start, stop, engine, params)
+            path = folder / exp.id / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
+
+            def compute(s=s, start=start, stop=stop):
+                return random_search(s, n_loops=stop - start, seed=seed, loop_offset=start,
+                                     n_jobs=n_jobs, engine=engine, progress=progress, **params)
+            df, hit = _cached(path, compute, meta)
+            n_cached += hit
+            n_chunks += 1
+            frames.append(df.assign(**labels))
+    out = pd.concat(frames, ignore_index=True)
+    first = ["experiment", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
+    out = out[first + [c for c in out.columns if c not in first]]
+    out.attrs.update(experiment=exp.id, profile=profile, seed=seed, cached=n_cached,
+                     chunks=n_chunks)
+    return out
+
+
+_LABEL_KEYS = ("scenario", "scenario_id", "n_env", "thrust_changes", "direction")
+
+
+# --------------------------------------------------------------------------- #
+# summaries in the paper's layout
+# --------------------------------------------------------------------------- #
+def _maxmean(df, by):
+    g = df.groupby(by, sort=False)["score"]
+    return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Correct (%)": 100 * g.apply(
+        lambda s: (s > 0).mean()), "Loops": g.size()})
+
+
+def summary_table(df):
+    """The replication's version of the paper's table for ``df`` (an experiment's results).
+
+    exp1/exp5: Maximum and Mean per scenario. exp2/exp3: per scenario and
+    number of environments. exp4: per scenario and thrust changes. exp6: max,
+    mean and elite mean per iteration.
+    """
+    exp = df["experiment"].iloc[0]
+    if exp in ("exp1", "exp5"):
+        return _maxmean(df, "scenario")
+    if exp in ("exp2", "exp3"):
+        return _maxmean(df, ["scenario", "n_env"])
+    if exp == "exp4":
+        return _maxmean(df, ["scenario", "thrust_changes"])
+    if exp == "exp6":
+        g = df.groupby("iteration")["score"]
+        elite = df[df["elite"]].groupby("iteration")["score"].mean()
+        return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Elite mean": elite,
+                             "Best so far": g.max().cummax()})
+    raise ValueError(f"unknown experiment {exp!r}")
+
+
+def paper_table(exp_id):
+    """The paper's reported values for ``exp_id`` from ``data/paper/`` (see :mod:`uavwind.paper`)."""
+    from .paper import load_paper_values
+    return load_paper_values(exp_id)
+
+
+def n_loops_total(profile):
+    """Total loops (or CEM samples) of every experiment in ``profile``."""
+    prof = _check_profile(profile)
+    total = 0
+    for exp in EXPERIMENTS.values():
+        if exp.kind == "cem":
+            total += prof["cem"]["n_samples"] * prof["cem"]["n_iter"]
+        else:
+            total += sum(prof["long_loops"] if c.long else prof["loops"] for c in exp.cases())
+    return total

@@ -1,0 +1,284 @@
+"""Every figure of the book, numbered as in the paper.
+
+This module owns the drawing: each function takes library objects or result
+tables and returns a ``matplotlib.figure.Figure`` (nothing is computed here
+that a test cannot reach elsewhere). Figures:
+
+* :func:`fig1_trajectory_and_wind`, :func:`fig1_velocity_projections` -- Fig 1 a/b;
+* :func:`fig2_flowcharts` -- Fig 2 a/b, the system flow charts;
+* :func:`fig3_loop` -- Fig 3 a/b, one loop's trajectories and 50 loop scores;
+* :func:`score_per_loop` -- Figs 4 and 8 (score vs loop number, max and mean);
+* :func:`score_vs_parameter` -- Figs 5, 6, 7 (max and mean vs a swept parameter);
+* :func:`fig9_cem` -- Fig 9 (CEM max and mean per iteration);
+* :func:`dryden_spectrum` -- the Dryden check on the model page;
+* :func:`paper_vs_replication` -- reported vs regenerated values.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
+           "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",
+           "dryden_spectrum", "paper_vs_replication", "panel_grid"]
+
+GROUP_COLOURS = ("tab:blue", "tab:orange")
+
+
+def _plt():
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def panel_grid(n, ncols=2, size=(4.2, 3.0)):
+    """Figure with ``n`` axes on a grid of ``ncols`` columns (extra axes hidden)."""
+    plt = _plt()
+    nrows = math.ceil(n / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(size[0] * ncols, size[1] * nrows),
+                             squeeze=False, constrained_layout=True)
+    axes = axes.ravel()
+    for ax in axes[n:]:
+        ax.set_visible(False)
+    return fig, axes[:n]
+
+
+# --------------------------------------------------------------------------- #
+# Fig 1: one flight
+# --------------------------------------------------------------------------- #
+def fig1_trajectory_and_wind(flight, envs=(0, -1), arrow_env=0, every=10, labels=None):
+    """Fig 1a: 3-D trajectories of two environments (left) and the wind met along one path (right).
+
+    Parameters
+    ----------
+    flight : Flight
+        From :func:`uavwind.simulate_flight`.
+    envs : pair of int
+        Environments to draw.
+    arrow_env : int
+        Environment whose path carries the wind arrows.
+    every : int
+        One arrow every ``every`` steps.
+    """
+    plt = _plt()
+    fig = plt.figure(figsize=(10, 4.5), constrained_layout=True)
+    ax1 = fig.add_subplot(1, 2, 1, projection="3d")
+    ax2 = fig.add_subplot(1, 2, 2, projection="3d")
+    labels = labels or [f"environment {e % flight.n_env}" for e in envs]
+    for e, c, lab in zip(envs, GROUP_COLOURS, labels):
+        p = flight.positions[e]
+        ax1.plot(p[:, 0], p[:, 1], p[:, 2], color=c, label=lab)
+    ax1.scatter(*flight.start, color="k", s=15, label="start")
+    ax1.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title="UAV trajectories")
+    ax1.legend(fontsize=8)
+    p = flight.positions[arrow_env]
+    w = flight.winds[arrow_env]
+    ax2.plot(p[:, 0], p[:, 1], p[:, 2], color="0.6")
+    idx = np.arange(0, p.shape[0], every)
+    span = np.ptp(p, axis=0).max() or 1.0
+    wmax = np.abs(w).max() or 1.0
+    ax2.quiver(p[idx, 0], p[idx, 1], p[idx, 2], w[idx, 0], w[idx, 1], w[idx, 2],
+               length=0.15 * span / wmax, color="tab:green", normalize=False)
+    ax2.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)",
+            title=f"wind along the path (max {np.linalg.norm(w, axis=1).max():.2f} m/s)")
+    return fig
+
+
+def fig1_velocity_projections(flight, env=0, every=10):
+    """Fig 1b: UAV ground velocity (top) and wind (bottom) along the path in XY, XZ, YZ."""
+    plt = _plt()
+    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), constrained_layout=True)
+    p, v, w = flight.positions[env], flight.ground_velocities[env], flight.winds[env]
+    idx = np.arange(0, p.shape[0], every)
+    for row, (vec, name, colour) in enumerate(((v, "UAV velocity", "tab:blue"),
+                                               (w, "wind", "tab:green"))):
+        for col, (i, j, lab) in enumerate(((0, 1, "XY"), (0, 2, "XZ"), (1, 2, "YZ"))):
+            ax = axes[row, col]
+            ax.plot(p[:, i], p[:, j], color="0.7", lw=1)
+            ax.quiver(p[idx, i], p[idx, j], vec[idx, i], vec[idx, j], color=colour,
+                      angles="xy", width=0.006)
+            ax.set(xlabel=f"{'xyz'[i]} (m)", ylabel=f"{'xyz'[j]} (m)", title=f"{name}, {lab}")
+    return fig
+
+
+# --------------------------------------------------------------------------- #
+# Fig 2: flow charts
+# --------------------------------------------------------------------------- #
+def _flow(ax, boxes, loop_back, title):
+    ax.set_axis_off()
+    ax.set_xlim(0, 1)
+    ax.set_ylim(0, 1)
+    n = len(boxes)
+    ys = np.linspace(0.9, 0.1, n)
+    for k, (text, y) in enumerate(zip(boxes, ys)):
+        ax.text(0.5, y, text, ha="center", va="center", fontsize=8.5, wrap=True,
+                bbox=dict(boxstyle="round,pad=0.4", fc="#eef3fb", ec="#355c9a"))
+        if k < n - 1:
+            ax.annotate("", xy=(0.5, ys[k + 1] + 0.045), xytext=(0.5, y - 0.045),
+                        arrowprops=dict(arrowstyle="->", color="#355c9a"))
+    ax.annotate(loop_back, xy=(0.86, ys[0]), xytext=(0.86, ys[-1]), fontsize=8, ha="center",
+                rotation=90, va="bottom",
+                arrowprops=dict(arrowstyle="->", color="0.4", connectionstyle="arc3,rad=0"))
+    ax.set_title(title, fontsize=10)
+
+
+def fig2_flowcharts():
+    """Fig 2: the system with random exploration (a) and with CEM (b)."""
+    plt = _plt()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 5.5), constrained_layout=True)
+    common = ["UAV flies one thrust sequence\nin 2 groups of wind environments",
+              "position trajectories\n(n_env x 120 x 3)",
+              "soft-DTW time-series k-means\n(2 clusters)",
+              "silhouette score (DTW);\n0 if a trajectory is misgrouped"]
+    _flow(a, ["draw a random thrust sequence\n(times, magnitudes, directions)", *common,
+              "record score; report max and mean"], "next loop",
+          "(a) random exploration")
+    _flow(b, ["draw N thrust vectors from\nN(mu, sigma^2)", *common,
+              "keep the N_e elite samples;\nrefit mu, sigma (eqs CEM1-2)"], "next iteration",
+          "(b) Cross-Entropy Method")
+    return fig
+
+
+# --------------------------------------------------------------------------- #
+# loops and sweeps
+# --------------------------------------------------------------------------- #
+def fig3_loop(trajectories, groups, scores, group_labels=("group 0", "group 1"), title=None):
+    """Fig 3: (a) one loop's trajectories by group, (b) scores over the loops."""
+    plt = _plt()
+    fig = plt.figure(figsize=(11, 4.5), constrained_layout=True)
+    ax1 = fig.add_subplot(1, 2, 1, projection="3d")
+    for g, (c, lab) in enumerate(zip(GROUP_COLOURS, group_labels)):
+        for k, tr in enumerate(trajectories[np.asarray(groups) == g]):
+            ax1.plot(tr[:, 0], tr[:, 1], tr[:, 2], color=c, lw=1, label=lab if k == 0 else None)
+    ax1.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=title or "one loop")
+    ax1.legend(fontsize=8)
+    ax2 = fig.add_subplot(1, 2, 2)
+    _score_axes(ax2, np.asarray(scores, dtype=float))
+    return fig
+
+
+def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
+    loops = np.arange(1, len(scores) + 1)
+    ax.plot(loops, scores, marker="o", ms=2.5, lw=0.8, color="tab:blue", label="score")
+    ax.axhline(scores.max(), color="tab:red", ls="--", lw=1, label=f"max {scores.max():.2f}")
+    ax.axhline(scores.mean(), color="tab:green", ls=":", lw=1.2, label=f"mean {scores.mean():.2f}")
+    ax.set(xlabel="loop", ylabel="silhouette score", ylim=ylim)
+    if title:
+        ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7, loc="lower right")
+
+
+def score_per_loop(df, by="scenario", ncols=2, paper=None):
+    """Figs 4 and 8: score vs loop number, one panel per ``by`` value, with max and mean.
+
+    ``paper`` (optional DataFrame with ``scenario, maximum, mean``) adds the
+    paper's max and mean as grey lines.
+    """
+    keys = list(dict.fromkeys(df[by]))
+    fig, axes = panel_grid(len(keys), ncols=ncols)
+    for ax, key, letter in zip(axes, keys, "abcdefghijklmnop"):
+        scores = df.loc[df[by] == key].sort_values("loop")["score"].to_numpy()
+        _score_axes(ax, scores, title=f"({letter}) {key}")
+        if paper is not None:
+            row = paper.loc[paper["scenario"] == key]
+            if len(row):
+                ax.axhline(row["maximum"].iloc[0], color="0.5", lw=0.8, ls="--")
+                ax.axhline(row["mean"].iloc[0], color="0.5", lw=0.8, ls=":")
+    return fig
+
+
+def score_vs_parameter(df, x, by="scenario", ncols=2, paper=None, xlabel=None):
+    """Figs 5-7: maximum and mean score vs ``x`` (``n_env``, ``thrust_changes``), one panel per
+    ``by`` value; the paper's two reported points (if given) as grey markers."""
+    keys = list(dict.fromkeys(df[by]))
+    fig, axes = panel_grid(len(keys), ncols=ncols)
+    for ax, key, letter in zip(axes, keys, "abcdefgh"):
+        sub = df.loc[df[by] == key]
+        g = sub.groupby(x)["score"]
+        xs = np.array(sorted(sub[x].unique()))
+        mx, mn = g.max().reindex(xs), g.mean().reindex(xs)
+        sem = g.std().reindex(xs) / np.sqrt(g.size().reindex(xs))
+        ax.plot(xs, mx, marker="^", color="tab:red", label="maximum")
+        ax.errorbar(xs, mn, yerr=1.96 * sem.fillna(0), marker="o", color="tab:blue", capsize=2,
+                    label="mean (95% CI)")
+        if paper is not None:
+            p = paper.loc[paper["scenario"] == key]
+            ax.scatter(p[x], p["maximum"], marker="^", color="0.5", zorder=3, label="paper max")
+            ax.scatter(p[x], p["mean"], marker="o", facecolor="none", edgecolor="0.3", zorder=3,
+                       label="paper mean")
+        ax.set(xlabel=xlabel or x, ylabel="silhouette score", title=f"({letter}) {key}",
+               ylim=(-2, 102))
+        ax.set_xticks(xs)
+        ax.legend(fontsize=7, loc="lower left")
+    return fig
+
+
+def fig9_cem(history, random_scores=None, paper=None):
+    """Fig 9: CEM maximum and mean score per iteration (and the random-search reference)."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
+    it = history.index.to_numpy() if "iteration" not in history else history["iteration"]
+    ax.plot(it, history["Maximum"], marker="^", color="tab:red", label="CEM maximum")
+    ax.plot(it, history["Mean"], marker="o", color="tab:blue", label="CEM mean")
+    if "Elite mean" in history:
+        ax.plot(it, history["Elite mean"], ls="--", color="tab:purple", label="CEM elite mean")
+    if random_scores is not None:
+        rs = np.asarray(random_scores, dtype=float)
+        ax.axhline(rs.max(), color="tab:red", ls=":", lw=1, label=f"random max {rs.max():.2f}")
+        ax.axhline(rs.mean(), color="tab:blue", ls=":", lw=1, label=f"random mean {rs.mean():.2f}")
+    if paper is not None:
+        v = dict(zip(paper["quantity"], paper["value"]))
+        ax.axhline(v["cem_maximum"], color="0.5", ls="--", lw=0.8, label="paper CEM max")
+    ax.set(xlabel="iteration", ylabel="silhouette score", ylim=(-2, 102))
+    ax.legend(fontsize=7, loc="lower right")
+    return fig
+
+
+# --------------------------------------------------------------------------- #
+# model checks and comparisons
+# --------------------------------------------------------------------------- #
+def dryden_spectrum(wind, n_samples=4096, nperseg=512):
+    """Simulated gust spectra (Welch, averaged over environments) over the analytic
+    MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.wind.DrydenWind`
+    whose environments share one W20."""
+    from scipy.signal import welch
+
+    from .wind import dryden_psd
+
+    plt = _plt()
+    g = wind.gusts(n_samples)
+    f, S = welch(g, fs=1.0 / wind.dt, nperseg=nperseg, axis=1)
+    S = S.mean(axis=0) / (2 * np.pi)  # per rad/s
+    omega = 2 * np.pi * f[1:]
+    p = wind.parameters
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True, sharey=True)
+    for j, (ax, axis) in enumerate(zip(axes, "uvw")):
+        ax.loglog(omega, S[1:, j], color="tab:blue", label="simulated (Welch)")
+        ax.loglog(omega, dryden_psd(omega, p[f"sigma_{axis}"][0], p[f"L_{axis}"],
+                                    wind.airspeed[0], axis), color="k", ls="--",
+                  label="MIL-F-8785C")
+        ax.axvline(np.pi / wind.dt, color="0.6", lw=0.8)
+        ax.set(xlabel="omega (rad/s)", title=f"{axis} gust, sigma = {p[f'sigma_{axis}'][0]:.2f} m/s")
+    axes[0].set_ylabel("PSD ((m/s)^2 / (rad/s))")
+    axes[0].legend(fontsize=8)
+    return fig
+
+
+def paper_vs_replication(table, ncols=1, title=None):
+    """Bar chart of reported vs regenerated values: ``table`` has an index of row labels
+    and columns ``paper max, paper mean, replication max, replication mean``."""
+    plt = _plt()
+    n = len(table)
+    fig, ax = plt.subplots(figsize=(8, 0.45 * n + 1.5), constrained_layout=True)
+    y = np.arange(n)
+    h = 0.2
+    for k, (col, c) in enumerate((("paper max", "0.55"), ("replication max", "tab:red"),
+                                  ("paper mean", "0.8"), ("replication mean", "tab:blue"))):
+        if col in table:
+            ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c, label=col)
+    ax.set_yticks(y, [str(i) for i in table.index], fontsize=8)
+    ax.invert_yaxis()
+    ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
+    ax.legend(fontsize=7, loc="lower right")
+    return fig
