@@ -7,6 +7,14 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 PROFILE ?= paper
 JOBS    ?= -1
+BOOK    ?= book
+GEN     := $(BOOK)/generated
+NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count \
+             exp4_thrust_changes exp5_wind_direction exp6_cem claims performance explore
+EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
+LIBRARY   := $(wildcard uavwind/*.py)
+MATHJAX   := $(BOOK)/_static/mathjax/MathJax.js
+HTML      := $(BOOK)/_build/html/index.html
 
 export PYTHONPATH := $(CURDIR)
 export PYTHONHASHSEED := 0
@@ -14,7 +22,7 @@ export PYTHONHASHSEED := 0
 unexport MPLBACKEND
 
 .DEFAULT_GOAL := help
-.PHONY: help venv test bench clean
+.PHONY: help venv test bench book results lab clean clean-results FORCE
 
 help:  ## list the targets
 	@grep -hE '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | sed -E 's/:.*## /\t/' | expand -t 16
@@ -33,6 +41,41 @@ test: $(STAMP)  ## run the test suite
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper profile
 	$(BIN)/python benchmarks/bench.py
 
+results: $(STAMP)  ## run every experiment into data/results (PROFILE=paper|quick; cached, resumable)
+	$(BIN)/python -m uavwind run all --profile $(PROFILE) --jobs $(JOBS)
+
+book: $(HTML)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
+	@echo "book: $(HTML)"
+
+# the profile is a file, rewritten only when PROFILE changes, so notebooks rerun then
+$(GEN)/.profile: FORCE
+	@mkdir -p $(GEN)
+	@echo "$(PROFILE)" | cmp -s - $@ || echo "$(PROFILE)" > $@
+
+$(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP)
+	@mkdir -p $(GEN)/.src
+	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
+	$(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
+	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb
+	mv $(GEN)/.src/$*.out.ipynb $@
+
+$(MATHJAX): $(STAMP)
+	rm -rf $(BOOK)/_static/mathjax
+	mkdir -p $(BOOK)/_static
+	cp -r $$($(BIN)/python -c 'import jupyter_server_mathjax, pathlib; print(pathlib.Path(jupyter_server_mathjax.__file__).parent / "static")') $(BOOK)/_static/mathjax
+
+$(HTML): $(EXECUTED) $(MATHJAX) $(wildcard $(BOOK)/*.md) $(BOOK)/_config.yml $(BOOK)/_toc.yml
+	$(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
+	touch $@
+
+lab: $(STAMP)  ## JupyterLab on the notebooks (open the .md files as notebooks)
+	$(BIN)/jupyter lab notebooks/
+
 clean:  ## remove caches and build products (never finished results)
-	rm -rf .pytest_cache .benchmarks
+	rm -rf .pytest_cache .benchmarks $(BOOK)/_build $(GEN) $(BOOK)/_static/mathjax
 	find . -name __pycache__ -not -path './$(VENV)/*' -prune -exec rm -rf {} +
+
+clean-results:  ## delete the cached experiment results in data/results
+	rm -rf data/results
+
+FORCE:

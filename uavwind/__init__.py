@@ -11,6 +11,11 @@ and the silhouette score rewards thrust sequences that separate the groups.
 (10, 120, 3)
 """
 
+import warnings as _warnings
+
+# tslearn warns at import that h5py (optional, unused here) is missing
+_warnings.filterwarnings("ignore", message="h5py not installed", category=UserWarning)
+
 from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
                       sample_paper)
 from .clustering import LoopResult, score_loop

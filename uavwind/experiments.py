@@ -39,7 +39,8 @@ import pandas as pd
 from .clustering import DEFAULT_PARAMS, default_engine
 from .config import check_scalar
 from .scenarios import (PAPER_SCENARIOS, Setting, direction_settings,
-                        environment_count_settings, make_setting, range_similarity_settings)
+                        environment_count_settings, make_setting, range_similarity_settings,
+                        table3_setting)
 from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
@@ -80,7 +81,7 @@ class Experiment:
     Attributes
     ----------
     id : str
-        ``"exp1"`` ... ``"exp6"``.
+        ``"example"`` (the worked example), ``"exp1"`` ... ``"exp6"``.
     title : str
     question : str
     notebook : str
@@ -166,7 +167,14 @@ def _exp6():
     return [Case(same, {"scenario": "Light constant vs light shear"})]
 
 
+def _example():
+    return [Case(table3_setting(), {"scenario": "Strong shear vs light constant (Table 3)"})]
+
+
 EXPERIMENTS = {e.id: e for e in [
+    Experiment("example", "Worked example", "How does one loop look, and how do 50 random "
+               "loops score, for strong shear vs light constant?", "model.md",
+               "Table 3, Figure 3", "random", _example),
     Experiment("exp1", "Wind speed", "How does the wind speed of the two conditions affect "
                "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1),
     Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
@@ -195,8 +203,14 @@ def get_experiment(exp_id):
 
 
 def _check_profile(profile):
+    """A profile by name, or a dict with the same keys as :data:`PROFILES` entries."""
+    if isinstance(profile, dict):
+        missing = {"loops", "long_loops", "cem"} - set(profile)
+        if missing:
+            raise ValueError(f"profile dict is missing {sorted(missing)}")
+        return profile
     if profile not in PROFILES:
-        raise ValueError(f"profile must be one of {sorted(PROFILES)}, got {profile!r}")
+        raise ValueError(f"profile must be one of {sorted(PROFILES)} (or a dict), got {profile!r}")
     return PROFILES[profile]
 
 
@@ -205,7 +219,7 @@ def _check_profile(profile):
 # --------------------------------------------------------------------------- #
 def cache_key(setting, seed, start, stop, engine, params, extra=None):
     """Digest of everything that determines a chunk of results."""
-    blob = json.dumps({"setting": setting.to_dict(), "seed": seed, "loops": [start, stop],
+    blob = json.dumps({"setting": setting.key(), "seed": seed, "loops": [start, stop],
                        "engine": engine, "params": {**DEFAULT_PARAMS, **params},
                        "version": RESULTS_VERSION, "extra": extra},
                       sort_keys=True, default=str)
@@ -308,7 +322,7 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     out = pd.concat(frames, ignore_index=True)
     first = ["experiment", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
     out = out[first + [c for c in out.columns if c not in first]]
-    out.attrs.update(experiment=exp.id, profile=profile, seed=seed, cached=n_cached,
+    out.attrs.update(experiment=exp.id, profile=str(profile), seed=seed, cached=n_cached,
                      chunks=n_chunks)
     return out
 
@@ -333,7 +347,7 @@ def summary_table(df):
     mean and elite mean per iteration.
     """
     exp = df["experiment"].iloc[0]
-    if exp in ("exp1", "exp5"):
+    if exp in ("example", "exp1", "exp5"):
         return _maxmean(df, "scenario")
     if exp in ("exp2", "exp3"):
         return _maxmean(df, ["scenario", "n_env"])
@@ -363,3 +377,46 @@ def n_loops_total(profile):
         else:
             total += sum(prof["long_loops"] if c.long else prof["loops"] for c in exp.cases())
     return total
+
+
+_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp2": ["scenario_id", "n_env"],
+         "exp3": ["scenario_id", "n_env"], "exp4": ["scenario_id", "thrust_changes"],
+         "exp5": ["direction"]}
+
+
+def comparison_table(df):
+    """Paper vs replication, side by side, for the rows the paper reports.
+
+    Columns: ``paper max, replication max, paper mean, replication mean``,
+    ``mean 95% CI`` (bootstrap over loops) and ``correct (%)``; index: the
+    paper's row labels. Reads the paper's values from ``data/paper/``.
+    """
+    from .claims import bootstrap_ci
+    from .paper import load_paper_values
+
+    exp = df["experiment"].iloc[0]
+    if exp not in _JOIN:
+        raise ValueError(f"no paper table to compare for {exp!r}")
+    if exp == "example":
+        ref = load_paper_values("example")
+        score = float(ref.loc[ref["quantity"] == "score", "value"].iloc[0])
+        ref = pd.DataFrame({"scenario": [df["scenario"].iloc[0]], "maximum": [score],
+                            "mean": [float("nan")]})
+    else:
+        ref = load_paper_values(exp)
+    keys = _JOIN[exp]
+    rows = []
+    for _, p in ref.iterrows():
+        sub = df
+        for k in keys:
+            sub = sub.loc[sub[k] == p[k]]
+        if not len(sub):
+            continue
+        est, lo, hi = bootstrap_ci(sub["score"].to_numpy())
+        label = p["scenario"] + "".join(f", {p[k]} {k.replace('_', ' ')}" for k in keys
+                                        if k not in ("scenario_id", "scenario", "direction"))
+        rows.append({"row": label, "paper max": p["maximum"],
+                     "replication max": sub["score"].max(), "paper mean": p["mean"],
+                     "replication mean": est, "mean 95% CI": f"[{lo:.2f}, {hi:.2f}]",
+                     "correct (%)": 100 * (sub["score"] > 0).mean(), "loops": len(sub)})
+    return pd.DataFrame(rows).set_index("row")

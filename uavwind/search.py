@@ -21,6 +21,7 @@ works, including Dask through ``joblib.parallel_config(backend="dask")``.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass
 
 import numpy as np
@@ -124,8 +125,10 @@ def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=Tr
              for th, ws in zip(thrusts, wind_seeds)]
     bar = None
     if progress:
-        from tqdm.auto import tqdm
-        bar = tqdm(total=len(tasks), desc=desc, leave=False)
+        # the text bar (stderr), not tqdm.auto's widget: make book shows it in the
+        # terminal through papermill --log-output, and the book drops stderr
+        from tqdm import tqdm
+        bar = tqdm(total=len(tasks), desc=desc, leave=False, file=sys.stderr)
     results = []
     if n_jobs == 1:
         for th, ws in zip(thrusts, wind_seeds):

@@ -1,0 +1,165 @@
+"""Experiment registry, profiles, cache keys, resume, paper values, claims."""
+import numpy as np
+import pandas as pd
+import pytest
+
+import uavwind as uw
+from uavwind import experiments as ex
+from uavwind.claims import bootstrap_ci, evaluate_claims, paired_difference
+from uavwind.paper import PAPER_FILES, load_paper_values
+
+TINY = {"loops": 2, "long_loops": 3, "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+
+
+def test_registry_matches_the_paper():
+    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6"]
+    sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
+    assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
+                     "exp6": 1}
+    exp1 = ex.EXPERIMENTS["exp1"].cases()
+    assert [c.long for c in exp1] == [False] * 7 + [True]
+    assert all(c.setting.n_env == 10 for c in exp1)
+    exp4 = ex.EXPERIMENTS["exp4"].cases()
+    assert sorted({c.labels["thrust_changes"] for c in exp4}) == [0, 2, 4, 6, 8, 10, 12]
+    assert {c.setting.n_changes for c in exp4} == {0, 2, 4, 6, 8, 10, 11}
+    # Exp 6 flies Exp 5's similar-direction environments
+    assert ex.EXPERIMENTS["exp6"].cases()[0].setting.key() == ex.EXPERIMENTS["exp5"].cases()[0].setting.key()
+    for e in ex.EXPERIMENTS.values():
+        assert (ex.Path(__file__).parents[1] / "notebooks" / e.notebook).exists()
+
+
+def test_profiles_and_loop_counts():
+    assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
+    assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
+    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50, exp6 30x20
+    assert ex.n_loops_total("paper") == 50 + 850 + 1600 + 1600 + 1400 + 100 + 600
+    with pytest.raises(ValueError, match="profile"):
+        ex.run_experiment("exp5", profile="huge")
+    with pytest.raises(ValueError, match="unknown experiment 'exp7'"):
+        ex.run_experiment("exp7")
+    with pytest.raises(TypeError, match="experiment id"):
+        ex.get_experiment(5)
+
+
+def test_cache_key_depends_on_what_matters():
+    s = uw.make_setting("light constant", "strong shear")
+    base = ex.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == ex.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == ex.cache_key(s, 1, 0, 50, "fast", {"gamma": 0.5})  # the default, spelled out
+    assert base == ex.cache_key(uw.make_setting("light constant", "strong shear", name="x"),
+                                1, 0, 50, "fast", {})  # names do not change results
+    for other in (ex.cache_key(s, 2, 0, 50, "fast", {}), ex.cache_key(s, 1, 0, 49, "fast", {}),
+                  ex.cache_key(s, 1, 0, 50, "tslearn", {}), ex.cache_key(s, 1, 0, 50, "fast", {"gamma": 1.0}),
+                  ex.cache_key(uw.make_setting("light constant", "strong shear", n_changes=5), 1, 0, 50, "fast", {})):
+        assert other != base
+
+
+def test_run_resume_and_reuse(tmp_path, monkeypatch):
+    import uavwind.experiments as mod
+
+    calls = []
+    real = mod.random_search
+
+    def counting(setting, **kw):
+        calls.append(setting.key())
+        if interrupt["after"] is not None and len(calls) > interrupt["after"]:
+            raise KeyboardInterrupt
+        return real(setting, **kw)
+
+    interrupt = {"after": 1}
+    monkeypatch.setattr(mod, "random_search", counting)
+    with pytest.raises(KeyboardInterrupt):
+        mod.run_experiment("exp5", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert len(list((tmp_path / "exp5").glob("*.parquet"))) == 1  # the finished setting only
+    assert not list((tmp_path / "exp5").glob("*.tmp*"))  # nothing partial
+    interrupt["after"], calls[:] = None, []
+    resumed = mod.run_experiment("exp5", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert len(calls) == 1 and resumed.attrs["cached"] == 1  # only the unfinished setting ran
+    calls[:] = []
+    again = mod.run_experiment("exp5", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert calls == [] and again.attrs["cached"] == 2
+    fresh = mod.run_experiment("exp5", profile=TINY, results=tmp_path / "fresh", n_jobs=1,
+                               progress=False)
+    pd.testing.assert_frame_equal(resumed, fresh)
+    pd.testing.assert_frame_equal(again, fresh)
+    assert set(fresh["direction"]) == {"similar", "opposite"}
+    assert {"setting_key", "seed", "engine", "uavwind_version", "results_version"} <= set(fresh.columns)
+    table = ex.summary_table(fresh)
+    assert list(table.columns[:2]) == ["Maximum", "Mean"] and len(table) == 2
+    cmp = ex.comparison_table(fresh)
+    assert cmp["paper mean"].tolist() == [21.58, 90.33]
+
+
+def test_changed_setting_recomputes_only_itself(tmp_path):
+    a = ex.run_experiment("exp1", profile=TINY, results=tmp_path, cases=[1, 2], n_jobs=1,
+                          progress=False)
+    b = ex.run_experiment("exp1", profile=TINY, results=tmp_path, cases=[1, 2], n_jobs=1,
+                          progress=False, gamma=1.0)
+    assert b.attrs["cached"] == 0
+    c = ex.run_experiment("exp1", profile=TINY, results=tmp_path, cases=[1, 2, 3], n_jobs=1,
+                          progress=False)
+    assert c.attrs["cached"] == 2 and c.attrs["chunks"] == 3
+    pd.testing.assert_frame_equal(c[c["case"] < 3].reset_index(drop=True), a)
+
+
+def test_cem_experiment_and_worker_independence(tmp_path):
+    one = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "a", n_jobs=1, progress=False)
+    two = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=2, progress=False)
+    pd.testing.assert_frame_equal(one, two)
+    assert len(one) == 6 and one["iteration"].tolist() == [1, 1, 1, 2, 2, 2]
+    hist = ex.summary_table(one)
+    assert list(hist.index) == [1, 2] and np.all(np.diff(hist["Best so far"]) >= 0)
+
+
+def test_paper_values_load_with_sources():
+    for exp_id in PAPER_FILES:
+        df = load_paper_values(exp_id)
+        assert "source" in df.columns and len(df) >= 2
+    t4 = load_paper_values("exp1")
+    assert t4.set_index("scenario_id").loc[4, "maximum"] == 79.83
+    assert t4.set_index("scenario_id").loc[8, "mean"] == 79.30
+    assert set(load_paper_values("exp2")["n_env"]) == {6, 20}
+    with pytest.raises(ValueError, match="unknown experiment"):
+        load_paper_values("exp9")
+
+
+def test_bootstrap_and_paired_difference():
+    rng = np.random.default_rng(0)
+    x = rng.normal(5, 1, size=400)
+    est, lo, hi = bootstrap_ci(x)
+    assert lo < 5 < hi and hi - lo < 0.3 and est == pytest.approx(x.mean())
+    y = x - 1 + rng.normal(0, 0.01, size=400)
+    d = paired_difference(x, y)
+    assert d[1] > 0.99 and d[2] < 1.01  # pairing removes the shared noise
+
+
+def _fake(exp, rows):
+    return pd.DataFrame([{"experiment": exp, **r} for r in rows])
+
+
+def test_claims_verdicts_on_synthetic_results():
+    rng = np.random.default_rng(1)
+    exp1 = []
+    means = {1: 60, 2: 95, 3: 94, 4: 55, 5: 96, 6: 95, 7: 85}
+    for k, m in means.items():
+        exp1 += [{"scenario_id": k, "loop": i, "score": m + rng.normal(0, 1)} for i in range(50)]
+    exp1 += [{"scenario_id": 8, "loop": i, "score": 60 + rng.normal(0, 1)} for i in range(500)]
+    sweep = lambda xkey, xs, f: [{"scenario_id": k, xkey: x, "loop": i, "score": f(x) + rng.normal(0, 1)}
+                                 for k in (1, 2, 3, 4) for x in xs for i in range(50)]
+    results = {
+        "exp1": _fake("exp1", exp1),
+        "exp2": _fake("exp2", sweep("n_env", range(6, 21, 2), lambda n: 100 - n)),
+        "exp3": _fake("exp3", sweep("n_env", range(6, 21, 2), lambda n: 60 + 20 * min(n, 15) / 15)),
+        "exp4": _fake("exp4", sweep("thrust_changes", [0, 2, 4, 6, 8, 10, 12], lambda n: 80)),
+        "exp5": _fake("exp5", [{"direction": d, "loop": i, "score": s}
+                               for d, s in (("similar", 0), ("opposite", 90)) for i in range(50)]),
+        "exp6": _fake("exp6", [{"iteration": t, "loop": j, "score": min(50 + 3 * t, 86) + j,
+                                "elite": j < 4} for t in range(1, 21) for j in range(30)]),
+    }
+    results["exp5"].loc[::2, "score"] = 40.0
+    v = evaluate_claims(results)["verdict"]
+    assert v.to_dict() == {f"C{i}": "reproduced" for i in range(1, 9)}
+    # break C7: opposite directions misgroup as often as similar ones
+    results["exp5"]["score"] = 0.0
+    assert evaluate_claims(results).loc["C7", "verdict"] == "not reproduced"
+    assert evaluate_claims({"exp1": results["exp1"]}).loc["C4", "verdict"] == "not run"
