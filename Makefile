@@ -13,7 +13,7 @@ NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count 
              exp4_thrust_changes exp5_wind_direction exp6_cem claims performance explore
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py)
-MATHJAX   := $(BOOK)/_static/mathjax/MathJax.js
+MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
 HTML      := $(BOOK)/_build/html/index.html
 
 export PYTHONPATH := $(CURDIR)
@@ -60,9 +60,9 @@ $(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP)
 	mv $(GEN)/.src/$*.out.ipynb $@
 
 $(MATHJAX): $(STAMP)
-	rm -rf $(BOOK)/_static/mathjax
-	mkdir -p $(BOOK)/_static
-	cp -r $$($(BIN)/python -c 'import jupyter_server_mathjax, pathlib; print(pathlib.Path(jupyter_server_mathjax.__file__).parent / "static")') $(BOOK)/_static/mathjax
+	rm -rf $(BOOK)/_vendor/mathjax
+	mkdir -p $(BOOK)/_vendor
+	cp -r $$($(BIN)/python -c 'import jupyter_server_mathjax, pathlib; print(pathlib.Path(jupyter_server_mathjax.__file__).parent / "static")') $(BOOK)/_vendor/mathjax
 
 $(HTML): $(EXECUTED) $(MATHJAX) $(wildcard $(BOOK)/*.md) $(BOOK)/_config.yml $(BOOK)/_toc.yml
 	$(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
@@ -72,7 +72,7 @@ lab: $(STAMP)  ## JupyterLab on the notebooks (open the .md files as notebooks)
 	$(BIN)/jupyter lab notebooks/
 
 clean:  ## remove caches and build products (never finished results)
-	rm -rf .pytest_cache .benchmarks $(BOOK)/_build $(GEN) $(BOOK)/_static/mathjax
+	rm -rf .pytest_cache .benchmarks $(BOOK)/_build $(GEN) $(BOOK)/_vendor
 	find . -name __pycache__ -not -path './$(VENV)/*' -prune -exec rm -rf {} +
 
 clean-results:  ## delete the cached experiment results in data/results

@@ -60,11 +60,173 @@ def bench_simulation(report):
     report["dryden_seconds"] = {"1000": t, "3000": t3, "control_50": tc}
 
 
+def _loop_inputs(n_env, seed, dt=0.1, scenario=None):
+    """Trajectories and groups of one random loop (scenario cycles through Table 2)."""
+    from uavwind.scenarios import PAPER_SCENARIOS
+
+    k = scenario or (seed % 7) + 1
+    a, b = PAPER_SCENARIOS[k]
+    setting = uw.make_setting(a, b, n_env // 2, dt=dt)
+    thrust = setting.sample_thrust(np.random.default_rng(seed))
+    return setting.simulate(thrust, seed=seed), setting.groups
+
+
+def _engines():
+    from uavwind.clustering import ENGINES
+    return [e for e in ("tslearn", "fast") if e in ENGINES]
+
+
+def bench_loops(report):
+    print("\n== score_loop(): one loop, median over 5 loops (same inputs for both engines) ==")
+    engines = _engines()
+    rows = {}
+    cases = [(n, 0.1) for n in (10, 20, 40)] + [(20, dt) for dt in (0.2, 0.05)]
+    for n_env, dt in cases:
+        inputs = [_loop_inputs(n_env, seed, dt=dt, scenario=2) for seed in range(5)]
+        for X, g in inputs[:1]:
+            for e in engines:
+                uw.score_loop(X, g, engine=e)  # warm-up: compile / load caches
+        res = {}
+        for e in engines:
+            times = []
+            for X, g in inputs:
+                t0 = time.perf_counter()
+                uw.score_loop(X, g, engine=e)
+                times.append(time.perf_counter() - t0)
+            res[e] = statistics.median(times)
+        steps = int(round(12 / dt))
+        ratio = res["tslearn"] / res["fast"] if "fast" in res else float("nan")
+        print(f"  {n_env:3d} environments x {steps:3d} steps: "
+              + "  ".join(f"{e} {t * 1e3:8.1f} ms" for e, t in res.items())
+              + (f"   speed-up {ratio:5.1f}x" if "fast" in res else ""))
+        rows[f"{n_env}env_{steps}steps"] = {**res, "speedup": ratio}
+    report["loop_seconds"] = rows
+
+
+def _agree(seed):
+    X, g = _loop_inputs(10 + 10 * (seed % 2), seed)
+    a = uw.score_loop(X, g, engine="tslearn")
+    b = uw.score_loop(X, g, engine="fast")
+    same = np.array_equal(a.labels, b.labels) or np.array_equal(a.labels, 1 - b.labels)
+    return same, abs(a.score - b.score) if same else float("nan"), a.correct, b.correct
+
+
+def bench_agreement(report, n_loops=200):
+    if "fast" not in _engines():
+        return
+    from joblib import Parallel, delayed
+
+    print(f"\n== fast vs tslearn: {n_loops} random loops over the 7 Table 2 scenarios, "
+          "10 and 20 environments ==")
+    t0 = time.perf_counter()
+    out = Parallel(n_jobs=-1)(delayed(_agree)(seed) for seed in range(n_loops))
+    same = np.array([o[0] for o in out])
+    diffs = np.array([o[1] for o in out])
+    print(f"  identical labels (up to swap): {same.sum()}/{n_loops} ({100 * same.mean():.1f}%)")
+    print(f"  largest |score difference| where labels agree: {np.nanmax(diffs):.2e}")
+    print(f"  ({time.perf_counter() - t0:.0f} s on all cores)")
+    report["agreement"] = {"loops": n_loops, "identical_labels": int(same.sum()),
+                           "max_abs_score_diff": float(np.nanmax(diffs))}
+
+
+def bench_search(report):
+    setting = uw.table3_setting()
+    engine = "fast" if "fast" in _engines() else "tslearn"
+    print(f"\n== random_search(): 50 loops of the worked example (engine {engine}) ==")
+    res = {}
+    for jobs in (1, 2):
+        uw.random_search(setting, n_loops=2, seed=99, n_jobs=jobs, progress=False)  # warm workers
+        t0 = time.perf_counter()
+        uw.random_search(setting, n_loops=50, seed=0, n_jobs=jobs, progress=False)
+        res[jobs] = time.perf_counter() - t0
+        print(f"  n_jobs={jobs}: {res[jobs]:6.2f} s ({res[jobs] / 50 * 1e3:6.1f} ms per loop)")
+    print(f"  speed-up 1 -> 2 workers: {res[1] / res[2]:.2f}x")
+    report["random_search_50"] = {"n_jobs_1": res[1], "n_jobs_2": res[2],
+                                  "speedup": res[1] / res[2]}
+    if engine == "fast":
+        s20 = uw.make_setting("light constant", "light constant", 10)
+        sweep = {}
+        for jobs in (1, 2):
+            t0 = time.perf_counter()
+            uw.random_search(s20, n_loops=200, seed=1, n_jobs=jobs, progress=False)
+            sweep[jobs] = time.perf_counter() - t0
+        print(f"  200-loop sweep, 20 environments: 1 worker {sweep[1]:.1f} s, 2 workers "
+              f"{sweep[2]:.1f} s, speed-up {sweep[1] / sweep[2]:.2f}x")
+        report["sweep_200"] = {"n_jobs_1": sweep[1], "n_jobs_2": sweep[2],
+                               "speedup": sweep[1] / sweep[2]}
+    return engine
+
+
+def bench_paper_profile(report, engine):
+    from uavwind.experiments import EXPERIMENTS, PROFILES, n_loops_total
+
+    print("\n== the paper profile ==")
+    prof = PROFILES["paper"]
+    by_size = {}
+    for exp in EXPERIMENTS.values():
+        for c in exp.cases():
+            n = (prof["cem"]["n_samples"] * prof["cem"]["n_iter"] if exp.kind == "cem"
+                 else prof["long_loops"] if c.long else prof["loops"])
+            by_size[c.setting.n_env] = by_size.get(c.setting.n_env, 0) + n
+    per_loop = {}
+    for n_env in sorted(by_size):
+        inputs = [_loop_inputs(max(n_env, 2), seed) for seed in range(3)]
+        X, g = inputs[0]
+        uw.score_loop(X, g, engine=engine)
+        per_loop[n_env] = statistics.median(
+            [timeit(lambda X=X, g=g: uw.score_loop(X, g, engine=engine), repeat=1)
+             for X, g in inputs])
+    one_core = sum(by_size[n] * per_loop[n] for n in by_size)
+    cores = os.cpu_count() or 1
+    print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
+    print(f"  estimated: {one_core / 60:.1f} min on one core, {one_core / cores / 60:.1f} min on "
+          f"{cores} cores (per-loop medians x loop counts by environment count)")
+    report["paper_profile"] = {"loops": n_loops_total("paper"), "engine": engine,
+                               "estimated_seconds_one_core": one_core,
+                               "estimated_seconds_all_cores": one_core / cores}
+    if os.environ.get("FULL") == "1":
+        wall, peak = _measure_paper_run()
+        print(f"  measured (FULL=1): {wall / 60:.1f} min wall for every experiment from an empty "
+              f"cache; peak memory {peak:.0f} MiB (sum of RSS over the process tree, sampled "
+              f"every 0.5 s)")
+        report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak)
+
+
+def _measure_paper_run():
+    """Run every experiment in the paper profile into a temporary cache; return
+    (wall seconds, peak summed RSS of the process tree in MiB)."""
+    import subprocess
+    import tempfile
+
+    import psutil
+
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {**os.environ, "UAVWIND_RESULTS": tmp}
+        t0 = time.perf_counter()
+        proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "all", "--profile",
+                                 "paper", "--no-progress"], env=env, stdout=subprocess.DEVNULL)
+        root, peak = psutil.Process(proc.pid), 0.0
+        while proc.poll() is None:
+            try:
+                procs = [root, *root.children(recursive=True)]
+                peak = max(peak, sum(p.memory_info().rss for p in procs) / 2 ** 20)
+            except psutil.Error:
+                pass
+            time.sleep(0.5)
+        if proc.returncode:
+            raise RuntimeError(f"the paper run failed with exit code {proc.returncode}")
+        return time.perf_counter() - t0, peak
+
+
 def main():
     report = {"python": sys.version.split()[0], "machine": platform.machine(),
               "cores": os.cpu_count(), "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
     bench_simulation(report)
+    bench_loops(report)
+    bench_agreement(report)
+    engine = bench_search(report)
+    bench_paper_profile(report, engine)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")
