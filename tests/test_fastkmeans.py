@@ -1,0 +1,85 @@
+"""The fast engine against tslearn itself: kernels, k-means, silhouette, whole loops."""
+import numpy as np
+import pytest
+from tslearn.barycenters.softdtw import _acc_softdtw_func, _softdtw_func
+from tslearn.clustering import TimeSeriesKMeans, silhouette_score
+from tslearn.metrics import dtw as ts_dtw
+from tslearn.metrics import soft_dtw as ts_soft_dtw
+
+import uavwind as uw
+from uavwind import fastkmeans as fk
+from uavwind.clustering import score_loop
+from uavwind.scenarios import PAPER_SCENARIOS
+
+
+def _pairs(seed):
+    rng = np.random.default_rng(seed)
+    for m, n in ((12, 12), (9, 15), (20, 7)):
+        yield rng.normal(size=(m, 3)).cumsum(0), rng.normal(size=(n, 3)).cumsum(0)
+
+
+@pytest.mark.parametrize("gamma", [0.1, 0.5, 1.0])
+def test_soft_dtw_value_and_gradient_equal_tslearn(gamma):
+    for x, y in _pairs(int(gamma * 10)):
+        assert fk.soft_dtw(x, y, gamma) == pytest.approx(ts_soft_dtw(x, y, gamma=gamma),
+                                                         rel=1e-12, abs=1e-9)
+        val, grad = fk.soft_dtw_grad(x, y, gamma)
+        ref_val, ref_grad = _softdtw_func(x, y, 1.0, gamma, 0, None, None)
+        assert val == pytest.approx(ref_val, rel=1e-12, abs=1e-9)
+        assert np.allclose(grad, ref_grad, rtol=1e-12, atol=1e-9)
+
+
+def test_barycentre_objective_equals_tslearn():
+    rng = np.random.default_rng(3)
+    Xs = rng.normal(size=(5, 14, 3)).cumsum(1)
+    Z = rng.normal(size=(14, 3)).cumsum(0)
+    obj, G = fk.soft_dtw_objgrad(Z, Xs, 0.5)
+    ref_obj, ref_G = _acc_softdtw_func(Z.ravel(), Xs, np.ones(5), 0.5)
+    assert obj == pytest.approx(ref_obj, rel=1e-12)
+    assert np.allclose(np.ravel(G), ref_G, rtol=1e-12, atol=1e-9)
+
+
+def test_dtw_equals_tslearn():
+    for x, y in _pairs(7):
+        assert fk.dtw(x, y) == pytest.approx(ts_dtw(x, y), rel=1e-12)
+
+
+def _loop(scenario, seed, n_per_group=5):
+    a, b = PAPER_SCENARIOS[scenario]
+    s = uw.make_setting(a, b, n_per_group)
+    thrust = s.sample_thrust(np.random.default_rng(seed))
+    return s.simulate(thrust, seed=seed), s.groups
+
+
+@pytest.mark.parametrize("scenario", sorted(PAPER_SCENARIOS))
+def test_fast_equals_tslearn_on_table2_loops(scenario):
+    X, g = _loop(scenario, seed=scenario)
+    ref = score_loop(X, g, engine="tslearn")
+    fast = score_loop(X, g, engine="fast")
+    assert np.array_equal(fast.labels, ref.labels)
+    assert fast.correct == ref.correct
+    assert fast.score == pytest.approx(ref.score, abs=1e-6)
+    assert fast.n_iter == ref.n_iter
+
+
+def test_fast_equals_tslearn_k_means_directly():
+    X, _ = _loop(7, seed=11)  # turbulence
+    km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 0.5},
+                          max_iter=100, max_iter_barycenter=5, random_state=0)
+    labels = km.fit_predict(X)
+    res = fk.fit(X, gamma=0.5, parallel=False)
+    assert np.array_equal(res.labels, labels)
+    assert np.allclose(res.cluster_centers, km.cluster_centers_, rtol=1e-9, atol=1e-9)
+    assert res.inertia == pytest.approx(km.inertia_, rel=1e-9)
+    assert fk.silhouette(X, labels) == pytest.approx(silhouette_score(X, labels, metric="dtw"),
+                                                     abs=1e-9)
+    sil_soft = fk.silhouette(X, labels, metric="softdtw", gamma=0.5)
+    ref_soft = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": 0.5})
+    assert sil_soft == pytest.approx(ref_soft, abs=1e-9)
+
+
+def test_parallel_kernels_give_the_same_answer():
+    X, _ = _loop(4, seed=5, n_per_group=6)
+    a = fk.fit(X, parallel=False)
+    b = fk.fit(X, parallel=True)
+    assert np.array_equal(a.labels, b.labels) and a.inertia == b.inertia
