@@ -13,3 +13,13 @@ def rng():
 @pytest.fixture(scope="session")
 def worked_example():
     return uw.table3_setting()
+
+
+@pytest.fixture(scope="session", autouse=True)
+def compiled_kernels():
+    """Compile (or load) the fast engine's numba kernels once, in this process, before
+    any test starts worker processes: they then load the on-disk cache instead of each
+    compiling the same kernels at the same time."""
+    from uavwind import fastkmeans
+
+    fastkmeans.warmup()

@@ -103,13 +103,13 @@ def claim_c2(r):
     direction = all(c[0] < 0 for c in below.values()) and all(c[0] > 0 for c in above.values())
     verdict = "reproduced" if strict else "partly" if direction or (
         all(c[0] > 0 for c in above.values())) else "not reproduced"
-    ev = ("S7 - S{k} (mean, 95% CI): " + ", ".join(f"S{k} {_fmt(c)}" for k, c in
-                                                  {**below, **above}.items()))
+    ev = ("S7 minus each scenario, paired mean and 95% CI: "
+          + ", ".join(f"S{k} {_fmt(c)}" for k, c in {**below, **above}.items()))
     return Verdict("C2", "Light constant vs strong turbulence scores below the strong "
                    "constant/shear cases but above light-vs-light.",
                    "reproduced: S7 minus each of S2, S3, S5, S6 has a CI below 0 and minus S1, S4 "
                    "a CI above 0; partly: S7 is above both light-vs-light cases or all signs "
-                   "agree without every CI excluding 0", ev.replace("{k}", ""), verdict)
+                   "agree without every CI excluding 0", ev, verdict)
 
 
 def claim_c3(r):
