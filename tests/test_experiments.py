@@ -70,8 +70,8 @@ def test_run_resume_and_reuse(tmp_path, monkeypatch):
     monkeypatch.setattr(mod, "random_search", counting)
     with pytest.raises(KeyboardInterrupt):
         mod.run_experiment("exp5", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
-    assert len(list((tmp_path / "exp5").glob("*.parquet"))) == 1  # the finished setting only
-    assert not list((tmp_path / "exp5").glob("*.tmp*"))  # nothing partial
+    assert len(list((tmp_path / "loops").glob("*.parquet"))) == 1  # the finished setting only
+    assert not list((tmp_path / "loops").glob("*.tmp*"))  # nothing partial
     interrupt["after"], calls[:] = None, []
     resumed = mod.run_experiment("exp5", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
     assert len(calls) == 1 and resumed.attrs["cached"] == 1  # only the unfinished setting ran
@@ -100,6 +100,13 @@ def test_changed_setting_recomputes_only_itself(tmp_path):
                           progress=False)
     assert c.attrs["cached"] == 2 and c.attrs["chunks"] == 3
     pd.testing.assert_frame_equal(c[c["case"] < 3].reset_index(drop=True), a)
+
+
+def test_settings_shared_by_experiments_are_computed_once(tmp_path):
+    ex.run_experiment("exp2", profile=TINY, results=tmp_path, cases=[0], n_jobs=1, progress=False)
+    again = ex.run_experiment("exp3", profile=TINY, results=tmp_path, cases=[0], n_jobs=1,
+                              progress=False)
+    assert again.attrs["cached"] == 1  # exp3's 20-environment setting is exp2's
 
 
 def test_cem_experiment_and_worker_independence(tmp_path):

@@ -310,7 +310,9 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
         for start in range(0, n_loops, CHUNK):
             stop = min(start + CHUNK, n_loops)
             key = cache_key(s, seed, start, stop, engine, params)
-            path = folder / exp.id / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
+            # one folder for every experiment: a setting that two experiments share
+            # (e.g. Exp 2, 3 and 4 at 20 environments) is computed once
+            path = folder / "loops" / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
 
             def compute(s=s, start=start, stop=stop):
                 return random_search(s, n_loops=stop - start, seed=seed, loop_offset=start,
