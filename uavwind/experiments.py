@@ -415,8 +415,8 @@ def comparison_table(df):
         if not len(sub):
             continue
         est, lo, hi = bootstrap_ci(sub["score"].to_numpy())
-        label = p["scenario"] + "".join(f", {p[k]} {k.replace('_', ' ')}" for k in keys
-                                        if k not in ("scenario_id", "scenario", "direction"))
+        units = {"n_env": "environments", "thrust_changes": "thrust changes"}
+        label = p["scenario"] + "".join(f", {p[k]} {units[k]}" for k in keys if k in units)
         rows.append({"row": label, "paper max": p["maximum"],
                      "replication max": sub["score"].max(), "paper mean": p["mean"],
                      "replication mean": est, "mean 95% CI": f"[{lo:.2f}, {hi:.2f}]",
