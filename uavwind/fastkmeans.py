@@ -451,10 +451,14 @@ def _exp_exact(x, fx):
     return _xexp(x, fx)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@njit(cache=True, nogil=True, error_model="numpy")
 def _softmin_log(da, db, dc, sa, sb, sc, fx):
-    """log(tmp) of tslearn's softmin3 for the non-trivial cells (kept out of
-    line so that the hot loop stays small)."""
+    """log(tmp) of tslearn's softmin3 for the non-trivial cells.
+
+    Kept out of line (a real call, not ``inline="always"``): the hot loop stays
+    small, and the inlined exp/log replicas are compiled once here instead of
+    once per call site of ``_cell``. Inlining it everywhere made the cold numba
+    compile of ``fit`` take 209 s instead of 16 s, for a 6% faster loop."""
     if da == 0.0:
         ea = 1.0
     elif sa:
