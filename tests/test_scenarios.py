@@ -40,6 +40,31 @@ def test_generated_groups_stay_in_their_ranges(a, b):
         assert np.allclose(v[:, 0], v[:, 1]) and np.all(v[:, 2] == 0)  # x = y, horizontal
 
 
+@pytest.mark.parametrize("strength", ["light", "strong"])
+def test_gap_layout_leaves_the_middle_of_the_range_empty(strength):
+    lo, hi = SPEED_RANGES[strength]
+    a0, b0 = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5)
+    same = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5, gap=0.0)
+    assert np.array_equal(a0, same[0]) and np.array_equal(b0, same[1])  # gap 0 = decision 5
+    for gap in (0.25, 1 / 3, 0.9):
+        a, b = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5, gap=gap)
+        width = hi - lo
+        assert b.min() - a.max() == pytest.approx(gap * width + width * (1 - gap) / 10)
+        assert np.allclose(np.diff(a), np.diff(b))  # same spacing in both groups
+        assert a.min() > lo and b.max() < hi
+        # the layout is symmetric about the middle of the range
+        assert np.allclose(a + b[::-1], lo + hi)
+    # different strengths ignore the gap: each group keeps its own range
+    x = uw.group_speeds("light constant", "strong constant", 5, gap=0.5)
+    y = uw.group_speeds("light constant", "strong constant", 5)
+    assert np.array_equal(x[0], y[0]) and np.array_equal(x[1], y[1])
+    for bad in (-0.1, 1.0, float("nan")):
+        with pytest.raises(ValueError, match="gap"):
+            uw.group_speeds("light constant", "light constant", 5, gap=bad)
+    assert uw.make_setting("light constant", "light constant", 5, gap=0.5).key() != \
+        uw.make_setting("light constant", "light constant", 5).key()
+
+
 def test_turbulence_group_builds_dryden():
     s = uw.make_setting("light constant", "strong turbulence", 4)
     w = s.wind(seed=1)

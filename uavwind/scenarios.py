@@ -295,25 +295,36 @@ def _cell_centres(lo, hi, n):
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
-def group_speeds(condition_a, condition_b, n_a=5, n_b=None):
+def group_speeds(condition_a, condition_b, n_a=5, n_b=None, gap=0.0):
     """Speeds [m/s] of the two groups (DESIGN decision 5).
 
     Different strengths: each group spreads ``n`` cell-centred speeds over its
-    own range. Same strength: the range is split into two adjacent halves,
-    lower half to group A, so the ``n_a + n_b`` speeds never coincide.
+    own range. Same strength: the range is split between the groups, lower part
+    to group A, so the ``n_a + n_b`` speeds never coincide. With ``gap = 0``
+    (decision 5) the parts are two adjacent halves; ``gap`` in [0, 1) leaves that
+    fraction of the range empty in the middle (each group keeps ``(1 - gap) / 2``
+    of it at its end), the replication notes' alternative for same-strength pairs.
 
     >>> a, b = group_speeds("light constant", "strong constant", 2)
     >>> a.round(4).tolist(), b.round(3).tolist()
     ([0.6725, 1.1175], [11.85, 13.19])
+    >>> a, b = group_speeds("light constant", "light constant", 2, gap=0.5)
+    >>> a.round(4).tolist(), b.round(4).tolist()
+    ([0.5056, 0.6169], [1.1731, 1.2844])
     """
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
     n_b = n_a if n_b is None else n_b
     n_a = check_scalar(n_a, "n_a", low=1, integer=True)
     n_b = check_scalar(n_b, "n_b", low=1, integer=True)
+    gap = check_scalar(gap, "gap", low=0.0, high=1.0, high_inclusive=False)
     if ca.strength == cb.strength:
         lo, hi = ca.speed_range
-        mid = 0.5 * (lo + hi)
-        return _cell_centres(lo, mid, n_a), _cell_centres(mid, hi, n_b)
+        if gap == 0.0:  # decision 5: adjacent halves (this form keeps cached results valid)
+            a_hi = b_lo = 0.5 * (lo + hi)
+        else:
+            part = 0.5 * (1.0 - gap) * (hi - lo)
+            a_hi, b_lo = lo + part, hi - part
+        return _cell_centres(lo, a_hi, n_a), _cell_centres(b_lo, hi, n_b)
     return _cell_centres(*ca.speed_range, n_a), _cell_centres(*cb.speed_range, n_b)
 
 
@@ -330,12 +341,15 @@ def make_group(condition, speeds, direction=HORIZONTAL, **kwargs):
     return EnvironmentGroup(cond.kind, values, label=cond.label, **kwargs)
 
 
-def make_setting(condition_a, condition_b, n_per_group=5, n_changes=6, name="", **kwargs):
+def make_setting(condition_a, condition_b, n_per_group=5, n_changes=6, name="", gap=0.0,
+                 **kwargs):
     """Setting of two generated groups with ``n_per_group`` environments each.
 
-    Extra keyword arguments go to :class:`Setting` (``sampler``, ``uav``, ``dt``, ...).
+    ``gap`` is the empty middle fraction of the range for same-strength pairs (see
+    :func:`group_speeds`; 0 = decision 5). Extra keyword arguments go to
+    :class:`Setting` (``sampler``, ``uav``, ``dt``, ...).
     """
-    sa, sb = group_speeds(condition_a, condition_b, n_per_group)
+    sa, sb = group_speeds(condition_a, condition_b, n_per_group, gap=gap)
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
     return Setting(make_group(ca, sa), make_group(cb, sb), n_changes=n_changes,
                    name=name or f"{ca.label} vs {cb.label}", **kwargs)
