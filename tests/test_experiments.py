@@ -12,10 +12,17 @@ TINY = {"loops": 2, "long_loops": 3, "cem": {"n_samples": 3, "n_elite": 1, "n_it
 
 
 def test_registry_matches_the_paper():
-    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6"]
+    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp1_gap", "exp2", "exp3", "exp4",
+                                    "exp5", "exp6"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
-    assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
-                     "exp6": 1}
+    assert sizes == {"example": 1, "exp1": 8, "exp1_gap": 4, "exp2": 32, "exp3": 32, "exp4": 28,
+                     "exp5": 2, "exp6": 1}
+    # the alternative layout: Exp 1's same-strength scenarios, the middle third left empty
+    gap = ex.EXPERIMENTS["exp1_gap"].cases()
+    assert [c.labels["scenario_id"] for c in gap] == [1, 3, 4, 6]
+    for c in gap:
+        a, b = c.setting.group_a.speeds, c.setting.group_b.speeds
+        assert b.min() - a.max() > (b.max() - a.min()) / 3
     exp1 = ex.EXPERIMENTS["exp1"].cases()
     assert [c.long for c in exp1] == [False] * 7 + [True]
     assert all(c.setting.n_env == 10 for c in exp1)
@@ -31,8 +38,9 @@ def test_registry_matches_the_paper():
 def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
     assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
-    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50, exp6 30x20
-    assert ex.n_loops_total("paper") == 50 + 850 + 1600 + 1600 + 1400 + 100 + 600
+    # example 50, exp1 7x50 + 500, exp1_gap 4x50, exp2/exp3 32x50 each, exp4 28x50,
+    # exp5 2x50, exp6 30x20
+    assert ex.n_loops_total("paper") == 50 + 850 + 200 + 1600 + 1600 + 1400 + 100 + 600
     with pytest.raises(ValueError, match="profile"):
         ex.run_experiment("exp5", profile="huge")
     with pytest.raises(ValueError, match="unknown experiment 'exp7'"):

@@ -44,7 +44,8 @@ from .scenarios import (PAPER_SCENARIOS, Setting, direction_settings,
 from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
-           "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK"]
+           "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
+           "GAP_ALTERNATIVE"]
 
 #: Bump when a change to the library alters results; it is part of every cache key.
 RESULTS_VERSION = "1"
@@ -81,7 +82,8 @@ class Experiment:
     Attributes
     ----------
     id : str
-        ``"example"`` (the worked example), ``"exp1"`` ... ``"exp6"``.
+        ``"example"`` (the worked example), ``"exp1"`` ... ``"exp6"``, and
+        ``"exp1_gap"`` (Exp 1's same-strength pairs with the alternative group layout).
     title : str
     question : str
     notebook : str
@@ -121,6 +123,20 @@ def _exp1():
     cases.append(Case(make_setting(a, b, 5),
                       {"scenario": _scenario_label(a, b) + " (long run)", "scenario_id": 8},
                       long=True))
+    return cases
+
+
+#: The gap of the alternative group layout (``exp1_gap``): the middle third of the
+#: class range is left empty for same-strength pairs (see ``group_speeds``).
+GAP_ALTERNATIVE = 1 / 3
+
+
+def _exp1_gap():
+    cases = []
+    for k, (a, b) in PAPER_SCENARIOS.items():
+        if a.strength == b.strength:
+            cases.append(Case(make_setting(a, b, 5, gap=GAP_ALTERNATIVE),
+                              {"scenario": _scenario_label(a, b), "scenario_id": k}))
     return cases
 
 
@@ -177,6 +193,10 @@ EXPERIMENTS = {e.id: e for e in [
                "Table 3, Figure 3", "random", _example),
     Experiment("exp1", "Wind speed", "How does the wind speed of the two conditions affect "
                "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1),
+    Experiment("exp1_gap", "Wind speed, groups with a gap", "Do the same-strength pairs of "
+               "Exp 1 score like the paper's when the two groups leave the middle third of "
+               "their range empty?", "exp1_wind_speed.md", "Table 4 (alternative layout)",
+               "random", _exp1_gap),
     Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
                "raise the score?", "exp2_range_similarity.md", "Table 5, Figure 5", "random",
                _sweep(range_similarity_settings, "n_env")),
@@ -349,7 +369,7 @@ def summary_table(df):
     mean and elite mean per iteration.
     """
     exp = df["experiment"].iloc[0]
-    if exp in ("example", "exp1", "exp5"):
+    if exp in ("example", "exp1", "exp1_gap", "exp5"):
         return _maxmean(df, "scenario")
     if exp in ("exp2", "exp3"):
         return _maxmean(df, ["scenario", "n_env"])
@@ -381,7 +401,8 @@ def n_loops_total(profile):
     return total
 
 
-_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp2": ["scenario_id", "n_env"],
+_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp1_gap": ["scenario_id"],
+         "exp2": ["scenario_id", "n_env"],
          "exp3": ["scenario_id", "n_env"], "exp4": ["scenario_id", "thrust_changes"],
          "exp5": ["direction"]}
 
