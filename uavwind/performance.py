@@ -1,0 +1,88 @@
+"""Readable tables of the benchmark figures (``make bench``) for the book's performance page.
+
+This module owns the presentation of ``benchmarks/benchmark.json`` (written by
+``benchmarks/bench.py``): :func:`load_report` reads it, :func:`report_tables` turns
+it into small ``pandas`` tables with units in the column names and the issue's targets
+beside the measured values. It measures nothing itself.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+
+__all__ = ["TARGETS", "load_report", "report_tables"]
+
+#: The performance targets the figures are held against (no test enforces them).
+TARGETS = {
+    "speedup": "fast engine at least 10x faster per loop than tslearn (aim: 20x)",
+    "agreement": "identical labels on at least 99% of 200 random loops, "
+                 "|score difference| <= 1e-6 where they agree",
+    "workers": "2 workers at least 1.8x faster than 1 on a 200-loop sweep",
+    "paper": "make book PROFILE=paper in at most 10 min wall, peak memory under 2 GB",
+}
+
+
+def load_report(path):
+    """The benchmark report at ``path`` as a dict (empty if the file does not exist)."""
+    path = Path(path)
+    return json.loads(path.read_text()) if path.exists() else {}
+
+
+def _loop_label(key):
+    # "20env_120steps" -> "20 environments x 120 steps"
+    env, steps = key.split("_")
+    return f"{env.removesuffix('env')} environments x {steps.removesuffix('steps')} steps"
+
+
+def report_tables(report):
+    """Tables of ``report`` (a dict from :func:`load_report`), by section name.
+
+    Returns
+    -------
+    dict of str -> pandas.DataFrame
+        ``"simulation"``, ``"loops"``, ``"workers"``, ``"paper"``: only the sections
+        present in the report.
+
+    Examples
+    --------
+    >>> t = report_tables({"loop_seconds": {"10env_120steps": {"tslearn": 2.0, "fast": 0.1,
+    ...                                                          "speedup": 20.0}}})
+    >>> float(t["loops"].loc["10 environments x 120 steps", "speed-up"])
+    20.0
+    """
+    out = {}
+    if "simulate_seconds" in report:
+        sim = {f"simulate(), {n} environments": t for n, t in report["simulate_seconds"].items()}
+        dry = report.get("dryden_seconds", {})
+        names = {"1000": "DrydenWind, 1000 environments", "3000": "DrydenWind, 3000 environments",
+                 "control_50": "DrydenWind via control.sample_system, 50 environments"}
+        sim.update({names.get(k, k): t for k, t in dry.items()})
+        out["simulation"] = pd.DataFrame({"wall time (ms)": {k: 1e3 * v for k, v in sim.items()}})
+    if "loop_seconds" in report:
+        rows = {_loop_label(k): {"tslearn (ms)": 1e3 * v["tslearn"], "fast (ms)": 1e3 * v["fast"],
+                                 "speed-up": v["speedup"]}
+                for k, v in report["loop_seconds"].items()}
+        out["loops"] = pd.DataFrame(rows).T
+    workers = {}
+    for key, label in (("random_search_50", "50 loops, worked example (10 environments)"),
+                       ("sweep_200", "200 loops, light vs light (20 environments)")):
+        if key in report:
+            r = report[key]
+            workers[label] = {"1 worker (s)": r["n_jobs_1"], "2 workers (s)": r["n_jobs_2"],
+                              "speed-up": r["speedup"]}
+    if workers:
+        out["workers"] = pd.DataFrame(workers).T
+    if "paper_profile" in report:
+        p = report["paper_profile"]
+        rows = {"loops (before cache sharing)": f"{p['loops']}",
+                "estimated, one core (min)": f"{p['estimated_seconds_one_core'] / 60:.1f}",
+                "estimated, all cores (min)": f"{p['estimated_seconds_all_cores'] / 60:.1f}"}
+        if "measured_seconds" in p:
+            rows[f"measured: {p.get('measured_command', 'paper run')} (min)"] = \
+                f"{p['measured_seconds'] / 60:.1f}"
+            rows["peak memory, whole process tree (MiB)"] = f"{p['peak_tree_rss_mib']:.0f}"
+        out["paper"] = pd.DataFrame({"value": rows})
+    return out
