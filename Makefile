@@ -38,7 +38,7 @@ venv: $(STAMP)  ## build .venv from environment.txt (only when missing or outdat
 test: $(STAMP)  ## run the test suite
 	$(BIN)/python -m pytest -q
 
-bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper profile
+bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section
 	$(BIN)/python benchmarks/bench.py
 
 results: $(STAMP)  ## run every experiment into data/results (PROFILE=paper|quick; cached, resumable)

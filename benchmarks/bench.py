@@ -231,16 +231,75 @@ def _measure_paper_book():
         return time.perf_counter() - t0, peak
 
 
+def bench_where_time_goes(report, n_loops=20):
+    """cProfile of the fast engine on ``n_loops`` loops of 20 environments: the share of
+    time in each numba kernel (a kernel call is one opaque entry to the profiler)."""
+    import cProfile
+    import pstats
+
+    setting = uw.make_setting("light constant", "light constant", 10)
+    inputs = [setting.simulate(setting.sample_thrust(np.random.default_rng(i)), seed=i)
+              for i in range(n_loops)]
+    uw.score_loop(inputs[0], setting.groups)  # load the kernels
+    prof = cProfile.Profile()
+    prof.enable()
+    iters = sum(uw.score_loop(X, setting.groups).n_iter for X in inputs)
+    prof.disable()
+    stats = pstats.Stats(prof)
+    total = stats.total_tt
+    names = {"_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
+             "_sdtw_cross_serial": "assignment: soft-DTW to both centres",
+             "_dtw_upper_range": "silhouette: DTW matrix"}
+    shares = {label: 0.0 for label in names.values()}
+    for (_, _, name), (_, _, tt, _, _) in stats.stats.items():
+        if name in names:
+            shares[names[name]] += tt / total
+    shares["everything else (Python, L-BFGS-B, k-means++)"] = 1.0 - sum(shares.values())
+    print(f"\n== where a loop's time goes: fast engine, {n_loops} loops of 20 environments, "
+          f"{iters} k-means iterations, {total:.2f} s under cProfile ==")
+    for label, share in shares.items():
+        print(f"  {100 * share:5.1f}%  {label}")
+    # the cost per cell of the two kernels, on one loop's series against a centre-like series
+    from uavwind import fastkmeans as fk
+
+    X = np.ascontiguousarray(inputs[3])
+    centres = np.ascontiguousarray(np.stack([X[:10].mean(0), X[10:].mean(0)]))
+    cells = X.shape[1] * centres.shape[1]
+    value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False), repeat=20)
+    grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False), repeat=20)
+    ns_value = value / (len(X) * 2 * cells) * 1e9
+    ns_grad = grad / (10 * cells) * 1e9
+    print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix: soft-DTW value "
+          f"{ns_value:.1f} ns, value + gradient {ns_grad:.1f} ns (median of 20)")
+    report["time_shares"] = {"loops": n_loops, "iterations": iters, "seconds": total,
+                             "shares": shares, "ns_per_cell_value": ns_value,
+                             "ns_per_cell_value_and_gradient": ns_grad}
+
+
+SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "agreement": bench_agreement,
+            "search": bench_search, "profile": bench_where_time_goes}
+
+
 def main():
-    report = {"measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-              "python": sys.version.split()[0], "machine": platform.machine(),
-              "cores": os.cpu_count(), "numpy": np.__version__}
+    only = os.environ.get("ONLY")
+    stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
+    report = {"measured": stamp, "python": sys.version.split()[0],
+              "machine": platform.machine(), "cores": os.cpu_count(), "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
-    bench_simulation(report)
-    bench_loops(report)
-    bench_agreement(report)
-    engine = bench_search(report)
-    bench_paper_profile(report, engine)
+    if only:  # one section, measured now, merged into the figures already on file
+        if only not in SECTIONS:
+            raise ValueError(f"ONLY must be one of {sorted(SECTIONS)}, got {only!r}")
+        fresh = {}
+        SECTIONS[only](fresh)
+        report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
+        report.setdefault("sections_measured_later", {})[only] = stamp
+    else:
+        bench_simulation(report)
+        bench_loops(report)
+        bench_agreement(report)
+        engine = bench_search(report)
+        bench_where_time_goes(report)
+        bench_paper_profile(report, engine)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")

@@ -43,7 +43,7 @@ def report_tables(report):
     Returns
     -------
     dict of str -> pandas.DataFrame
-        ``"simulation"``, ``"loops"``, ``"workers"``, ``"paper"``: only the sections
+        ``"simulation"``, ``"loops"``, ``"workers"``, ``"time"``, ``"paper"``: only the sections
         present in the report.
 
     Examples
@@ -75,6 +75,10 @@ def report_tables(report):
                               "speed-up": r["speedup"]}
     if workers:
         out["workers"] = pd.DataFrame(workers).T
+    if "time_shares" in report:
+        t = report["time_shares"]
+        out["time"] = pd.DataFrame({"share of the time (%)": {
+            k: 100 * v for k, v in t["shares"].items()}})
     if "paper_profile" in report:
         p = report["paper_profile"]
         rows = {"loops (before cache sharing)": f"{p['loops']}",
