@@ -126,6 +126,18 @@ def test_cem_experiment_and_worker_independence(tmp_path):
     assert list(hist.index) == [1, 2] and np.all(np.diff(hist["Best so far"]) >= 0)
 
 
+def test_exp1_gap_is_tabulated_and_compared_as_exp1(tmp_path):
+    df = ex.run_experiment("exp1_gap", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert (df["experiment"] == "exp1_gap").all()
+    assert len(ex.summary_table(df)) == 4  # one row per scenario, as for exp1
+    cmp = ex.comparison_table(df)
+    t4 = load_paper_values("exp1").set_index("scenario")
+    assert list(cmp.index) == [t4.index[k - 1] for k in (1, 3, 4, 6)]
+    assert cmp["paper mean"].tolist() == [t4.iloc[k - 1]["mean"] for k in (1, 3, 4, 6)]
+    with pytest.raises(ValueError, match="no paper table"):
+        ex.comparison_table(df.assign(experiment="exp6"))
+
+
 def test_paper_values_load_with_sources():
     for exp_id in PAPER_FILES:
         df = load_paper_values(exp_id)

@@ -93,6 +93,9 @@ class Experiment:
     kind : {"random", "cem"}
     build : callable
         ``() -> list[Case]``.
+    tables_as : str
+        Id of the experiment whose table layout and paper values this one shares
+        (empty: its own), e.g. ``exp1_gap`` is tabulated and compared as ``exp1``.
     """
 
     id: str
@@ -102,6 +105,7 @@ class Experiment:
     paper_table: str
     kind: str
     build: object = field(repr=False)
+    tables_as: str = ""
 
     def cases(self):
         return self.build()
@@ -196,7 +200,7 @@ EXPERIMENTS = {e.id: e for e in [
     Experiment("exp1_gap", "Wind speed, groups with a gap", "Do the same-strength pairs of "
                "Exp 1 score like the paper's when the two groups leave the middle third of "
                "their range empty?", "exp1_wind_speed.md", "Table 4 (alternative layout)",
-               "random", _exp1_gap),
+               "random", _exp1_gap, tables_as="exp1"),
     Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
                "raise the score?", "exp2_range_similarity.md", "Table 5, Figure 5", "random",
                _sweep(range_similarity_settings, "n_env")),
@@ -361,6 +365,13 @@ def _maxmean(df, by):
         lambda s: (s > 0).mean()), "Loops": g.size()})
 
 
+def _table_id(df):
+    """The experiment id whose tables ``df`` (an experiment's results) is laid out as."""
+    exp = df["experiment"].iloc[0]
+    e = EXPERIMENTS.get(exp)
+    return (e.tables_as or e.id) if e is not None else exp
+
+
 def summary_table(df):
     """The replication's version of the paper's table for ``df`` (an experiment's results).
 
@@ -368,8 +379,8 @@ def summary_table(df):
     number of environments. exp4: per scenario and thrust changes. exp6: max,
     mean and elite mean per iteration.
     """
-    exp = df["experiment"].iloc[0]
-    if exp in ("example", "exp1", "exp1_gap", "exp5"):
+    exp = _table_id(df)
+    if exp in ("example", "exp1", "exp5"):
         return _maxmean(df, "scenario")
     if exp in ("exp2", "exp3"):
         return _maxmean(df, ["scenario", "n_env"])
@@ -401,8 +412,7 @@ def n_loops_total(profile):
     return total
 
 
-_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp1_gap": ["scenario_id"],
-         "exp2": ["scenario_id", "n_env"],
+_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp2": ["scenario_id", "n_env"],
          "exp3": ["scenario_id", "n_env"], "exp4": ["scenario_id", "thrust_changes"],
          "exp5": ["direction"]}
 
@@ -417,7 +427,7 @@ def comparison_table(df):
     from .claims import bootstrap_ci
     from .paper import load_paper_values
 
-    exp = df["experiment"].iloc[0]
+    exp = _table_id(df)
     if exp not in _JOIN:
         raise ValueError(f"no paper table to compare for {exp!r}")
     if exp == "example":

@@ -16,7 +16,6 @@ __all__ = ["PAPER_FILES", "paper_dir", "load_paper_values"]
 PAPER_FILES = {
     "example": "table3_worked_example.csv",
     "exp1": "table4_wind_speed.csv",
-    "exp1_gap": "table4_wind_speed.csv",  # the alternative layout, against the same table
     "exp2": "table5_range_similarity.csv",
     "exp3": "table6_environment_count.csv",
     "exp4": "table7_thrust_changes.csv",
