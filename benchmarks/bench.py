@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import uavwind as uw
+from uavwind.clustering import default_engine
 
 OUT = Path(__file__).resolve().parent / "benchmark.json"
 
@@ -133,7 +134,7 @@ def bench_agreement(report, n_loops=200):
 
 def bench_search(report):
     setting = uw.table3_setting()
-    engine = "fast" if "fast" in _engines() else "tslearn"
+    engine = default_engine()
     print(f"\n== random_search(): 50 loops of the worked example (engine {engine}) ==")
     res = {}
     for jobs in (1, 2):
@@ -156,7 +157,6 @@ def bench_search(report):
               f"{sweep[2]:.1f} s, speed-up {sweep[1] / sweep[2]:.2f}x")
         report["sweep_200"] = {"n_jobs_1": sweep[1], "n_jobs_2": sweep[2],
                                "speedup": sweep[1] / sweep[2]}
-    return engine
 
 
 def bench_paper_profile(report, engine):
@@ -294,12 +294,9 @@ def main():
         report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
         report.setdefault("sections_measured_later", {})[only] = stamp
     else:
-        bench_simulation(report)
-        bench_loops(report)
-        bench_agreement(report)
-        engine = bench_search(report)
-        bench_where_time_goes(report)
-        bench_paper_profile(report, engine)
+        for section in SECTIONS.values():
+            section(report)
+        bench_paper_profile(report, default_engine())
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")
