@@ -8,24 +8,26 @@ from uavwind import experiments as ex
 from uavwind.claims import bootstrap_ci, evaluate_claims, paired_difference
 from uavwind.paper import PAPER_FILES, load_paper_values
 
-TINY = {"loops": 2, "long_loops": 3, "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
+        "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
 
 
 def test_registry_matches_the_paper():
-    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp1_gap", "exp2", "exp3", "exp4",
-                                    "exp5", "exp6"]
+    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6",
+                                    "fit_layout", "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
-    assert sizes == {"example": 1, "exp1": 8, "exp1_gap": 4, "exp2": 32, "exp3": 32, "exp4": 28,
-                     "exp5": 2, "exp6": 1}
-    # the alternative layout: Exp 1's same-strength scenarios, the middle third left empty
-    gap = ex.EXPERIMENTS["exp1_gap"].cases()
-    assert [c.labels["scenario_id"] for c in gap] == [1, 3, 4, 6]
-    for c in gap:
+    n_ratios = len(ex.FIT_RATIOS)
+    assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
+                     "exp6": 1, "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
+    # the layout fit: Exp 1's same-strength scenarios, every ratio of the grid
+    fit = ex.EXPERIMENTS["fit_layout"].cases()
+    assert sorted({c.labels["scenario_id"] for c in fit}) == [1, 3, 4, 6]
+    for c in fit:
         a, b = c.setting.group_a.speeds, c.setting.group_b.speeds
-        assert b.min() - a.max() > (b.max() - a.min()) / 3
+        assert (b.min() - a.max()) / (a[1] - a[0]) == pytest.approx(c.labels["gap_ratio"])
     exp1 = ex.EXPERIMENTS["exp1"].cases()
     assert [c.long for c in exp1] == [False] * 7 + [True]
-    assert all(c.setting.n_env == 10 for c in exp1)
+    assert all(c.setting.n_env == 10 for c in exp1[:7]) and exp1[7].setting.n_env == 20
     exp4 = ex.EXPERIMENTS["exp4"].cases()
     assert sorted({c.labels["thrust_changes"] for c in exp4}) == [0, 2, 4, 6, 8, 10, 12]
     assert {c.setting.n_changes for c in exp4} == {0, 2, 4, 6, 8, 10, 11}
@@ -38,9 +40,10 @@ def test_registry_matches_the_paper():
 def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
     assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
-    # example 50, exp1 7x50 + 500, exp1_gap 4x50, exp2/exp3 32x50 each, exp4 28x50,
-    # exp5 2x50, exp6 30x20
-    assert ex.n_loops_total("paper") == 50 + 850 + 200 + 1600 + 1600 + 1400 + 100 + 600
+    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50, exp6 30x20,
+    # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
+    assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 600
+                                         + 4 * 16 * 20 + 6 * 50)
     with pytest.raises(ValueError, match="profile"):
         ex.run_experiment("exp5", profile="huge")
     with pytest.raises(ValueError, match="unknown experiment 'exp7'"):
@@ -126,14 +129,17 @@ def test_cem_experiment_and_worker_independence(tmp_path):
     assert list(hist.index) == [1, 2] and np.all(np.diff(hist["Best so far"]) >= 0)
 
 
-def test_exp1_gap_is_tabulated_and_compared_as_exp1(tmp_path):
-    df = ex.run_experiment("exp1_gap", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
-    assert (df["experiment"] == "exp1_gap").all()
-    assert len(ex.summary_table(df)) == 4  # one row per scenario, as for exp1
-    cmp = ex.comparison_table(df)
+def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
     t4 = load_paper_values("exp1").set_index("scenario")
-    assert list(cmp.index) == [t4.index[k - 1] for k in (1, 3, 4, 6)]
-    assert cmp["paper mean"].tolist() == [t4.iloc[k - 1]["mean"] for k in (1, 3, 4, 6)]
+    for reading in ("inferred", "halves"):
+        df = ex.run_experiment("exp1", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                               cases=[0, 2, 3], reading=reading)
+        assert (df["reading"] == reading).all()
+        assert len(ex.summary_table(df)) == 3
+        cmp = ex.comparison_table(df)
+        assert list(cmp.index) == [t4.index[k] for k in (0, 2, 3)]
+        assert cmp["paper mean"].tolist() == [t4.iloc[k]["mean"] for k in (0, 2, 3)]
+        assert "'" + reading + "' reading" in ex.provenance(df)
     with pytest.raises(ValueError, match="no paper table"):
         ex.comparison_table(df.assign(experiment="exp6"))
 

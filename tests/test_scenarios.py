@@ -30,11 +30,15 @@ def test_generated_groups_stay_in_their_ranges(a, b):
     sa, sb = s.group_a.speeds, s.group_b.speeds
     assert len(sa) == len(sb) == 10
     (lo_a, hi_a), (lo_b, hi_b) = SPEED_RANGES[a.split()[0]], SPEED_RANGES[b.split()[0]]
-    assert np.all((sa > lo_a) & (sa < hi_a)) and np.all((sb > lo_b) & (sb < hi_b))
-    if a.split()[0] == b.split()[0]:  # same class: adjacent halves, no shared speed
+    eps = 1e-12  # the inferred lattice puts the outer environments on the range's ends
+    assert np.all((sa >= lo_a - eps) & (sa <= hi_a + eps))
+    assert np.all((sb >= lo_b - eps) & (sb <= hi_b + eps))
+    if a.split()[0] == b.split()[0]:  # same class: group A below group B
         assert sa.max() < sb.min()
-        both = np.sort(np.concatenate([sa, sb]))
+        h = uw.make_setting(a, b, 10, layout="halves")  # decision 5: adjacent halves
+        both = np.sort(np.concatenate([h.group_a.speeds, h.group_b.speeds]))
         assert np.allclose(np.diff(both), np.diff(both)[0])  # evenly spaced over the range
+        assert both.min() > lo_a and both.max() < hi_a
     if s.group_a.kind != "turbulence":
         v = np.array(s.group_a.values)
         assert np.allclose(v[:, 0], v[:, 1]) and np.all(v[:, 2] == 0)  # x = y, horizontal
@@ -43,11 +47,13 @@ def test_generated_groups_stay_in_their_ranges(a, b):
 @pytest.mark.parametrize("strength", ["light", "strong"])
 def test_gap_layout_leaves_the_middle_of_the_range_empty(strength):
     lo, hi = SPEED_RANGES[strength]
-    a0, b0 = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5)
-    same = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5, gap=0.0)
+    a0, b0 = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5, layout="halves")
+    same = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5,
+                           layout=uw.Layout(gap=0.0))
     assert np.array_equal(a0, same[0]) and np.array_equal(b0, same[1])  # gap 0 = decision 5
     for gap in (0.25, 1 / 3, 0.9):
-        a, b = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5, gap=gap)
+        a, b = uw.group_speeds(f"{strength} constant", f"{strength} shear", 5,
+                               layout=uw.Layout(gap=gap))
         width = hi - lo
         assert b.min() - a.max() == pytest.approx(gap * width + width * (1 - gap) / 10)
         assert np.allclose(np.diff(a), np.diff(b))  # same spacing in both groups
@@ -55,14 +61,14 @@ def test_gap_layout_leaves_the_middle_of_the_range_empty(strength):
         # the layout is symmetric about the middle of the range
         assert np.allclose(a + b[::-1], lo + hi)
     # different strengths ignore the gap: each group keeps its own range
-    x = uw.group_speeds("light constant", "strong constant", 5, gap=0.5)
-    y = uw.group_speeds("light constant", "strong constant", 5)
+    x = uw.group_speeds("light constant", "strong constant", 5, layout=uw.Layout(gap=0.5))
+    y = uw.group_speeds("light constant", "strong constant", 5, layout="halves")
     assert np.array_equal(x[0], y[0]) and np.array_equal(x[1], y[1])
     for bad in (-0.1, 1.0, float("nan")):
         with pytest.raises(ValueError, match="gap"):
-            uw.group_speeds("light constant", "light constant", 5, gap=bad)
-    assert uw.make_setting("light constant", "light constant", 5, gap=0.5).key() != \
-        uw.make_setting("light constant", "light constant", 5).key()
+            uw.Layout(gap=bad)
+    assert uw.make_setting("light constant", "light constant", 5, layout="gap").key() != \
+        uw.make_setting("light constant", "light constant", 5, layout="halves").key()
 
 
 def test_turbulence_group_builds_dryden():

@@ -21,12 +21,15 @@ from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sampl
 from .clustering import LoopResult, score_loop
 from .config import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
 from .dynamics import Flight, simulate, simulate_flight
-from .scenarios import (PAPER_SCENARIOS, SPEED_RANGES, EnvironmentGroup, Setting, WindCondition,
-                        direction_settings, environment_count_settings, group_speeds, make_group,
-                        make_setting, range_similarity_settings, scenario_table, table3_setting)
+from .scenarios import (INFERRED_GAP_RATIOS, LAYOUTS, PAPER_SCENARIOS, READINGS, SPEED_RANGES,
+                        EnvironmentGroup, Layout, Reading, Setting, WindCondition,
+                        direction_settings, environment_count_settings, get_reading, group_speeds,
+                        make_group, make_setting, range_similarity_settings, resolve_layout,
+                        scenario_table, table3_setting)
 from .search import CEMResult, cem, random_search, summarise
-from .wind import (CombinedWind, ConstantWind, DrydenWind, ShearWind, WindModel,
-                   dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .wind import (CitedDryden, CombinedWind, ConstantWind, DrydenWind, ShearWind, WindModel,
+                   cited_dryden_parameters, cited_gusts, dryden_parameters, dryden_psd,
+                   dryden_transfer_functions)
 
 
 __version__ = "0.1.0"

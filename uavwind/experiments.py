@@ -7,7 +7,10 @@ experiment: one row per loop, or per CEM sample), the result cache under
 
 A *case* is one row of an experiment: a :class:`~uavwind.scenarios.Setting`
 plus the labels that place it in the paper's table (scenario, number of
-environments, thrust changes, direction). Profiles scale the work:
+environments, thrust changes, direction). Every experiment is built under a
+*reading* (:data:`~uavwind.scenarios.READINGS`: ``"inferred"``, the default, or
+``"halves"``), which fixes the group layout and the turbulence variant; every
+result row says which. Profiles scale the work:
 
 * ``paper`` -- the paper's counts (50 loops per case, 500 for the Exp 1
   light/light case, CEM with N = 30, Ne = 4 for 20 iterations);
@@ -38,23 +41,28 @@ import pandas as pd
 
 from .clustering import DEFAULT_PARAMS, default_engine
 from .config import check_scalar
-from .scenarios import (PAPER_SCENARIOS, Setting, direction_settings,
-                        environment_count_settings, make_setting, range_similarity_settings,
-                        table3_setting)
+from .scenarios import (PAPER_SCENARIOS, Layout, Setting, direction_settings,
+                        environment_count_settings, get_reading, make_setting,
+                        range_similarity_settings, table3_setting)
 from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
-           "GAP_ALTERNATIVE"]
+           "FIT_RATIOS", "DEFAULT_READING", "provenance"]
 
 #: Bump when a change to the library alters results; it is part of every cache key.
-RESULTS_VERSION = "1"
+#: 2: Dryden filters built with python-control by default (equal to 1e-12, not bit for bit).
+RESULTS_VERSION = "2"
+#: The reading experiments run under unless told otherwise.
+DEFAULT_READING = "inferred"
 #: Loops per cached chunk.
 CHUNK = 50
 #: Profiles: loop counts and CEM sizes.
 PROFILES = {
-    "paper": {"loops": 50, "long_loops": 500, "cem": {"n_samples": 30, "n_elite": 4, "n_iter": 20}},
-    "quick": {"loops": 4, "long_loops": 8, "cem": {"n_samples": 6, "n_elite": 2, "n_iter": 3}},
+    "paper": {"loops": 50, "long_loops": 500, "fit_loops": 20,
+              "cem": {"n_samples": 30, "n_elite": 4, "n_iter": 20}},
+    "quick": {"loops": 4, "long_loops": 8, "fit_loops": 2,
+              "cem": {"n_samples": 6, "n_elite": 2, "n_iter": 3}},
 }
 #: Default seed of every experiment (its SeedSequence root).
 DEFAULT_SEED = 20240101
@@ -73,6 +81,7 @@ class Case:
     setting: Setting
     labels: dict = field(hash=False, compare=False)
     long: bool = False  # uses the profile's long loop count (Exp 1's 500-loop case)
+    fit: bool = False  # uses the profile's fit loop count (the inference experiments)
 
 
 @dataclass(frozen=True)
@@ -82,8 +91,8 @@ class Experiment:
     Attributes
     ----------
     id : str
-        ``"example"`` (the worked example), ``"exp1"`` ... ``"exp6"``, and
-        ``"exp1_gap"`` (Exp 1's same-strength pairs with the alternative group layout).
+        ``"example"`` (the worked example), ``"exp1"`` ... ``"exp6"``, and the
+        inference experiments ``"fit_layout"`` and ``"fit_turbulence"``.
     title : str
     question : str
     notebook : str
@@ -92,10 +101,10 @@ class Experiment:
         The paper's table (or figure) it regenerates.
     kind : {"random", "cem"}
     build : callable
-        ``() -> list[Case]``.
+        ``(reading) -> list[Case]``.
     tables_as : str
         Id of the experiment whose table layout and paper values this one shares
-        (empty: its own), e.g. ``exp1_gap`` is tabulated and compared as ``exp1``.
+        (empty: its own).
     """
 
     id: str
@@ -107,8 +116,9 @@ class Experiment:
     build: object = field(repr=False)
     tables_as: str = ""
 
-    def cases(self):
-        return self.build()
+    def cases(self, reading=None):
+        """The cases under ``reading`` (a name or :class:`~uavwind.scenarios.Reading`)."""
+        return self.build(get_reading(DEFAULT_READING if reading is None else reading))
 
 
 # --------------------------------------------------------------------------- #
@@ -118,38 +128,28 @@ def _scenario_label(a, b):
     return f"{a.label.capitalize()} vs {b.label}"
 
 
-def _exp1():
+def _make(reading, a, b, n, **kwargs):
+    return make_setting(a, b, n, layout=reading.layout, turbulence=reading.turbulence, **kwargs)
+
+
+def _exp1(reading):
     cases = []
     for k, (a, b) in PAPER_SCENARIOS.items():
-        s = make_setting(a, b, 5)
-        cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k}))
+        cases.append(Case(_make(reading, a, b, 5),
+                          {"scenario": _scenario_label(a, b), "scenario_id": k}))
     a, b = PAPER_SCENARIOS[1]
-    cases.append(Case(make_setting(a, b, 5),
+    cases.append(Case(_make(reading, a, b, reading.long_run_per_group),
                       {"scenario": _scenario_label(a, b) + " (long run)", "scenario_id": 8},
                       long=True))
     return cases
 
 
-#: The gap of the alternative group layout (``exp1_gap``): the middle third of the
-#: class range is left empty for same-strength pairs (see ``group_speeds``).
-GAP_ALTERNATIVE = 1 / 3
-
-
-def _exp1_gap():
-    cases = []
-    for k, (a, b) in PAPER_SCENARIOS.items():
-        if a.strength == b.strength:
-            cases.append(Case(make_setting(a, b, 5, gap=GAP_ALTERNATIVE),
-                              {"scenario": _scenario_label(a, b), "scenario_id": k}))
-    return cases
-
-
 def _sweep(builder, label_key):
-    def build():
+    def build(reading):
         cases = []
         for k in (1, 2, 3, 4):
             a, b = PAPER_SCENARIOS[k]
-            for s in builder(a, b):
+            for s in builder(a, b, layout=reading.layout, turbulence=reading.turbulence):
                 cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k,
                                       label_key: s.n_env}))
         return cases
@@ -162,33 +162,66 @@ def _sweep(builder, label_key):
 THRUST_CHANGES = {0: 0, 2: 2, 4: 4, 6: 6, 8: 8, 10: 10, 12: 11}
 
 
-def _exp4():
+def _exp4(reading):
     cases = []
     for k in (1, 2, 3, 4):
         a, b = PAPER_SCENARIOS[k]
         for label, n in THRUST_CHANGES.items():
-            cases.append(Case(make_setting(a, b, 10, n_changes=n),
+            cases.append(Case(_make(reading, a, b, 10, n_changes=n),
                               {"scenario": _scenario_label(a, b), "scenario_id": k,
                                "thrust_changes": label}))
     return cases
 
 
-def _exp5():
-    same, opposite = direction_settings("light constant", "light shear", 10)
+def _direction(reading):
+    return direction_settings("light constant", "light shear", 10, layout=reading.layout,
+                              turbulence=reading.turbulence)
+
+
+def _exp5(reading):
+    same, opposite = _direction(reading)
     base = "Light constant vs light shear"
     return [Case(same, {"scenario": f"{base} - similar direction", "direction": "similar"}),
             Case(opposite, {"scenario": f"{base} - opposite direction", "direction": "opposite"})]
 
 
-def _exp6():
+def _exp6(reading):
     # the same setting as Exp 5's similar-direction case, so CEM and random search
     # are compared on identical environments (as the paper compares Fig 9 with Fig 8)
-    same, _ = direction_settings("light constant", "light shear", 10)
+    same, _ = _direction(reading)
     return [Case(same, {"scenario": "Light constant vs light shear"})]
 
 
-def _example():
+def _example(reading):
     return [Case(table3_setting(), {"scenario": "Strong shear vs light constant (Table 3)"})]
+
+
+#: Gap-to-spacing ratios on which ``fit_layout`` measures the silhouette curve.
+FIT_RATIOS = (1.0, 2.0, 3.0, 4.0, 6.0, 8.0, 11.0, 15.0, 20.0, 28.0, 40.0, 56.0, 80.0, 112.0,
+              160.0, 224.0)
+
+
+def _fit_layout(reading):
+    """Table 4's same-strength pairs (5 per group) on the lattice, gap ratio by gap ratio."""
+    cases = []
+    for k, (a, b) in PAPER_SCENARIOS.items():
+        if a.strength != b.strength:
+            continue
+        for rho in FIT_RATIOS:
+            s = make_setting(a, b, 5, layout=Layout("fit", gap_ratio=rho))
+            cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k,
+                                  "gap_ratio": rho}, fit=True))
+    return cases
+
+
+def _fit_turbulence(reading):
+    """Table 4's light constant vs strong turbulence under each turbulence candidate."""
+    from .inference import TURBULENCE_CANDIDATES
+
+    a, b = PAPER_SCENARIOS[7]
+    return [Case(make_setting(a, b, 5, layout=reading.layout, turbulence=t),
+                 {"scenario": _scenario_label(a, b), "scenario_id": 7, "candidate": name})
+            for name, t in TURBULENCE_CANDIDATES.items()]
 
 
 EXPERIMENTS = {e.id: e for e in [
@@ -197,10 +230,6 @@ EXPERIMENTS = {e.id: e for e in [
                "Table 3, Figure 3", "random", _example),
     Experiment("exp1", "Wind speed", "How does the wind speed of the two conditions affect "
                "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1),
-    Experiment("exp1_gap", "Wind speed, groups with a gap", "Do the same-strength pairs of "
-               "Exp 1 score like the paper's when the two groups leave the middle third of "
-               "their range empty?", "exp1_wind_speed.md", "Table 4 (alternative layout)",
-               "random", _exp1_gap, tables_as="exp1"),
     Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
                "raise the score?", "exp2_range_similarity.md", "Table 5, Figure 5", "random",
                _sweep(range_similarity_settings, "n_env")),
@@ -214,6 +243,11 @@ EXPERIMENTS = {e.id: e for e in [
                _exp5),
     Experiment("exp6", "Cross-Entropy Method", "Does CEM find better thrust sequences than "
                "random search?", "exp6_cem.md", "Figure 9", "cem", _exp6),
+    Experiment("fit_layout", "Layout fit", "Which gap between same-strength groups gives "
+               "Table 4's scores?", "inference.md", "Table 4 (fit)", "random", _fit_layout),
+    Experiment("fit_turbulence", "Turbulence reading", "Which reading of the cited Dryden "
+               "implementation gives Table 4's turbulence row?", "inference.md",
+               "Table 4 (scenario 7)", "random", _fit_turbulence),
 ]}
 
 
@@ -229,7 +263,7 @@ def get_experiment(exp_id):
 def _check_profile(profile):
     """A profile by name, or a dict with the same keys as :data:`PROFILES` entries."""
     if isinstance(profile, dict):
-        missing = {"loops", "long_loops", "cem"} - set(profile)
+        missing = {"loops", "long_loops", "fit_loops", "cem"} - set(profile)
         if missing:
             raise ValueError(f"profile dict is missing {sorted(missing)}")
         return profile
@@ -271,7 +305,7 @@ def _cached(path, compute, meta):
 # running
 # --------------------------------------------------------------------------- #
 def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
-                   results=None, progress=True, cases=None, **params):
+                   results=None, progress=True, cases=None, reading=None, **params):
     """Run (or load from the cache) one experiment.
 
     Parameters
@@ -289,6 +323,8 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
         Cache folder (default :func:`results_dir`).
     cases : list of int, optional
         Run only these case indices (for partial runs and tests).
+    reading : str or Reading, optional
+        The reading of the paper (default :data:`DEFAULT_READING`, ``"inferred"``).
     **params
         Clustering parameters (see :func:`uavwind.clustering.score_loop`).
 
@@ -306,14 +342,15 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     seed = check_scalar(seed, "seed", low=0, integer=True)
     engine = default_engine() if engine is None else engine
     folder = Path(results) if results is not None else results_dir()
-    all_cases = exp.cases()
+    rd = get_reading(DEFAULT_READING if reading is None else reading)
+    all_cases = exp.cases(rd)
     chosen = range(len(all_cases)) if cases is None else cases
     from . import __version__
     frames, n_cached, n_chunks = [], 0, 0
     for ci in chosen:
         case = all_cases[ci]
         s = case.setting
-        labels = {"experiment": exp.id, "case": ci, **case.labels}
+        labels = {"experiment": exp.id, "reading": rd.name, "case": ci, **case.labels}
         meta = {"setting_key": s.key(), "seed": seed, "engine": engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         if exp.kind == "cem":
@@ -330,7 +367,7 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
             n_chunks += 1
             frames.append(df.assign(**labels))
             continue
-        n_loops = prof["long_loops"] if case.long else prof["loops"]
+        n_loops = _n_loops(prof, case)
         for start in range(0, n_loops, CHUNK):
             stop = min(start + CHUNK, n_loops)
             key = cache_key(s, seed, start, stop, engine, params)
@@ -346,14 +383,19 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
             n_chunks += 1
             frames.append(df.assign(**labels))
     out = pd.concat(frames, ignore_index=True)
-    first = ["experiment", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
+    first = ["experiment", "reading", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
     out = out[first + [c for c in out.columns if c not in first]]
     out.attrs.update(experiment=exp.id, profile=str(profile), seed=seed, cached=n_cached,
-                     chunks=n_chunks)
+                     chunks=n_chunks, reading=rd.name, engine=engine)
     return out
 
 
-_LABEL_KEYS = ("scenario", "scenario_id", "n_env", "thrust_changes", "direction")
+_LABEL_KEYS = ("scenario", "scenario_id", "n_env", "thrust_changes", "direction", "gap_ratio",
+               "candidate")
+
+
+def _n_loops(prof, case):
+    return prof["fit_loops"] if case.fit else prof["long_loops"] if case.long else prof["loops"]
 
 
 # --------------------------------------------------------------------------- #
@@ -400,6 +442,26 @@ def paper_table(exp_id):
     return load_paper_values(exp_id)
 
 
+def provenance(df):
+    """One line saying how a result table was made: experiment, reading, profile, seed,
+    engine, loops, library version and commit (for captions)."""
+    from . import __version__
+    a = df.attrs
+    return (f"Made by experiment {a.get('experiment', '?')} under the {a.get('reading', '?')!r} "
+            f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
+            f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {_commit()}.")
+
+
+def _commit():
+    import subprocess
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, cwd=Path(__file__).resolve().parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+
+
 def n_loops_total(profile):
     """Total loops (or CEM samples) of every experiment in ``profile``."""
     prof = _check_profile(profile)
@@ -408,7 +470,7 @@ def n_loops_total(profile):
         if exp.kind == "cem":
             total += prof["cem"]["n_samples"] * prof["cem"]["n_iter"]
         else:
-            total += sum(prof["long_loops"] if c.long else prof["loops"] for c in exp.cases())
+            total += sum(_n_loops(prof, c) for c in exp.cases())
     return total
 
 

@@ -282,3 +282,48 @@ def paper_vs_replication(table, ncols=1, title=None):
     ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
     ax.legend(fontsize=7, loc="lower right")
     return fig
+
+
+# --------------------------------------------------------------------------- #
+# what the paper's numbers reveal
+# --------------------------------------------------------------------------- #
+def silhouette_vs_ratio(curves, fits=None):
+    """Mean score against the gap-to-spacing ratio, one line per scenario (log x axis);
+    with ``fits`` (:func:`uavwind.inference.fit_layouts`) the paper's Table 4 mean as a
+    horizontal line and the fitted ratio with its 95% interval as a shaded band."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
+    colours = dict(zip(sorted(curves["scenario_id"].unique()), plt.cm.tab10.colors))
+    for k, sub in curves.groupby("scenario_id"):
+        c = colours[k]
+        ax.plot(sub["gap_ratio"], sub["mean"], marker="o", ms=3, color=c,
+                label=f"S{k} {sub['scenario'].iloc[0]}")
+        if fits is not None and k in fits.index:
+            f = fits.loc[k]
+            ax.axhline(f["paper_mean"], color=c, ls=":", lw=0.9)
+            if np.isfinite(f["ratio"]):
+                hi = f["ci_high"] if np.isfinite(f["ci_high"]) else sub["gap_ratio"].max()
+                ax.axvspan(f["ci_low"], hi, color=c, alpha=0.15)
+                ax.axvline(f["ratio"], color=c, lw=0.8)
+    ax.set_xscale("log")
+    ax.set(xlabel="gap between the groups / spacing inside a group", ylabel="mean score",
+           ylim=(-2, 102), title="Silhouette against layout geometry (dotted: paper, Table 4)")
+    ax.legend(fontsize=7, loc="lower right")
+    return fig
+
+
+def predicted_vs_paper(table):
+    """Out-of-sample check: the paper's mean against the predicted mean (95% CI), one
+    point per row of ``table`` (:func:`uavwind.inference.out_of_sample`), by table."""
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(5.2, 5), constrained_layout=True)
+    for (label, sub), m in zip(table.groupby(level="table", sort=False), "osD^v"):
+        err = np.vstack([sub["predicted mean"] - sub["ci_low"], sub["ci_high"] - sub["predicted mean"]])
+        ax.errorbar(sub["paper mean"], sub["predicted mean"], yerr=err, fmt=m, ms=5, capsize=2,
+                    label=label)
+    lims = (min(table["paper mean"].min(), table["ci_low"].min()) - 3, 101)
+    ax.plot(lims, lims, color="0.5", lw=0.8, ls="--", label="prediction = paper")
+    ax.set(xlim=lims, ylim=lims, xlabel="paper's mean score", ylabel="predicted mean score",
+           title="Rows the fit never saw")
+    ax.legend(fontsize=7, loc="upper left")
+    return fig

@@ -10,14 +10,19 @@ decision 5):
 * :class:`EnvironmentGroup` -- one wind condition's environments;
 * :class:`Setting` -- everything one loop needs (two groups, thrust sampler,
   UAV, time grid); hashable, with a stable :meth:`Setting.key` for caching;
+* :class:`Layout` -- where a pair of conditions puts its environments: the
+  named layouts ``"halves"`` (decision 5), ``"gap"`` and ``"inferred"`` (the
+  paper reading, recovered from its Table 4 by :mod:`uavwind.inference`);
+* :class:`Reading` -- a named set of answers to what the paper leaves open
+  (layout, turbulence variant, the size of Exp 1's long run): :data:`READINGS`;
 * builders for the experiments: :func:`make_setting`,
   :func:`range_similarity_settings` (Exp 2), :func:`environment_count_settings`
-  (Exp 3), :func:`direction_settings` (Exp 5).
+  (Exp 3), :func:`direction_settings` (Exp 5), each with ``layout=`` and
+  ``turbulence=``.
 
-Generated groups place ``n`` speeds at the centres of ``n`` equal cells of the
-condition's range, along the horizontal direction x = y; speeds are wind-speed
-magnitudes [m/s] (for turbulence: W20). When both groups have the same
-strength the range is split into two adjacent halves, lower half to group A.
+Speeds are wind-speed magnitudes [m/s] (for turbulence: W20) along the layout's
+direction (default horizontal, x = y). Groups of different strengths fill their
+own class ranges; groups of the same strength share it, lower part to group A.
 """
 
 from __future__ import annotations
@@ -32,13 +37,14 @@ import pandas as pd
 
 from .actions import SAMPLERS
 from .config import UAV, check_scalar
-from .wind import CombinedWind, ConstantWind, DrydenWind, ShearWind
+from .wind import VARIANTS, CitedDryden, CombinedWind, ConstantWind, DrydenWind, ShearWind
 
 __all__ = [
     "SPEED_RANGES", "KINDS", "WindCondition", "EnvironmentGroup", "Setting",
     "PAPER_SCENARIOS", "scenario_table", "group_speeds", "make_group", "make_setting",
     "table3_setting", "range_similarity_settings", "environment_count_settings",
-    "direction_settings", "HORIZONTAL",
+    "direction_settings", "HORIZONTAL", "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS",
+    "INFERRED_TURBULENCE", "resolve_layout", "Reading", "READINGS", "get_reading",
 ]
 
 #: NWS wind-speed classes [m/s] (paper section "Experiments").
@@ -123,6 +129,10 @@ class EnvironmentGroup:
         Shear profile (see :class:`~uavwind.wind.ShearWind`).
     altitude : float
         Altitude of the Dryden parameters [m] (see :class:`~uavwind.wind.DrydenWind`).
+    variant : {"mil-f-8785c", "cited"}
+        Dryden variant of a turbulence group.
+    cited : CitedDryden, optional
+        Options of the cited variant (default: the code as published).
     """
 
     kind: str
@@ -132,10 +142,16 @@ class EnvironmentGroup:
     reference_height: float = 10.0
     floor: float = 0.5
     altitude: float = 10.0
+    variant: str = "mil-f-8785c"
+    cited: CitedDryden | None = None
 
     def __post_init__(self):
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {list(KINDS)}, got {self.kind!r}")
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {list(VARIANTS)}, got {self.variant!r}")
+        if self.cited is not None and not isinstance(self.cited, CitedDryden):
+            raise TypeError(f"cited must be a CitedDryden or None, got {type(self.cited).__name__}")
         if self.kind == "turbulence":
             vals = tuple(float(v) for v in np.ravel(self.values))
             if any(not (math.isfinite(v) and v > 0) for v in vals):
@@ -169,7 +185,8 @@ class EnvironmentGroup:
         if self.kind == "shear":
             return ShearWind(self.values, reference_height=self.reference_height,
                              alpha=self.alpha, floor=self.floor)
-        return DrydenWind(self.values, altitude=self.altitude, seed=seed)
+        return DrydenWind(self.values, altitude=self.altitude, seed=seed, variant=self.variant,
+                          cited=self.cited)
 
     def subset(self, keep):
         """Group with only the environments at indices ``keep`` (order kept)."""
@@ -274,6 +291,9 @@ class Setting:
         """Stable 16-hex-digit digest of every field that changes results (all but ``name``)."""
         fields = self.to_dict()
         fields.pop("name")
+        for g in ("group_a", "group_b"):  # the standard variant keeps its earlier keys
+            if fields[g]["variant"] == "mil-f-8785c" and fields[g]["cited"] is None:
+                del fields[g]["variant"], fields[g]["cited"]
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
@@ -289,69 +309,255 @@ class Setting:
 
 
 # --------------------------------------------------------------------------- #
+# layouts: where a pair of conditions puts its environments
+# --------------------------------------------------------------------------- #
+@dataclass(frozen=True)
+class Layout:
+    """Where a pair of wind conditions puts its environments (DESIGN decision 5).
+
+    Groups of different strengths (light vs strong) always take the centres of
+    ``n`` equal cells of their own class range. Groups of the same strength share
+    the class range, group A below group B:
+
+    * ``gap_ratio=None``: a fraction ``gap`` of the range is left empty in the
+      middle and each group puts cell centres in its part (``"halves"``: gap 0,
+      two adjacent halves; ``"gap"``: the middle third empty);
+    * ``gap_ratio=rho``: an evenly spaced lattice, the family of the paper's
+      Table 3: neighbours inside a group are one *spacing* apart and the nearest
+      environments of the two groups ``rho`` spacings apart. The lattice spans the
+      class range (the outer environments at its ends) unless ``spacing`` [m/s] is
+      given; then group A starts at the lower end of the range.
+
+    Under eqs 2-8 a constant (or shear) pair's silhouette depends on this
+    geometry through ``rho`` almost alone (see :mod:`uavwind.inference`).
+
+    Parameters
+    ----------
+    name : str
+    gap : float
+        Empty middle fraction of the range, in [0, 1) (cell layouts only).
+    gap_ratio : float, optional
+        Gap between the groups in within-group spacings, in (0, 10000].
+    spacing : float, optional
+        Within-group spacing [m/s], in (0, 100] (lattice only).
+    direction : tuple of 3 floats
+        Direction of constant and shear winds (normalised); default x = y.
+
+    >>> Layout("x", gap_ratio=2.0).speeds((0.0, 1.0), 2, 2).round(2).tolist()
+    [[0.0, 0.25], [0.75, 1.0]]
+    """
+
+    name: str = ""
+    gap: float = 0.0
+    gap_ratio: float | None = None
+    spacing: float | None = None
+    direction: tuple = HORIZONTAL
+
+    def __post_init__(self):
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a string, got {type(self.name).__name__}")
+        object.__setattr__(self, "gap", check_scalar(self.gap, "gap", low=0.0, high=1.0,
+                                                     high_inclusive=False))
+        if self.gap_ratio is not None:
+            object.__setattr__(self, "gap_ratio", check_scalar(
+                self.gap_ratio, "gap_ratio", low=0.0, low_inclusive=False, high=1e4))
+        if self.spacing is not None:
+            if self.gap_ratio is None:
+                raise ValueError("spacing applies to lattice layouts only: give gap_ratio too")
+            object.__setattr__(self, "spacing", check_scalar(
+                self.spacing, "spacing", low=0.0, low_inclusive=False, high=100.0))
+        d = np.asarray(self.direction, dtype=float)
+        if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+            raise ValueError(f"direction must be a finite, non-zero 3-vector, got {self.direction!r}")
+        object.__setattr__(self, "direction", tuple(float(x) for x in d / np.linalg.norm(d)))
+
+    def speeds(self, speed_range, n_a, n_b):
+        """Speeds [m/s] of two same-strength groups sharing ``speed_range``: ``(2, n)``
+        when ``n_a == n_b``, else a pair of arrays."""
+        lo, hi = speed_range
+        if self.gap_ratio is None:
+            if self.gap == 0.0:  # decision 5: adjacent halves (this form keeps cached results valid)
+                a_hi = b_lo = 0.5 * (lo + hi)
+            else:
+                part = 0.5 * (1.0 - self.gap) * (hi - lo)
+                a_hi, b_lo = lo + part, hi - part
+            a, b = _cell_centres(lo, a_hi, n_a), _cell_centres(b_lo, hi, n_b)
+        else:
+            span = (n_a - 1) + self.gap_ratio + (n_b - 1)
+            step = self.spacing if self.spacing is not None else (hi - lo) / span
+            a = lo + step * np.arange(n_a)
+            b = lo + step * ((n_a - 1) + self.gap_ratio + np.arange(n_b))
+        return np.array([a, b]) if n_a == n_b else (a, b)
+
+
+#: The fixed named layouts (``"inferred"`` is resolved per pair by :func:`resolve_layout`).
+LAYOUTS = {"halves": Layout("halves"), "gap": Layout("gap", gap=1 / 3)}
+
+#: The paper reading of the same-strength pairs: the gap between the groups, in
+#: within-group spacings, fitted from Table 4 alone by
+#: :func:`uavwind.inference.fit_layouts` (paper profile; the book's "What the
+#: paper's numbers reveal" page refits them and fails if these values leave the
+#: fit's 95% interval). Keyed by group A's condition: a mixed same-strength pair
+#: (Exp 5's light constant vs light shear) takes group A's ratio.
+INFERRED_GAP_RATIOS = {
+    "light constant": 11.2,
+    "strong constant": 64.0,
+    "light shear": 5.7,
+    "strong shear": 94.0,
+}
+
+
+def resolve_layout(layout, condition_a, condition_b):
+    """The :class:`Layout` that ``layout`` (a Layout or a name) means for this pair."""
+    if isinstance(layout, Layout):
+        return layout
+    if not isinstance(layout, str):
+        raise TypeError(f"layout must be a Layout or one of {[*LAYOUTS, 'inferred']}, "
+                        f"got {type(layout).__name__}")
+    if layout in LAYOUTS:
+        return LAYOUTS[layout]
+    if layout != "inferred":
+        raise ValueError(f"layout must be a Layout or one of {[*LAYOUTS, 'inferred']}, "
+                         f"got {layout!r}")
+    ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
+    if ca.strength != cb.strength:
+        return Layout("inferred")
+    return Layout("inferred", gap_ratio=INFERRED_GAP_RATIOS[ca.label])
+
+
+# --------------------------------------------------------------------------- #
+# turbulence variants and readings
+# --------------------------------------------------------------------------- #
+#: The paper reading of its turbulence: the cited implementation as its packaged
+#: derivative runs it -- the level taken from each environment's W20, a seed per
+#: environment, and the W20 as a base wind under the gusts ("strong turbulence" = a
+#: strong wind with gusts). Chosen by :func:`uavwind.inference.compare_turbulence` as
+#: the candidate closest to Table 4's light constant vs strong turbulence row.
+INFERRED_TURBULENCE = CitedDryden(turbulence_level=None, seeds=None, base_direction=HORIZONTAL)
+
+
+def _turbulence_fields(turbulence):
+    """``(variant, cited)`` of an :class:`EnvironmentGroup` from ``turbulence``."""
+    if isinstance(turbulence, CitedDryden):
+        return "cited", turbulence
+    if turbulence in VARIANTS:
+        return turbulence, None
+    raise ValueError(f"turbulence must be one of {list(VARIANTS)} or a CitedDryden, "
+                     f"got {turbulence!r}")
+
+
+@dataclass(frozen=True)
+class Reading:
+    """A named set of answers to what the paper leaves open.
+
+    Attributes
+    ----------
+    name : str
+    layout : str or Layout
+        Layout of the generated groups (see :func:`resolve_layout`).
+    turbulence : str or CitedDryden
+        Dryden variant of turbulence groups (``"mil-f-8785c"``, ``"cited"`` or the
+        cited variant with options).
+    long_run_per_group : int
+        Environments per group of Exp 1's 500-loop light-vs-light case.
+    description : str
+    """
+
+    name: str
+    layout: object
+    turbulence: object
+    long_run_per_group: int
+    description: str = ""
+
+    def __post_init__(self):
+        _turbulence_fields(self.turbulence)
+        if not isinstance(self.layout, Layout):
+            resolve_layout(self.layout, "light constant", "light constant")
+        check_scalar(self.long_run_per_group, "long_run_per_group", low=1, integer=True)
+
+
+READINGS = {
+    "inferred": Reading(
+        "inferred", "inferred", INFERRED_TURBULENCE, 10,
+        "the paper reading: same-strength groups on the evenly spaced lattice of Table 3 "
+        "with the gap fitted from Table 4; turbulence as the cited implementation computes "
+        "it; Exp 1's 500-loop case with 10 environments per group"),
+    "halves": Reading(
+        "halves", "halves", "mil-f-8785c", 5,
+        "decision 5, our first guess: same-strength groups in adjacent halves of the class "
+        "range; MIL-F-8785C turbulence"),
+}
+
+
+def get_reading(reading):
+    """A :class:`Reading` by name (``"inferred"``, ``"halves"``) or itself."""
+    if isinstance(reading, Reading):
+        return reading
+    if reading not in READINGS:
+        raise ValueError(f"reading must be one of {sorted(READINGS)} or a Reading, got {reading!r}")
+    return READINGS[reading]
+
+
+# --------------------------------------------------------------------------- #
 # builders
 # --------------------------------------------------------------------------- #
 def _cell_centres(lo, hi, n):
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
-def group_speeds(condition_a, condition_b, n_a=5, n_b=None, gap=0.0):
-    """Speeds [m/s] of the two groups (DESIGN decision 5).
-
-    Different strengths: each group spreads ``n`` cell-centred speeds over its
-    own range. Same strength: the range is split between the groups, lower part
-    to group A, so the ``n_a + n_b`` speeds never coincide. With ``gap = 0``
-    (decision 5) the parts are two adjacent halves; ``gap`` in [0, 1) leaves that
-    fraction of the range empty in the middle (each group keeps ``(1 - gap) / 2``
-    of it at its end), the replication notes' alternative for same-strength pairs.
+def group_speeds(condition_a, condition_b, n_a=5, n_b=None, layout="inferred"):
+    """Speeds [m/s] of the two groups under ``layout`` (see :class:`Layout`).
 
     >>> a, b = group_speeds("light constant", "strong constant", 2)
     >>> a.round(4).tolist(), b.round(3).tolist()
     ([0.6725, 1.1175], [11.85, 13.19])
-    >>> a, b = group_speeds("light constant", "light constant", 2, gap=0.5)
+    >>> a, b = group_speeds("light constant", "light constant", 2, layout="gap")
     >>> a.round(4).tolist(), b.round(4).tolist()
-    ([0.5056, 0.6169], [1.1731, 1.2844])
+    ([0.5242, 0.6725], [1.1175, 1.2658])
     """
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
     n_b = n_a if n_b is None else n_b
-    n_a = check_scalar(n_a, "n_a", low=1, integer=True)
-    n_b = check_scalar(n_b, "n_b", low=1, integer=True)
-    gap = check_scalar(gap, "gap", low=0.0, high=1.0, high_inclusive=False)
+    n_a = check_scalar(n_a, "n_a", low=1, high=10_000, integer=True)
+    n_b = check_scalar(n_b, "n_b", low=1, high=10_000, integer=True)
+    lay = resolve_layout(layout, ca, cb)
     if ca.strength == cb.strength:
-        lo, hi = ca.speed_range
-        if gap == 0.0:  # decision 5: adjacent halves (this form keeps cached results valid)
-            a_hi = b_lo = 0.5 * (lo + hi)
-        else:
-            part = 0.5 * (1.0 - gap) * (hi - lo)
-            a_hi, b_lo = lo + part, hi - part
-        return _cell_centres(lo, a_hi, n_a), _cell_centres(b_lo, hi, n_b)
+        out = lay.speeds(ca.speed_range, n_a, n_b)
+        return out[0], out[1]
     return _cell_centres(*ca.speed_range, n_a), _cell_centres(*cb.speed_range, n_b)
 
 
-def make_group(condition, speeds, direction=HORIZONTAL, **kwargs):
+def make_group(condition, speeds, direction=HORIZONTAL, turbulence="mil-f-8785c", **kwargs):
     """An :class:`EnvironmentGroup` of ``condition`` with the given ``speeds`` [m/s]."""
     cond = WindCondition.parse(condition)
     speeds = np.asarray(speeds, dtype=float)
     if cond.kind == "turbulence":
-        values = tuple(speeds)
-    else:
-        d = np.asarray(direction, dtype=float)
-        d = d / np.linalg.norm(d)
-        values = tuple(map(tuple, speeds[:, None] * d[None, :]))
+        variant, cited = _turbulence_fields(turbulence)
+        return EnvironmentGroup(cond.kind, tuple(speeds), label=cond.label, variant=variant,
+                                cited=cited, **kwargs)
+    d = np.asarray(direction, dtype=float)
+    d = d / np.linalg.norm(d)
+    values = tuple(map(tuple, speeds[:, None] * d[None, :]))
     return EnvironmentGroup(cond.kind, values, label=cond.label, **kwargs)
 
 
-def make_setting(condition_a, condition_b, n_per_group=5, n_changes=6, name="", gap=0.0,
-                 **kwargs):
+def make_setting(condition_a, condition_b, n_per_group=5, n_changes=6, name="",
+                 layout="inferred", turbulence=INFERRED_TURBULENCE, **kwargs):
     """Setting of two generated groups with ``n_per_group`` environments each.
 
-    ``gap`` is the empty middle fraction of the range for same-strength pairs (see
-    :func:`group_speeds`; 0 = decision 5). Extra keyword arguments go to
-    :class:`Setting` (``sampler``, ``uav``, ``dt``, ...).
+    ``layout`` places the environments (a :class:`Layout` or ``"inferred"``,
+    ``"halves"``, ``"gap"``); ``turbulence`` is the Dryden variant of turbulence
+    groups (``"mil-f-8785c"``, ``"cited"`` or a CitedDryden). Extra keyword
+    arguments go to :class:`Setting` (``sampler``, ``uav``, ``dt``, ...).
+
+    >>> s = make_setting("light constant", "light constant", 3, layout="halves")
+    >>> s.group_a.speeds.round(3).tolist(), s.group_b.speeds.round(3).tolist()
+    ([0.524, 0.673, 0.821], [0.969, 1.118, 1.266])
     """
-    sa, sb = group_speeds(condition_a, condition_b, n_per_group, gap=gap)
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
-    return Setting(make_group(ca, sa), make_group(cb, sb), n_changes=n_changes,
+    lay = resolve_layout(layout, ca, cb)
+    sa, sb = group_speeds(ca, cb, n_per_group, layout=lay)
+    return Setting(make_group(ca, sa, lay.direction, turbulence),
+                   make_group(cb, sb, lay.direction, turbulence), n_changes=n_changes,
                    name=name or f"{ca.label} vs {cb.label}", **kwargs)
 
 

@@ -5,7 +5,9 @@ This module owns every wind field the UAV can fly through (paper section
 
 * :class:`ConstantWind` -- the same velocity everywhere, all the time;
 * :class:`ShearWind` -- the power-law shear profile of eq 9;
-* :class:`DrydenWind` -- MIL-F-8785C low-altitude Dryden turbulence (eqs 10-12);
+* :class:`DrydenWind` -- Dryden turbulence (eqs 10-12), as MIL-F-8785C specifies it
+  (``variant="mil-f-8785c"``) or as the implementation the paper cites computes it
+  (``variant="cited"``, every quirk a field of :class:`CitedDryden`);
 * :class:`CombinedWind` -- several models side by side, one group of
   environments each, so one :func:`uavwind.simulate` call flies a whole loop.
 
@@ -20,17 +22,21 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from functools import cached_property
+from dataclasses import asdict, dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 
 from .config import check_array, check_scalar
 
 FEET = 0.3048  # [m] per foot
+#: Dryden variants: the standard, and the implementation the paper cites.
+VARIANTS = ("mil-f-8785c", "cited")
 
 __all__ = [
-    "WindModel", "ConstantWind", "ShearWind", "DrydenWind", "CombinedWind",
-    "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
+    "WindModel", "ConstantWind", "ShearWind", "DrydenWind", "CombinedWind", "CitedDryden",
+    "VARIANTS", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
+    "cited_dryden_parameters", "cited_gusts",
 ]
 
 
@@ -293,57 +299,280 @@ def _stationary_covariance(A, B, q):
     return 0.5 * (P + P.transpose(0, 2, 1))
 
 
-class DrydenWind(WindModel):
-    """MIL-F-8785C low-altitude Dryden turbulence, one gust history per environment.
+# --------------------------------------------------------------------------- #
+# the cited implementation (Abichandani et al.)
+# --------------------------------------------------------------------------- #
+#: [ft] per metre as the cited code converts (``* 3.28084``).
+FEET_PER_METRE = 3.28084
 
-    Each axis is white noise of standard deviation ``sqrt(pi/dt)`` shaped by
-    the Dryden filter of eqs 10-12 (x = longitudinal u, y = lateral v,
-    z = vertical w), discretised with a zero-order hold at ``dt``. Every
-    filter starts in a state drawn from its stationary distribution, so the
-    gusts are stationary from t = 0. Intensities and scale lengths are frozen
-    at ``altitude`` (DESIGN decision 4); the gusts are zero-mean and do not
-    depend on the UAV position. The gust at time ``t`` is the sample of the
-    step containing ``t`` (sample and hold); the history is generated lazily
-    and extended as needed, always drawing the same numbers for the same seed.
+
+@dataclass(frozen=True)
+class CitedDryden:
+    """How the Dryden implementation the paper cites computes gusts, quirk by quirk.
+
+    The paper uses "the implementation of Abichandani et al." (public code:
+    radlab-sketch/drydenModelPython, ``dryden_python_implementation.py``). It
+    differs from MIL-F-8785C (:func:`dryden_parameters`) in the ways below; each
+    is a field, so every reading of it is one argument away. The defaults are the
+    code as published; ``turbulence_level=None`` and ``seeds=None`` give the
+    packaged derivative (a ``Wind_Model`` class that takes the level as a parameter
+    and draws a seed per call), and ``base_direction`` adds its ``base_wind_vec``.
+
+    Attributes
+    ----------
+    turbulence_level : float or None
+        W20 put into ``sigma_w = 0.1 W20`` *without unit conversion*, while the
+        filters work in feet and ft/s (the code: ``turbulence_level = 15``, its
+        knots-to-m/s line commented out). ``None``: each environment's ``w20``
+        [m/s] as the number, as the derivative's ``turbulence`` parameter.
+    length_constant, length_exponent : float
+        ``L_u = L_v = h / (0.177 + length_constant h) ** length_exponent`` [ft]
+        (the code: 0.000823 and 0.2; an older version has 0.00823; MIL-F-8785C: 1.2).
+    noise_scale : float
+        The white noise is ``noise_scale * N(0, 1)`` per sample, not scaled by the
+        sample time (the code: 10).
+    seeds : tuple of 3 ints or None
+        Seeds of the u, v, w noise (the code: 23341, 23342, 23343, "same as the
+        Simulink blockset"), so every call and every environment gets the same
+        gusts. ``None``: one seed ``s`` per environment drawn from the wind's
+        seed, and ``s, s+1, s+2`` for u, v, w (the derivative).
+    grid_duration : float
+        Length of the simulated gust series [s] (the code: ``linspace(0, 5, 1000)``).
+    grid_samples : int
+        Samples of that series (1000). Flights longer than ``grid_duration``
+        repeat it: the sample at time ``t`` is ``int(t * rate) % grid_samples`` with
+        ``rate = grid_samples / grid_duration``, as the derivative's ``get_wind_vector``.
+    output_scale : float
+        Factor from the filters' output to m/s (the code: 0.305, ft/s to m/s).
+    base_direction : tuple of 3 floats or None
+        ``None``: zero-mean gusts. A direction: add a mean wind of ``w20`` [m/s]
+        along it (the derivative's ``base_wind_vec``), so a "strong turbulence"
+        environment is a strong wind with gusts on top.
+    """
+
+    turbulence_level: float | None = 15.0
+    length_constant: float = 0.000823
+    length_exponent: float = 0.2
+    noise_scale: float = 10.0
+    seeds: tuple | None = (23341, 23342, 23343)
+    grid_duration: float = 5.0
+    grid_samples: int = 1000
+    output_scale: float = 0.305
+    base_direction: tuple | None = None
+
+    def __post_init__(self):
+        if self.turbulence_level is not None:
+            object.__setattr__(self, "turbulence_level", check_scalar(
+                self.turbulence_level, "turbulence_level", low=0, low_inclusive=False,
+                high=1e3))
+        check_scalar(self.length_constant, "length_constant", low=0, low_inclusive=False)
+        check_scalar(self.length_exponent, "length_exponent", low=0)
+        check_scalar(self.noise_scale, "noise_scale", low=0)
+        check_scalar(self.grid_duration, "grid_duration", low=0, low_inclusive=False)
+        object.__setattr__(self, "grid_samples", check_scalar(
+            self.grid_samples, "grid_samples", low=2, high=10 ** 7, integer=True))
+        check_scalar(self.output_scale, "output_scale", low=0, low_inclusive=False)
+        if self.seeds is not None:
+            seeds = tuple(int(x) for x in self.seeds)
+            if len(seeds) != 3 or any(not 0 <= x < 2 ** 32 - 2 for x in seeds):
+                raise ValueError(f"seeds must be None or three ints in [0, 2**32 - 2), "
+                                 f"got {self.seeds!r}")
+            object.__setattr__(self, "seeds", seeds)
+        if self.base_direction is not None:
+            d = np.asarray(self.base_direction, dtype=float)
+            if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+                raise ValueError(f"base_direction must be None or a non-zero 3-vector, "
+                                 f"got {self.base_direction!r}")
+            object.__setattr__(self, "base_direction", tuple(float(x) for x in d))
+
+    @property
+    def rate(self):
+        """Index rate of the gust series [samples/s] (``grid_samples / grid_duration``)."""
+        return self.grid_samples / self.grid_duration
+
+    def to_dict(self):
+        return asdict(self)
+
+
+def cited_dryden_parameters(level, altitude, airspeed, options=CitedDryden()):
+    """Intensities and scale lengths exactly as the cited code computes them.
+
+    Parameters
+    ----------
+    level : float
+        The turbulence level put into ``sigma_w = 0.1 * level`` (no unit conversion).
+    altitude : float
+        Height [m], converted to feet with ``* 3.28084`` (not clamped).
+    airspeed : float
+        Airspeed [m/s], converted to ft/s the same way.
+    options : CitedDryden
+
+    Returns
+    -------
+    dict
+        ``sigma_u, sigma_v, sigma_w`` (in the code's units, multiplied by
+        ``output_scale`` on output), ``L_u, L_v, L_w`` [ft], ``h`` [ft], ``V`` [ft/s].
+
+    >>> p = cited_dryden_parameters(15.0, 10.0, 12.0)
+    >>> round(p["sigma_w"], 3), round(p["L_w"], 2)
+    (1.5, 32.81)
+    """
+    h = float(altitude) * FEET_PER_METRE
+    V = float(airspeed) * FEET_PER_METRE
+    sigma_w = 0.1 * float(level)
+    sigma_u = sigma_w / (0.177 + 0.000823 * h) ** 0.4
+    L_u = h / (0.177 + options.length_constant * h) ** options.length_exponent
+    return {"sigma_u": sigma_u, "sigma_v": sigma_u, "sigma_w": sigma_w,
+            "L_u": L_u, "L_v": L_u, "L_w": h, "h": h, "V": V}
+
+
+def cited_transfer_functions(level, altitude, airspeed, options=CitedDryden()):
+    """The cited code's three filters as ``control.TransferFunction`` (ft/s in and out).
+
+    ``H_u = sigma_u sqrt(2 L_u/(pi V)) V / (L_u s + V)``;
+    ``H_v = b (sqrt(3) (L_v/V) s + 1) / ((L_v/V)^2 s^2 + 2 (L_v/V) s + 1)`` with
+    ``b = sigma_v sqrt(L_v/(pi V))``, and ``H_w`` likewise with ``L_w``.
+    """
+    import control
+
+    p = cited_dryden_parameters(level, altitude, airspeed, options)
+    V = p["V"]
+    H_u = control.tf([p["sigma_u"] * math.sqrt(2 * p["L_u"] / (math.pi * V)) * V],
+                     [p["L_u"], V])
+
+    def second_order(sigma, L):
+        b = sigma * math.sqrt(L / (math.pi * V))
+        T = L / V
+        return control.tf([math.sqrt(3) * T * b, b], [T * T, 2 * T, 1.0])
+
+    return H_u, second_order(p["sigma_v"], p["L_v"]), second_order(p["sigma_w"], p["L_w"])
+
+
+@lru_cache(maxsize=512)
+def _cited_series(level, altitude, airspeed, options, seeds):
+    import control
+
+    t = np.linspace(0.0, options.grid_duration, options.grid_samples)
+    out = np.empty((options.grid_samples, 3))
+    for j, (H, seed) in enumerate(zip(cited_transfer_functions(level, altitude, airspeed,
+                                                               options), seeds)):
+        # RandomState(seed).normal == np.random.seed(seed); np.random.normal, without
+        # touching the global generator
+        noise = options.noise_scale * np.random.RandomState(seed).normal(
+            0.0, 1.0, options.grid_samples)
+        # linear interpolation between samples, zero initial state: scipy's lsim
+        out[:, j] = control.forced_response(H, T=t, U=noise).outputs
+    out *= options.output_scale
+    out.setflags(write=False)
+    return out
+
+
+def cited_gusts(level, altitude, airspeed, options=CitedDryden(), seeds=None):
+    """One gust series of the cited code, shape (grid_samples, 3) [m/s] (u, v, w).
+
+    Built with ``control.tf`` and simulated with ``control.forced_response`` on the
+    code's time grid (the same as its ``scipy.signal.lsim`` call, tested); cached
+    per parameter set, so a loop that asks again pays nothing.
+    """
+    seeds = options.seeds if seeds is None else tuple(int(s) for s in seeds)
+    if seeds is None:
+        raise ValueError("seeds must be given when options.seeds is None")
+    return _cited_series(float(level), float(altitude), float(airspeed), options, seeds)
+
+
+#: Largest W20 or airspeed accepted [m/s] (beyond any wind on Earth; keeps the filters finite).
+W20_MAX = 1000.0
+
+
+@lru_cache(maxsize=4096)
+def _zoh_filters(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed, dt):
+    """ZOH filters ``((num, den) for u, v, w)`` built with ``control.tf`` and
+    ``control.sample_system``, normalised (``den[0] = 1``); cached per parameter set."""
+    import control
+
+    out = []
+    for H in dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed):
+        Hd = control.sample_system(H, dt, "zoh")
+        num, den = np.ravel(Hd.num[0][0]), np.ravel(Hd.den[0][0])
+        num, den = num / den[0], den / den[0]
+        k = len(den) - 1
+        num = np.concatenate([np.zeros(k - len(num)), num])[-k:]
+        num.setflags(write=False)
+        den.setflags(write=False)
+        out.append((num, den))
+    return tuple(out)
+
+
+class DrydenWind(WindModel):
+    """Dryden turbulence, one gust history per environment.
+
+    ``variant="mil-f-8785c"`` (default, DESIGN decision 4): each axis is white
+    noise of standard deviation ``sqrt(pi/dt)`` shaped by the Dryden filter of
+    eqs 10-12 (x = longitudinal u, y = lateral v, z = vertical w) with the
+    MIL-F-8785C intensities and scale lengths of :func:`dryden_parameters`,
+    discretised with a zero-order hold at ``dt``. Every filter starts in a state
+    drawn from its stationary distribution, so the gusts are stationary from
+    t = 0. Intensities and scale lengths are frozen at ``altitude``; the gusts are
+    zero-mean and do not depend on the UAV position. The gust at time ``t`` is the
+    sample of the step containing ``t`` (sample and hold); the history is
+    generated lazily and extended as needed, always drawing the same numbers for
+    the same seed.
+
+    ``variant="cited"``: the implementation the paper cites, as it computes the
+    gusts (see :class:`CitedDryden` for each of its quirks and :func:`cited_gusts`).
 
     Parameters
     ----------
     w20 : array_like, shape (n_env,)
-        Wind speed at 20 ft of each environment [m/s], > 0.
+        Wind speed at 20 ft of each environment [m/s], in (0, 1000].
     altitude : float
         Height at which the turbulence parameters are evaluated [m], > 0.
         Default 10 m (the start altitude).
     airspeed : array_like, shape (n_env,) or float, optional
         Airspeed V used by the filters [m/s], > 0. Default: ``w20``.
     dt : float
-        Sample time of the gust history [s], > 0. Default 0.1 s.
+        Sample time of the gust history [s], in [1e-4, 10]. Default 0.1 s
+        (``"mil-f-8785c"`` only; the cited variant keeps its own grid).
     seed : int, numpy.random.SeedSequence or None
         Root of the randomness; environment ``i`` draws from the ``i``-th child
         of ``SeedSequence(seed)``, so adding environments never changes the
-        gusts of the existing ones.
-    discretisation : {"exact", "control"}
-        ``"exact"`` (default) uses the closed-form zero-order-hold matrices,
-        vectorised over environments; ``"control"`` builds every filter with
-        ``control.tf`` and discretises it with ``control.sample_system(...,
-        "zoh")`` (about 0.6 ms per filter). Both give the same filters (tested
-        to 1e-12).
+        gusts of the existing ones. The cited variant with fixed ``seeds`` ignores it.
+    discretisation : {"control", "exact"}
+        ``"control"`` (default) builds every filter with ``control.tf`` and
+        discretises it with ``control.sample_system(..., "zoh")``, cached per
+        parameter set so a loop pays nothing; ``"exact"`` uses the closed-form
+        zero-order-hold matrices, vectorised over environments (the test oracle;
+        both agree to 1e-12).
+    variant : {"mil-f-8785c", "cited"}
+    cited : CitedDryden, optional
+        The cited variant's options (default: the code as published).
 
     Examples
     --------
     >>> w = DrydenWind([12.0, 13.0], seed=1)
     >>> w.velocity(0.0, [[0, 0, 10], [0, 0, 10]]).shape
     (2, 3)
+    >>> c = DrydenWind([12.0, 13.0], airspeed=12.0, variant="cited")
+    >>> bool((c.gusts(120)[0] == c.gusts(120)[1]).all())  # fixed level and seeds: same gusts
+    True
     """
 
     _BLOCK = 128  # samples generated per extension
 
     def __init__(self, w20, altitude=10.0, airspeed=None, dt=0.1, seed=None,
-                 discretisation="exact"):
+                 discretisation="control", variant="mil-f-8785c", cited=None):
         w20 = check_array(w20, "w20", ndim=1)
         if w20.size == 0:
             raise ValueError("w20 must describe at least one environment, got an empty array")
-        if np.any(w20 <= 0):
-            raise ValueError(f"w20 must be > 0 m/s for every environment, got min {w20.min()}")
+        if np.any(w20 <= 0) or np.any(w20 > W20_MAX):
+            raise ValueError(f"w20 must be in (0, {W20_MAX:g}] m/s for every environment, "
+                             f"got min {w20.min():g}, max {w20.max():g}")
+        if variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}")
+        if cited is not None and not isinstance(cited, CitedDryden):
+            raise TypeError(f"cited must be a CitedDryden, got {type(cited).__name__}")
+        self.variant = variant
+        self.cited = (cited or CitedDryden()) if variant == "cited" else None
         self.w20 = w20
         self.n_env = w20.shape[0]
         self.altitude = check_scalar(altitude, "altitude", low=0, low_inclusive=False)
@@ -356,10 +585,10 @@ class DrydenWind(WindModel):
             if V.shape != (self.n_env,):
                 raise ValueError(f"airspeed must be a scalar or have shape ({self.n_env},), "
                                  f"got {np.shape(airspeed)}")
-            if np.any(V <= 0):
-                raise ValueError(f"airspeed must be > 0 m/s, got min {V.min()}")
+            if np.any(V <= 0) or np.any(V > W20_MAX):
+                raise ValueError(f"airspeed must be in (0, {W20_MAX:g}] m/s, got min {V.min():g}")
         self.airspeed = V
-        self.dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
+        self.dt = check_scalar(dt, "dt", low=1e-4, high=10.0)
         if discretisation not in ("exact", "control"):
             raise ValueError(f"discretisation must be 'exact' or 'control', got {discretisation!r}")
         self.discretisation = discretisation
@@ -367,12 +596,32 @@ class DrydenWind(WindModel):
             raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, "
                             f"got {type(seed).__name__}")
         self.seed = seed
+        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        children = ss.spawn(self.n_env)
+        if variant == "cited":
+            self._init_cited(children)
+            return
         self.parameters = dryden_parameters(w20, self.altitude)
         self._build_filters()
-        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        self._rngs = [np.random.Generator(np.random.PCG64(c)) for c in ss.spawn(self.n_env)]
+        self._rngs = [np.random.Generator(np.random.PCG64(c)) for c in children]
         self._init_states()
         self._history = np.empty((self.n_env, 0, 3))
+
+    def _init_cited(self, children):
+        o = self.cited
+        levels = self.w20 if o.turbulence_level is None else np.full(self.n_env, o.turbulence_level)
+        if o.seeds is None:  # the derivative: one seed s per environment, s, s+1, s+2 per axis
+            base = [int(c.generate_state(1)[0] % 10 ** 8) for c in children]
+            seeds = [(b, b + 1, b + 2) for b in base]
+        else:
+            seeds = [o.seeds] * self.n_env
+        self._series = np.stack([cited_gusts(lv, self.altitude, V, o, sd)
+                                 for lv, V, sd in zip(levels, self.airspeed, seeds)])
+        self._mean = (np.zeros((self.n_env, 3)) if o.base_direction is None else
+                      self.w20[:, None] * (np.array(o.base_direction)
+                                           / np.linalg.norm(o.base_direction)))
+        self.parameters = [cited_dryden_parameters(lv, self.altitude, V, o)
+                           for lv, V in zip(levels, self.airspeed)]
 
     # -- filters ------------------------------------------------------------ #
     def _build_filters(self):
@@ -395,19 +644,13 @@ class DrydenWind(WindModel):
         self.filters = filters  # axis -> (A (n,k,k), B (n,k), C (n,k))
 
     def _control_filters(self):
-        import control
-
         p = self.parameters
         out = {ax: ([], []) for ax in "uvw"}
         for i in range(self.n_env):
-            Hs = dryden_transfer_functions(p["sigma_u"][i], p["sigma_v"][i], p["sigma_w"][i],
-                                           p["L_u"], p["L_v"], p["L_w"], self.airspeed[i])
-            for ax, H in zip("uvw", Hs):
-                Hd = control.sample_system(H, self.dt, "zoh")
-                num, den = np.ravel(Hd.num[0][0]), np.ravel(Hd.den[0][0])
-                num, den = num / den[0], den / den[0]
-                k = len(den) - 1
-                num = np.concatenate([np.zeros(k - len(num)), num])[-k:]
+            filters = _zoh_filters(float(p["sigma_u"][i]), float(p["sigma_v"][i]),
+                                   float(p["sigma_w"][i]), float(p["L_u"]), float(p["L_v"]),
+                                   float(p["L_w"]), float(self.airspeed[i]), self.dt)
+            for ax, (num, den) in zip("uvw", filters):
                 out[ax][0].append(num)
                 out[ax][1].append(den)
         return {ax: (np.array(nums), np.array(dens)) for ax, (nums, dens) in out.items()}
@@ -446,12 +689,18 @@ class DrydenWind(WindModel):
             self._history = np.concatenate([self._history, *blocks], axis=1)
 
     def gusts(self, n_samples):
-        """The first ``n_samples`` gust samples, shape (n_env, n_samples, 3) [m/s]."""
-        n_samples = check_scalar(n_samples, "n_samples", low=0, integer=True)
+        """The first ``n_samples`` gust samples, shape (n_env, n_samples, 3) [m/s]
+        (for the cited variant: its mean wind included, at times ``k * dt``)."""
+        n_samples = check_scalar(n_samples, "n_samples", low=0, high=10 ** 8, integer=True)
+        if self.variant == "cited":
+            return np.stack([self._velocity(k * self.dt, None) for k in range(n_samples)], axis=1)
         self._extend(n_samples)
         return self._history[:, :n_samples]
 
     def _velocity(self, t, positions):
+        if self.variant == "cited":
+            o = self.cited
+            return self._mean + self._series[:, int(t * o.rate + 1e-9) % o.grid_samples]
         k = int(math.floor(t / self.dt + 1e-9))
         if k >= self._history.shape[1]:
             self._extend(k + 1)
@@ -459,13 +708,18 @@ class DrydenWind(WindModel):
 
     @cached_property
     def sigmas(self):
-        """MIL-F-8785C intensities, shape (n_env, 3) [m/s] (u, v, w)."""
+        """Filter intensities, shape (n_env, 3) [m/s] (u, v, w): MIL-F-8785C, or for the
+        cited variant its sigmas times ``output_scale`` (its filters' nominal
+        output; the noise it feeds them is not unit-variance, see the replication notes)."""
         p = self.parameters
+        if self.variant == "cited":
+            return np.array([[q["sigma_u"], q["sigma_v"], q["sigma_w"]] for q in p]) \
+                * self.cited.output_scale
         return np.stack([p["sigma_u"], p["sigma_v"], p["sigma_w"]], axis=1)
 
     def __repr__(self):
-        return (f"DrydenWind(n_env={self.n_env}, altitude={self.altitude}, dt={self.dt}, "
-                f"seed={self.seed!r})")
+        return (f"DrydenWind(n_env={self.n_env}, variant={self.variant!r}, "
+                f"altitude={self.altitude}, dt={self.dt}, seed={self.seed!r})")
 
 
 # --------------------------------------------------------------------------- #
