@@ -14,11 +14,11 @@ TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
 
 def test_registry_matches_the_paper():
     assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6",
-                                    "fit_layout", "fit_turbulence"]
+                                    "exp6_raw", "fit_layout", "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
     n_ratios = len(ex.FIT_RATIOS)
     assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
-                     "exp6": 1, "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
+                     "exp6": 1, "exp6_raw": 1, "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
     # the layout fit: Exp 1's same-strength scenarios, every ratio of the grid
     fit = ex.EXPERIMENTS["fit_layout"].cases()
     assert sorted({c.labels["scenario_id"] for c in fit}) == [1, 3, 4, 6]
@@ -40,9 +40,9 @@ def test_registry_matches_the_paper():
 def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
     assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
-    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50, exp6 30x20,
-    # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
-    assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 600
+    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
+    # exp6 and exp6_raw 30x20 each, fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
+    assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 2 * 600
                                          + 4 * 16 * 20 + 6 * 50)
     with pytest.raises(ValueError, match="profile"):
         ex.run_experiment("exp5", profile="huge")

@@ -210,3 +210,12 @@ def test_dryden_variant_is_validated():
         uw.DrydenWind([12.0], variant="karman")
     with pytest.raises(TypeError, match="cited"):
         uw.DrydenWind([12.0], variant="cited", cited={"turbulence_level": 3})
+
+
+def test_replication_notes_quote_the_ratios_in_use():
+    """The notes type the fitted ratios; they must be the ones the library uses."""
+    from pathlib import Path
+
+    notes = (Path(__file__).resolve().parents[1] / "book" / "replication_notes.md").read_text()
+    quoted = ", ".join(f"{k} {v:g}" for k, v in uw.INFERRED_GAP_RATIOS.items())
+    assert quoted in " ".join(notes.split()), quoted

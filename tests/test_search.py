@@ -93,6 +93,18 @@ def test_cem_on_the_worked_example_never_loses_its_best():
     assert uw.score_loop(traj, s.groups).score == res.best_score
 
 
+def test_cem_ranked_by_raw_silhouette_picks_the_best_silhouettes():
+    s = uw.make_setting("light constant", "light shear", 4, n_changes=1)
+    res = uw.cem(s, n_samples=6, n_elite=2, n_iter=2, seed=3, n_jobs=1, progress=False,
+                 rank_by="silhouette")
+    first = res.samples[res.samples["iteration"] == 1]
+    sil = first["silhouette"].fillna(-1.0).to_numpy()
+    assert set(np.flatnonzero(first["elite"])) == set(np.argsort(-sil, kind="stable")[:2])
+    assert res.best_score == res.samples["score"].max()  # the paper's score is reported
+    with pytest.raises(ValueError, match="rank_by"):
+        uw.cem(s, n_samples=2, n_elite=1, n_iter=1, rank_by="inertia", progress=False)
+
+
 @pytest.mark.parametrize("call, err, match", [
     (lambda: uw.random_search("setting"), TypeError, "setting"),
     (lambda: uw.random_search(small(), n_loops=0), ValueError, "n_loops"),

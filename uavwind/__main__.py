@@ -8,10 +8,48 @@
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 import time
 
+from .clustering import ENGINES
 from .experiments import EXPERIMENTS, PROFILES, get_experiment, run_experiment, summary_table
+from .scenarios import READINGS
+
+
+_CORES = os.cpu_count() or 1
+
+
+def _jobs(text):
+    """--jobs: an integer in [1, cores] or -1; more than the cores is capped with a warning."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if n == 0 or n < -1:
+        raise argparse.ArgumentTypeError(f"must be -1 (all cores) or in [1, {_CORES}], got {n}")
+    if n > _CORES:
+        print(f"warning: --jobs {n} is more than the {_CORES} cores: using {_CORES}",
+              file=sys.stderr)
+        n = _CORES
+    return n
+
+
+def _seed(text):
+    """--seed: an integer >= 0."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {n}")
+    return n
+
+
+def _terminate(signum, frame):
+    """SIGTERM ends the run like Ctrl-C: workers are shut down on the way out."""
+    raise KeyboardInterrupt
 
 
 def main(argv=None):
@@ -22,15 +60,19 @@ def main(argv=None):
     run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
     run.add_argument("experiments", nargs="+", help=f"ids ({', '.join(EXPERIMENTS)}) or 'all'")
     run.add_argument("--profile", default="quick", choices=sorted(PROFILES))
-    run.add_argument("--jobs", type=int, default=-1, help="worker processes (-1 = all cores)")
-    run.add_argument("--seed", type=int, default=None)
-    run.add_argument("--engine", default=None, help="clustering engine (fast or tslearn)")
+    run.add_argument("--jobs", type=_jobs, default=-1,
+                     help=f"worker processes, 1-{_CORES} (-1 = all cores)")
+    run.add_argument("--seed", type=_seed, default=None, help="root seed, an integer >= 0")
+    run.add_argument("--engine", default=None, choices=sorted(ENGINES),
+                     help="clustering engine (default: fast)")
+    run.add_argument("--reading", default=None, choices=sorted(READINGS),
+                     help="reading of the paper (default: inferred)")
     run.add_argument("--no-progress", action="store_true")
     args = parser.parse_args(argv)
 
     if args.command == "list":
         for e in EXPERIMENTS.values():
-            print(f"{e.id:8s} {e.title:24s} {e.paper_table:22s} {len(e.cases()):3d} cases  "
+            print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
                   f"{e.notebook}")
         return 0
     ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
@@ -39,15 +81,29 @@ def main(argv=None):
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
+    if _in_main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
     for i in ids:
         t0 = time.perf_counter()
         kw = {} if args.seed is None else {"seed": args.seed}
-        df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
-                            progress=not args.no_progress, **kw)
+        try:
+            df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
+                                progress=not args.no_progress, reading=args.reading, **kw)
+        except KeyboardInterrupt:
+            print(f"{i}: interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
+            return 130
+        except ValueError as exc:  # e.g. a results folder that cannot be written
+            print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
+            return 2
         print(f"{i}: {len(df)} rows, {df.attrs['cached']}/{df.attrs['chunks']} chunks from the "
               f"cache, {time.perf_counter() - t0:.1f} s")
         print(summary_table(df).round(2).to_string(), "\n")
     return 0
+
+
+def _in_main_thread():
+    import threading
+    return threading.current_thread() is threading.main_thread()
 
 
 if __name__ == "__main__":

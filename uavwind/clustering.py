@@ -26,6 +26,11 @@ from .config import check_array, check_scalar
 
 __all__ = ["score_loop", "LoopResult", "ENGINES", "DEFAULT_PARAMS", "check_groups"]
 
+#: Fewest trajectories a loop can score: two clusters, one of them with two members.
+MIN_TRAJECTORIES = 3
+#: Largest position coordinate accepted [m].
+MAX_COORDINATE = 1e9
+
 #: Decision 6 defaults (every one can be overridden in :func:`score_loop`).
 DEFAULT_PARAMS = {
     "gamma": 0.5,
@@ -207,8 +212,13 @@ def score_loop(trajectories, groups, engine=None, **params):
     True
     """
     X = check_array(trajectories, "trajectories", ndim=3)
-    if X.shape[0] < 2 or X.shape[1] < 1:
-        raise ValueError(f"trajectories must hold at least 2 series of at least 1 step, got {X.shape}")
+    if X.shape[0] < MIN_TRAJECTORIES or X.shape[1] < 1:
+        raise ValueError(f"trajectories must hold at least {MIN_TRAJECTORIES} series (the "
+                         f"silhouette needs a cluster with two members) of at least 1 step, "
+                         f"got shape {X.shape}")
+    if np.abs(X).max() > MAX_COORDINATE:
+        raise ValueError(f"trajectories must stay within +-{MAX_COORDINATE:g} m (squared DTW "
+                         f"costs overflow beyond), got {np.abs(X).max():g}")
     g = check_groups(groups, X.shape[0])
     engine = default_engine() if engine is None else engine
     if engine not in ENGINES:

@@ -37,6 +37,8 @@ def check_scalar(value, name, *, low=None, high=None, low_inclusive=True,
         raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
     if integer:
         if not isinstance(value, (int, np.integer)):
+            if not math.isfinite(float(value)):
+                raise ValueError(f"{name} must be a finite integer, got {value}")
             if float(value) != int(value):
                 raise TypeError(f"{name} must be an integer, got {value!r}")
         value = int(value)

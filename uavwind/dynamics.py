@@ -19,6 +19,8 @@ altitude may become negative, as in the paper.
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -74,9 +76,15 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     if not isinstance(uav, UAV):
         raise TypeError(f"uav must be a UAV, got {type(uav).__name__}")
     dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
-    duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
+    if duration / dt > MAX_STEPS:
+        raise ValueError(f"dt = {dt:g} s over duration = {duration:g} s asks for "
+                         f"{duration / dt:.3g} steps per environment; at most {MAX_STEPS:,} are "
+                         f"allowed: use dt >= {duration / MAX_STEPS:g} s")
     n = _n_steps(dt, duration)
     thrust.check_within(duration)
+    _check_thrust_grid(thrust, dt, n)
+    _check_drag_stability(thrust, uav, dt, duration)
     if start_position is None:
         start = np.array([0.0, 0.0, check_scalar(start_altitude, "start_altitude")])
     else:
@@ -84,6 +92,56 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     t_start = np.arange(n) * dt
     forces = thrust.thrust(t_start)
     return n, t_start, forces, start
+
+
+#: Most time steps one simulation may take (memory: n_env x steps x 3 doubles).
+MAX_STEPS = 1_000_000
+
+
+def _check_thrust_grid(thrust, dt, n):
+    """Warn where a thrust change does not fall on a step start: it takes effect at the
+    next step start, or never if it comes after the last one."""
+    last = (n - 1) * dt
+    for t in thrust.times[1:]:
+        k = t / dt
+        if t > last + 1e-9 * dt:
+            warnings.warn(f"the thrust change at t = {t:g} s comes after the last step start "
+                          f"({last:g} s with dt = {dt:g} s): it is never applied", UserWarning,
+                          stacklevel=4)
+        elif abs(k - round(k)) > 1e-9 * max(1.0, k):
+            warnings.warn(f"the thrust change at t = {t:g} s falls between steps of dt = {dt:g} s: "
+                          f"it takes effect at {math.ceil(k - 1e-9) * dt:g} s", UserWarning,
+                          stacklevel=4)
+
+
+def max_stable_dt(thrust, uav):
+    """Largest time step [s] for which the explicit drag update is well resolved.
+
+    The air-relative speed approaches the terminal speed ``v_t = sqrt(a_max / c)``
+    (``c = k / m`` [1/m], ``a_max`` the largest thrust-plus-gravity acceleration of
+    the sequence); the linearised update ``v += -c |v| v dt`` then multiplies
+    deviations by ``1 - 2 c v_t dt``, which must stay in [0, 1) for a smooth,
+    stable approach: ``dt < 1 / (2 sqrt(c a_max))``. ``inf`` without drag.
+    """
+    c = uav.drag_factor / uav.mass
+    acc = thrust.vectors / uav.mass
+    acc[:, 2] -= uav.gravity
+    a_max = float(np.max(np.linalg.norm(acc, axis=1)))
+    if c == 0 or a_max == 0:
+        return math.inf
+    return 1.0 / (2.0 * math.sqrt(c * a_max))
+
+
+def _check_drag_stability(thrust, uav, dt, duration):
+    limit = max_stable_dt(thrust, uav)
+    if dt >= limit:
+        works = duration / math.ceil(duration / (0.5 * limit))  # divides the duration
+        raise ValueError(
+            f"dt = {dt:g} s is too long for this UAV's drag (mass = {uav.mass:g} kg, "
+            f"drag_coefficient = {uav.drag_coefficient:g}, area = {uav.area:g} m^2, "
+            f"air_density = {uav.air_density:g} kg/m^3) under this thrust: the explicit "
+            f"update would oscillate or diverge; use dt < {limit:.3g} s, e.g. dt = "
+            f"{works!r} s for duration = {duration:g} s")
 
 
 def _integrate(wind, uav, dt, n, t_start, forces, start, record_all):
@@ -113,6 +171,9 @@ def _integrate(wind, uav, dt, n, t_start, forces, start, record_all):
             v_gnd_all[:, k] = v_gnd
             v_air_all[:, k] = v_air
             wind_all[:, k] = w
+    if not np.all(np.isfinite(positions)):
+        raise ValueError("the simulation produced non-finite positions (winds or forces too "
+                         "large for float64); check the wind speeds and the UAV parameters")
     if record_all:
         return positions, v_gnd_all, v_air_all, wind_all
     return positions

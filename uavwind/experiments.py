@@ -21,25 +21,24 @@ so loop ``i`` flies the same thrust sequence in every case (for Exp 4 the number
 of changes differs, so the sequences share their random stream, not their
 shape). Cases are therefore compared pairwise, loop by loop.
 
-Caching: results are stored per *chunk* (one case, a range of at most
-``CHUNK`` loops) as Parquet files named by a digest of everything that
-determines them (setting, seed, loop range, engine, clustering parameters,
+Caching (:mod:`uavwind.cache`): results are stored per *chunk* (one case, a
+range of at most ``CHUNK`` loops) as Parquet files named by a digest of everything
+that determines them (setting, seed, loop range, engine, clustering parameters,
 :data:`RESULTS_VERSION`). A finished chunk is never recomputed; an interrupted
 run resumes at the first missing chunk; changing a setting recomputes only
-that setting's chunks. Files are written atomically.
+that setting's chunks. Files are written atomically, verified on reading (a
+damaged chunk is moved aside and recomputed) and locked while computed.
 """
 
 from __future__ import annotations
 
-import hashlib
-import json
-import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
 
-from .clustering import DEFAULT_PARAMS, default_engine
+from .cache import RESULTS_VERSION, Expected, cache_key, cached, check_writable, results_dir
+from .clustering import ENGINES, default_engine
 from .config import check_scalar
 from .scenarios import (PAPER_SCENARIOS, Layout, Setting, direction_settings,
                         environment_count_settings, get_reading, make_setting,
@@ -50,9 +49,6 @@ __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "r
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
            "FIT_RATIOS", "DEFAULT_READING", "provenance"]
 
-#: Bump when a change to the library alters results; it is part of every cache key.
-#: 2: Dryden filters built with python-control by default (equal to 1e-12, not bit for bit).
-RESULTS_VERSION = "2"
 #: The reading experiments run under unless told otherwise.
 DEFAULT_READING = "inferred"
 #: Loops per cached chunk.
@@ -66,12 +62,6 @@ PROFILES = {
 }
 #: Default seed of every experiment (its SeedSequence root).
 DEFAULT_SEED = 20240101
-
-
-def results_dir():
-    """``$UAVWIND_RESULTS`` or ``data/results`` next to the package."""
-    env = os.environ.get("UAVWIND_RESULTS")
-    return Path(env) if env else Path(__file__).resolve().parents[1] / "data" / "results"
 
 
 @dataclass(frozen=True)
@@ -105,6 +95,8 @@ class Experiment:
     tables_as : str
         Id of the experiment whose table layout and paper values this one shares
         (empty: its own).
+    search : dict
+        Extra arguments of the search (e.g. CEM's ``rank_by``); part of the cache key.
     """
 
     id: str
@@ -115,6 +107,7 @@ class Experiment:
     kind: str
     build: object = field(repr=False)
     tables_as: str = ""
+    search: dict = field(default_factory=dict, hash=False, compare=False)
 
     def cases(self, reading=None):
         """The cases under ``reading`` (a name or :class:`~uavwind.scenarios.Reading`)."""
@@ -243,6 +236,10 @@ EXPERIMENTS = {e.id: e for e in [
                _exp5),
     Experiment("exp6", "Cross-Entropy Method", "Does CEM find better thrust sequences than "
                "random search?", "exp6_cem.md", "Figure 9", "cem", _exp6),
+    Experiment("exp6_raw", "Cross-Entropy Method, raw silhouette", "Does CEM find a signal "
+               "when its elites are ranked by the raw silhouette instead of the floored score?",
+               "exp6_cem.md", "Figure 9 (alternative objective)", "cem", _exp6,
+               tables_as="exp6", search={"rank_by": "silhouette"}),
     Experiment("fit_layout", "Layout fit", "Which gap between same-strength groups gives "
                "Table 4's scores?", "inference.md", "Table 4 (fit)", "random", _fit_layout),
     Experiment("fit_turbulence", "Turbulence reading", "Which reading of the cited Dryden "
@@ -266,39 +263,20 @@ def _check_profile(profile):
         missing = {"loops", "long_loops", "fit_loops", "cem"} - set(profile)
         if missing:
             raise ValueError(f"profile dict is missing {sorted(missing)}")
+        for k in ("loops", "long_loops", "fit_loops"):
+            check_scalar(profile[k], f"profile[{k!r}]", low=1, high=10 ** 6, integer=True)
+        cem_cfg = profile["cem"]
+        if not isinstance(cem_cfg, dict) or set(cem_cfg) != {"n_samples", "n_elite", "n_iter"}:
+            raise ValueError("profile['cem'] must be a dict with n_samples, n_elite, n_iter")
+        n = check_scalar(cem_cfg["n_samples"], "profile['cem']['n_samples']", low=1,
+                         high=10 ** 5, integer=True)
+        check_scalar(cem_cfg["n_elite"], "profile['cem']['n_elite']", low=1, high=n, integer=True)
+        check_scalar(cem_cfg["n_iter"], "profile['cem']['n_iter']", low=1, high=10 ** 4,
+                     integer=True)
         return profile
     if profile not in PROFILES:
         raise ValueError(f"profile must be one of {sorted(PROFILES)} (or a dict), got {profile!r}")
     return PROFILES[profile]
-
-
-# --------------------------------------------------------------------------- #
-# caching
-# --------------------------------------------------------------------------- #
-def cache_key(setting, seed, start, stop, engine, params, extra=None):
-    """Digest of everything that determines a chunk of results."""
-    blob = json.dumps({"setting": setting.key(), "seed": seed, "loops": [start, stop],
-                       "engine": engine, "params": {**DEFAULT_PARAMS, **params},
-                       "version": RESULTS_VERSION, "extra": extra},
-                      sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:20]
-
-
-def _atomic_write(df, path):
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(f".tmp{os.getpid()}")
-    df.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
-
-
-def _cached(path, compute, meta):
-    if path.exists():
-        return pd.read_parquet(path), True
-    df = compute()
-    for k, v in meta.items():
-        df[k] = v
-    _atomic_write(df, path)
-    return df, False
 
 
 # --------------------------------------------------------------------------- #
@@ -339,12 +317,15 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     """
     exp = get_experiment(exp_id)
     prof = _check_profile(profile)
-    seed = check_scalar(seed, "seed", low=0, integer=True)
+    seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
     engine = default_engine() if engine is None else engine
-    folder = Path(results) if results is not None else results_dir()
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
     rd = get_reading(DEFAULT_READING if reading is None else reading)
     all_cases = exp.cases(rd)
-    chosen = range(len(all_cases)) if cases is None else cases
+    chosen = _check_cases(cases, len(all_cases))
+    # before any work: a run must never compute what it cannot keep
+    folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
     from . import __version__
     frames, n_cached, n_chunks = [], 0, 0
     for ci in chosen:
@@ -355,14 +336,16 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         if exp.kind == "cem":
             cfg = prof["cem"]
-            key = cache_key(s, seed, 0, cfg["n_iter"], engine, params, extra=cfg)
+            extra = {**cfg, **exp.search} if exp.search else cfg
+            key = cache_key(s, seed, 0, cfg["n_iter"], engine, params, extra=extra)
             path = folder / exp.id / f"cem-{key}.parquet"
 
             def compute(s=s, cfg=cfg):
                 res = cem(s, seed=seed, n_jobs=n_jobs, engine=engine, progress=progress,
-                          **cfg, **params)
+                          **cfg, **exp.search, **params)
                 return res.samples
-            df, hit = _cached(path, compute, meta)
+            expect = Expected(s.key(), seed, engine, cfg["n_samples"] * cfg["n_iter"])
+            df, hit = cached(path, compute, meta, expect)
             n_cached += hit
             n_chunks += 1
             frames.append(df.assign(**labels))
@@ -378,7 +361,7 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
             def compute(s=s, start=start, stop=stop):
                 return random_search(s, n_loops=stop - start, seed=seed, loop_offset=start,
                                      n_jobs=n_jobs, engine=engine, progress=progress, **params)
-            df, hit = _cached(path, compute, meta)
+            df, hit = cached(path, compute, meta, Expected(s.key(), seed, engine, stop - start))
             n_cached += hit
             n_chunks += 1
             frames.append(df.assign(**labels))
@@ -392,6 +375,20 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
 
 _LABEL_KEYS = ("scenario", "scenario_id", "n_env", "thrust_changes", "direction", "gap_ratio",
                "candidate")
+
+
+def _check_cases(cases, n):
+    """Validated case indices (each in [0, n), no repeats, at least one)."""
+    if cases is None:
+        return list(range(n))
+    if isinstance(cases, (str, bytes)) or not hasattr(cases, "__iter__"):
+        raise TypeError(f"cases must be a list of case indices, got {type(cases).__name__}")
+    out = [check_scalar(c, "cases", low=0, high=n - 1, integer=True) for c in cases]
+    if not out:
+        raise ValueError(f"cases must name at least one case index in [0, {n - 1}], got none")
+    if len(set(out)) != len(out):
+        raise ValueError(f"cases must not repeat an index, got {list(cases)}")
+    return out
 
 
 def _n_loops(prof, case):
@@ -428,6 +425,12 @@ def summary_table(df):
         return _maxmean(df, ["scenario", "n_env"])
     if exp == "exp4":
         return _maxmean(df, ["scenario", "thrust_changes"])
+    if exp == "fit_layout":
+        from .inference import silhouette_curves
+        return silhouette_curves(df).set_index(["scenario_id", "gap_ratio"])
+    if exp == "fit_turbulence":
+        from .inference import compare_turbulence
+        return compare_turbulence(df)
     if exp == "exp6":
         g = df.groupby("iteration")["score"]
         elite = df[df["elite"]].groupby("iteration")["score"].mean()
@@ -483,7 +486,8 @@ def comparison_table(df):
     """Paper vs replication, side by side, for the rows the paper reports.
 
     Columns: ``paper max, replication max, paper mean, replication mean``,
-    ``mean 95% CI`` (bootstrap over loops) and ``correct (%)``; index: the
+    ``ci_low``, ``ci_high`` (95% bootstrap interval of the mean over loops) and
+    ``correct (%)``; index: the
     paper's row labels. Reads the paper's values from ``data/paper/``.
     """
     from .claims import bootstrap_ci
@@ -512,6 +516,6 @@ def comparison_table(df):
         label = p["scenario"] + "".join(f", {p[k]} {units[k]}" for k in keys if k in units)
         rows.append({"row": label, "paper max": p["maximum"],
                      "replication max": sub["score"].max(), "paper mean": p["mean"],
-                     "replication mean": est, "mean 95% CI": f"[{lo:.2f}, {hi:.2f}]",
+                     "replication mean": est, "ci_low": lo, "ci_high": hi,
                      "correct (%)": 100 * (sub["score"] > 0).mean(), "loops": len(sub)})
     return pd.DataFrame(rows).set_index("row")

@@ -197,13 +197,12 @@ def out_of_sample(results):
         if exp == "exp1":
             df = df[df["scenario_id"] == 8]
         c = comparison_table(df).reset_index()
-        ci = c["mean 95% CI"].str.strip("[]").str.split(",", expand=True).astype(float)
         frames.append(pd.DataFrame({
             "table": label, "row": c["row"], "paper mean": c["paper mean"],
-            "predicted mean": c["replication mean"], "ci_low": ci[0], "ci_high": ci[1],
+            "predicted mean": c["replication mean"], "ci_low": c["ci_low"], "ci_high": c["ci_high"],
             "paper max": c["paper max"], "predicted max": c["replication max"],
             "difference": c["replication mean"] - c["paper mean"],
-            "paper in CI": (ci[0] <= c["paper mean"]) & (c["paper mean"] <= ci[1]),
+            "paper in CI": (c["ci_low"] <= c["paper mean"]) & (c["paper mean"] <= c["ci_high"]),
             "correct_rate": c["correct (%)"] / 100, "n_loops": c["loops"]}))
     return pd.concat(frames, ignore_index=True).set_index(["table", "row"])
 

@@ -318,7 +318,8 @@ def predicted_vs_paper(table):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.2, 5), constrained_layout=True)
     for (label, sub), m in zip(table.groupby(level="table", sort=False), "osD^v"):
-        err = np.vstack([sub["predicted mean"] - sub["ci_low"], sub["ci_high"] - sub["predicted mean"]])
+        err = np.clip(np.vstack([sub["predicted mean"] - sub["ci_low"],
+                                 sub["ci_high"] - sub["predicted mean"]]), 0, None)
         ax.errorbar(sub["paper mean"], sub["predicted mean"], yerr=err, fmt=m, ms=5, capsize=2,
                     label=label)
     lims = (min(table["paper mean"].min(), table["ci_low"].min()) - 3, 101)

@@ -250,6 +250,10 @@ class Setting:
                                                            integer=True))
         if not isinstance(self.uav, UAV):
             raise TypeError(f"uav must be a UAV, got {type(self.uav).__name__}")
+        if self.n_env < 3:
+            raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
+                             f"with two members, for a silhouette), got {self.group_a.n_env} + "
+                             f"{self.group_b.n_env}")
 
     @property
     def n_env(self):

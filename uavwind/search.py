@@ -21,7 +21,9 @@ works, including Dask through ``joblib.parallel_config(backend="dask")``.
 
 from __future__ import annotations
 
+import os
 import sys
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -83,12 +85,28 @@ def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
 
 
 def _check_jobs(n_jobs):
+    """-1 for all cores, or a count capped (with a warning) at the number of cores."""
     if n_jobs is None:
         return -1
+    cores = os.cpu_count() or 1
     n_jobs = check_scalar(n_jobs, "n_jobs", integer=True)
-    if n_jobs == 0:
-        raise ValueError("n_jobs must be a non-zero integer (-1 = all cores), got 0")
+    if n_jobs == 0 or n_jobs < -cores:
+        raise ValueError(f"n_jobs must be in [1, {cores}] or in [-{cores}, -1] (-1 = all "
+                         f"cores), got {n_jobs}")
+    if n_jobs > cores:
+        warnings.warn(f"n_jobs = {n_jobs} is more than the {cores} cores of this machine: "
+                      f"using {cores}", UserWarning, stacklevel=3)
+        n_jobs = cores
     return n_jobs
+
+
+def _stop_workers():
+    """Shut the reusable worker pool down at once (after an interrupt or an error)."""
+    try:
+        from joblib.externals.loky import get_reusable_executor
+        get_reusable_executor().shutdown(wait=False, kill_workers=True)
+    except Exception:  # pragma: no cover - best effort on the way out
+        pass
 
 
 def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=True,
@@ -136,10 +154,14 @@ def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=Tr
             if bar is not None:
                 bar.update()
     else:
-        for res in Parallel(n_jobs=n_jobs, return_as="generator")(tasks):
-            results.append(res)
-            if bar is not None:
-                bar.update()
+        try:
+            for res in Parallel(n_jobs=n_jobs, return_as="generator")(tasks):
+                results.append(res)
+                if bar is not None:
+                    bar.update()
+        except BaseException:  # interrupted or failed: leave no worker running
+            _stop_workers()
+            raise
     if bar is not None:
         bar.close()
     return results
@@ -259,7 +281,7 @@ def cem_step(samples, scores, n_elite):
 def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
         magnitude_mean=25.0, magnitude_std=50.0, direction_mean=0.0, direction_std=0.33,
         max_magnitude=MAX_THRUST, n_jobs=None, engine=None, progress=True, objective=None,
-        **params):
+        rank_by="score", **params):
     """Cross-Entropy Method over thrust magnitudes and direction components.
 
     The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``
@@ -287,6 +309,12 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
     objective : callable, optional
         ``f(samples (n, dim)) -> scores (n,)`` replacing the simulation (for tests
         and other uses); the setting then only provides the change times.
+    rank_by : {"score", "silhouette"}
+        What picks the elites: the paper's score (0 when the clusters miss the
+        groups, so a population without a correct loop carries no signal) or the
+        raw silhouette coefficient (in [-1, 1]; -1 when only one cluster was found),
+        which still orders the draws when none groups correctly. ``best_score`` and
+        the history always report the paper's score.
 
     Returns
     -------
@@ -303,6 +331,10 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
     direction_std = check_scalar(direction_std, "direction_std", low=0)
     magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
     direction_mean = check_scalar(direction_mean, "direction_mean")
+    if rank_by not in ("score", "silhouette"):
+        raise ValueError(f"rank_by must be 'score' or 'silhouette', got {rank_by!r}")
+    if rank_by == "silhouette" and objective is not None:
+        raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
     root = _root(seed)
 
     times = setting.sample_thrust(_rng(root, 0)).times
@@ -322,16 +354,25 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
                                progress=progress, desc=f"CEM iteration {it + 1}", **params)
             scores = np.array([r.score for r in results])
             rows = _rows(results, thrusts)
+            rank = scores if rank_by == "score" else np.nan_to_num(
+                np.array([r.silhouette for r in results]), nan=-1.0)
         else:
             scores = np.asarray(objective(draws), dtype=float)
+            if scores.shape != (n_samples,):
+                raise ValueError(f"objective must return one score per sample, shape "
+                                 f"({n_samples},), got {scores.shape}")
             rows = [{"loop": j, "score": s} for j, s in enumerate(scores)]
-        mu, sigma, elite = cem_step(draws, scores, n_elite)
+            rank = scores
+        if np.all(np.isnan(scores)):
+            raise ValueError(f"every score of CEM iteration {it + 1} is NaN: nothing to rank "
+                             f"the samples by")
+        mu, sigma, elite = cem_step(draws, rank, n_elite)
         for j, row in enumerate(rows):
             row.pop("loop", None)
             sample_rows.append({"iteration": it + 1, "sample": j, **row,
                                 "elite": bool(j in set(elite.tolist())),
                                 "vector": draws[j].tolist()})
-        j_best = int(np.argmax(scores))
+        j_best = int(np.nanargmax(scores))
         if scores[j_best] > best_score:
             best_score, best_thrust, best_iter = float(scores[j_best]), thrusts[j_best], it
         history.append({"iteration": it + 1, "max": float(scores.max()),

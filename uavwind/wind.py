@@ -78,10 +78,17 @@ class WindModel(ABC):
         return self.n_env
 
 
+#: Largest wind speed component accepted [m/s] (far beyond any wind; keeps float64 finite).
+MAX_WIND = 1000.0
+
+
 def _check_velocities(value, name):
     arr = check_array(value, name, shape=(None, 3))
     if arr.shape[0] == 0:
         raise ValueError(f"{name} must describe at least one environment, got shape {arr.shape}")
+    if np.any(np.abs(arr) > MAX_WIND):
+        raise ValueError(f"{name} must have every component in [-{MAX_WIND:g}, {MAX_WIND:g}] m/s, "
+                         f"got {np.abs(arr).max():g}")
     arr = arr.copy()
     arr.setflags(write=False)
     return arr
@@ -482,6 +489,8 @@ def cited_gusts(level, altitude, airspeed, options=CitedDryden(), seeds=None):
 
 #: Largest W20 or airspeed accepted [m/s] (beyond any wind on Earth; keeps the filters finite).
 W20_MAX = 1000.0
+#: Smallest W20 accepted [m/s] (below it the filters' time constants overflow).
+W20_MIN = 1e-3
 
 
 @lru_cache(maxsize=4096)
@@ -524,7 +533,7 @@ class DrydenWind(WindModel):
     Parameters
     ----------
     w20 : array_like, shape (n_env,)
-        Wind speed at 20 ft of each environment [m/s], in (0, 1000].
+        Wind speed at 20 ft of each environment [m/s], in [0.001, 1000].
     altitude : float
         Height at which the turbulence parameters are evaluated [m], > 0.
         Default 10 m (the start altitude).
@@ -564,9 +573,9 @@ class DrydenWind(WindModel):
         w20 = check_array(w20, "w20", ndim=1)
         if w20.size == 0:
             raise ValueError("w20 must describe at least one environment, got an empty array")
-        if np.any(w20 <= 0) or np.any(w20 > W20_MAX):
-            raise ValueError(f"w20 must be in (0, {W20_MAX:g}] m/s for every environment, "
-                             f"got min {w20.min():g}, max {w20.max():g}")
+        if np.any(w20 < W20_MIN) or np.any(w20 > W20_MAX):
+            raise ValueError(f"w20 must be in [{W20_MIN:g}, {W20_MAX:g}] m/s for every "
+                             f"environment, got min {w20.min():g}, max {w20.max():g}")
         if variant not in VARIANTS:
             raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}")
         if cited is not None and not isinstance(cited, CitedDryden):
@@ -585,8 +594,9 @@ class DrydenWind(WindModel):
             if V.shape != (self.n_env,):
                 raise ValueError(f"airspeed must be a scalar or have shape ({self.n_env},), "
                                  f"got {np.shape(airspeed)}")
-            if np.any(V <= 0) or np.any(V > W20_MAX):
-                raise ValueError(f"airspeed must be in (0, {W20_MAX:g}] m/s, got min {V.min():g}")
+            if np.any(V < W20_MIN) or np.any(V > W20_MAX):
+                raise ValueError(f"airspeed must be in [{W20_MIN:g}, {W20_MAX:g}] m/s, "
+                                 f"got min {V.min():g}, max {V.max():g}")
         self.airspeed = V
         self.dt = check_scalar(dt, "dt", low=1e-4, high=10.0)
         if discretisation not in ("exact", "control"):

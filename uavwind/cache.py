@@ -1,0 +1,195 @@
+"""The result cache: keys, verified reads, atomic writes and per-chunk locks.
+
+This module owns every rule that makes a cached result trustworthy:
+
+* :func:`cache_key` -- a digest of everything that determines a chunk of results
+  (setting, seed, loop range, engine, clustering parameters, results version);
+* :func:`results_dir` -- ``$UAVWIND_RESULTS`` (``~`` expanded) or ``data/results``;
+* :func:`check_writable` -- before any work starts, so a run never computes what it
+  cannot keep;
+* :func:`read_verified` -- a chunk is trusted only if it parses and its stored
+  setting key, seed, engine, row count and value ranges are what the caller expects;
+  anything else is moved aside as ``*.corrupt`` with one warning line, and recomputed;
+* :func:`atomic_write` -- a temporary file in the same folder renamed over the target,
+  removed again if writing fails (a full disk leaves no orphan);
+* :func:`cached` -- all of the above around one chunk, under an exclusive per-chunk lock
+  (``fcntl.flock``), so two processes on one results folder compute a chunk once: the
+  second waits, then reads the first one's result.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["RESULTS_VERSION", "cache_key", "results_dir", "check_writable", "Expected",
+           "read_verified", "atomic_write", "chunk_lock", "cached", "CorruptChunkWarning"]
+
+#: Bump when a change to the library alters results; it is part of every cache key.
+#: 2: Dryden filters built with python-control by default (equal to 1e-12, not bit for bit).
+RESULTS_VERSION = "2"
+
+
+class CorruptChunkWarning(UserWarning):
+    """A cached chunk failed verification and was moved aside to be recomputed."""
+
+
+def results_dir():
+    """``$UAVWIND_RESULTS`` (with ``~`` expanded) or ``data/results`` next to the package."""
+    env = os.environ.get("UAVWIND_RESULTS")
+    if env:
+        return Path(env).expanduser()
+    return Path(__file__).resolve().parents[1] / "data" / "results"
+
+
+def cache_key(setting, seed, start, stop, engine, params, extra=None):
+    """Digest of everything that determines a chunk of results."""
+    from .clustering import DEFAULT_PARAMS
+
+    blob = json.dumps({"setting": setting.key(), "seed": seed, "loops": [start, stop],
+                       "engine": engine, "params": {**DEFAULT_PARAMS, **params},
+                       "version": RESULTS_VERSION, "extra": extra},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def check_writable(folder):
+    """Create ``folder`` if needed and prove a file can be written there.
+
+    Raises
+    ------
+    ValueError
+        Naming the folder and the reason (a file in the way, read-only, full disk).
+    """
+    folder = Path(folder).expanduser()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".write-test-{os.getpid()}"
+        with open(probe, "wb") as fh:
+            fh.write(b"\0" * 4096)
+            fh.flush()
+            os.fsync(fh.fileno())
+        probe.unlink()
+    except OSError as exc:
+        raise ValueError(f"results folder {str(folder)!r} cannot be written "
+                         f"({exc.strerror or exc}); choose another with results= or "
+                         f"$UAVWIND_RESULTS") from None
+    return folder
+
+
+@dataclass(frozen=True)
+class Expected:
+    """What a chunk must hold to be trusted."""
+
+    setting_key: str
+    seed: int
+    engine: str
+    n_rows: int
+
+
+def _problem(df, expect):
+    """Why ``df`` cannot be trusted as ``expect`` (empty string: it can)."""
+    if len(df) != expect.n_rows:
+        return f"{len(df)} rows, expected {expect.n_rows}"
+    for col, want in (("setting_key", expect.setting_key), ("seed", expect.seed),
+                      ("engine", expect.engine)):
+        if col not in df.columns:
+            return f"no {col} column"
+        if not (df[col] == want).all():
+            return f"{col} is not {want!r}"
+    if "score" not in df.columns:
+        return "no score column"
+    score = df["score"].to_numpy(dtype=float)
+    if not np.all(np.isfinite(score)) or score.min() < 0 or score.max() > 100:
+        return "scores outside [0, 100]"
+    if "silhouette" in df.columns:
+        sil = df["silhouette"].to_numpy(dtype=float)
+        sil = sil[np.isfinite(sil)]
+        if sil.size and (sil.min() < -1 - 1e-9 or sil.max() > 1 + 1e-9):
+            return "silhouettes outside [-1, 1]"
+        pos = score > 0
+        if np.any(np.abs(score[pos] - 100 * df["silhouette"].to_numpy(dtype=float)[pos]) > 1e-6):
+            return "scores that are not 100 x silhouette"
+    if "correct" in df.columns and np.any(score[~df["correct"].to_numpy(dtype=bool)] != 0):
+        return "a misgrouped loop with a non-zero score"
+    return ""
+
+
+def read_verified(path, expect):
+    """The chunk at ``path`` if it exists and can be trusted, else ``None``.
+
+    A chunk that cannot be read or fails :class:`Expected` is renamed to
+    ``<name>.corrupt`` (never deleted: it may be evidence) with one
+    :class:`CorruptChunkWarning`, so the caller recomputes it.
+    """
+    path = Path(path)
+    if not path.exists():
+        return None
+    try:
+        df = pd.read_parquet(path)
+        why = _problem(df, expect)
+    except Exception as exc:  # pyarrow raises many types for damaged files
+        why = f"unreadable ({type(exc).__name__})"
+    if not why:
+        return df
+    aside = path.with_name(path.name + ".corrupt")
+    with contextlib.suppress(OSError):
+        os.replace(path, aside)
+    warnings.warn(f"cached chunk {path.name} failed verification ({why}): moved to "
+                  f"{aside.name} and recomputed", CorruptChunkWarning, stacklevel=3)
+    return None
+
+
+def atomic_write(df, path):
+    """Write ``df`` to ``path`` (Parquet) all at once, or not at all."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        df.to_parquet(tmp, index=False)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        raise
+
+
+@contextlib.contextmanager
+def chunk_lock(path):
+    """Exclusive lock on ``path``'s chunk for as long as the block runs (``<path>.lock``)."""
+    import fcntl
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lock = path.with_name(path.name + ".lock")
+    with open(lock, "a") as fh:
+        fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+
+
+def cached(path, compute, meta, expect):
+    """``(df, from_cache)``: the verified chunk at ``path``, or ``compute()`` stamped with
+    ``meta`` and written atomically, all under the chunk's lock."""
+    with chunk_lock(path):
+        df = read_verified(path, expect)
+        if df is not None:
+            return df, True
+        df = compute()
+        for k, v in meta.items():
+            df[k] = v
+        why = _problem(df, expect)
+        if why:  # never store what would not be trusted on reading
+            raise RuntimeError(f"computed chunk {Path(path).name} is inconsistent: {why}")
+        atomic_write(df, path)
+        return df, False
