@@ -75,7 +75,7 @@ def test_identical_trajectories_score_zero(engine):
     ({"trajectories": np.full((4, 5, 3), np.nan)}, ValueError, "finite"),
     ({"trajectories": np.full((4, 5, 3), np.inf)}, ValueError, "finite"),
     ({"trajectories": np.zeros((4, 5))}, ValueError, "trajectories"),
-    ({"trajectories": np.zeros((1, 5, 3)), "groups": [0]}, ValueError, "at least 2"),
+    ({"trajectories": np.zeros((1, 5, 3)), "groups": [0]}, ValueError, "at least 3"),
     ({"groups": [0, 0, 1]}, ValueError, "groups must have shape"),
     ({"groups": [0, 0, 0, 0]}, ValueError, "two non-empty"),
     ({"groups": [0, 1, 2, 1]}, ValueError, "only 0 and 1"),
