@@ -514,7 +514,7 @@ def comparison_table(df):
         est, lo, hi = bootstrap_ci(sub["score"].to_numpy())
         units = {"n_env": "environments", "thrust_changes": "thrust changes"}
         label = p["scenario"] + "".join(f", {p[k]} {units[k]}" for k in keys if k in units)
-        rows.append({"row": label, "paper max": p["maximum"],
+        rows.append({"row": label, "case": int(sub["case"].iloc[0]), "paper max": p["maximum"],
                      "replication max": sub["score"].max(), "paper mean": p["mean"],
                      "replication mean": est, "ci_low": lo, "ci_high": hi,
                      "correct (%)": 100 * (sub["score"] > 0).mean(), "loops": len(sub)})

@@ -36,7 +36,8 @@ from .scenarios import (HORIZONTAL, INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PA
                         CitedDryden, Setting)
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "silhouette_curves",
-           "compare_turbulence", "out_of_sample", "scale_invariance", "scaled_setting"]
+           "compare_turbulence", "out_of_sample", "scale_invariance", "scaled_setting",
+           "line_silhouette"]
 
 #: Readings of "strong turbulence" tried on Table 4's scenario 7 (label -> turbulence).
 TURBULENCE_CANDIDATES = {
@@ -183,9 +184,11 @@ def out_of_sample(results):
     pandas.DataFrame
         One row per paper row: ``table``, ``paper mean``, ``predicted mean`` with
         ``ci_low``/``ci_high``, ``paper max``, ``predicted max``, ``difference``
-        (predicted minus paper mean) and ``paper in CI``.
+        (predicted minus paper mean), ``paper in CI``, ``correct_rate`` and
+        ``geometry alone`` (:func:`line_silhouette` x 100: the score the layout's
+        speeds would get as points on a line).
     """
-    from .experiments import comparison_table
+    from .experiments import EXPERIMENTS, comparison_table
 
     tables = {"exp1": "Table 4 (500 loops)", "exp2": "Table 5", "exp3": "Table 6",
               "exp4": "Table 7"}
@@ -197,14 +200,31 @@ def out_of_sample(results):
         if exp == "exp1":
             df = df[df["scenario_id"] == 8]
         c = comparison_table(df).reset_index()
+        cases = EXPERIMENTS[exp].cases(df["reading"].iloc[0])
+        geometry = [line_silhouette(cases[int(k)].setting) for k in c["case"]]
         frames.append(pd.DataFrame({
             "table": label, "row": c["row"], "paper mean": c["paper mean"],
             "predicted mean": c["replication mean"], "ci_low": c["ci_low"], "ci_high": c["ci_high"],
             "paper max": c["paper max"], "predicted max": c["replication max"],
             "difference": c["replication mean"] - c["paper mean"],
             "paper in CI": (c["ci_low"] <= c["paper mean"]) & (c["paper mean"] <= c["ci_high"]),
-            "correct_rate": c["correct (%)"] / 100, "n_loops": c["loops"]}))
+            "correct_rate": c["correct (%)"] / 100,
+            "geometry alone": [100 * g for g in geometry], "n_loops": c["loops"]}))
     return pd.concat(frames, ignore_index=True).set_index(["table", "row"])
+
+
+def line_silhouette(setting):
+    """Silhouette of the setting's wind speeds as points on a line, grouped as the setting
+    groups them: what the layout's geometry alone predicts for a constant pair (NaN for
+    turbulence, whose environments are not points on a line)."""
+    from sklearn.metrics import silhouette_score
+
+    if setting.has_turbulence:
+        return float("nan")
+    v = np.concatenate([np.array(setting.group_a.values), np.array(setting.group_b.values)])
+    d = np.array(setting.group_a.values).sum(axis=0)  # one axis for both groups
+    d = d / np.linalg.norm(d) if np.linalg.norm(d) > 0 else np.array([1.0, 0.0, 0.0])
+    return float(silhouette_score((v @ d)[:, None], setting.groups))
 
 
 def scaled_setting(setting, factor):
