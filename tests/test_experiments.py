@@ -150,7 +150,7 @@ def test_paper_values_load_with_sources():
         assert "source" in df.columns and len(df) >= 2
     t4 = load_paper_values("exp1")
     assert t4.set_index("scenario_id").loc[4, "maximum"] == 79.83
-    assert t4.set_index("scenario_id").loc[8, "mean"] == 79.30
+    assert t4.set_index(["scenario_id", "long_run"]).loc[(1, True), "mean"] == 79.30
     assert set(load_paper_values("exp2")["n_env"]) == {6, 20}
     with pytest.raises(ValueError, match="unknown experiment"):
         load_paper_values("exp9")
@@ -175,8 +175,10 @@ def test_claims_verdicts_on_synthetic_results():
     exp1 = []
     means = {1: 60, 2: 95, 3: 94, 4: 55, 5: 96, 6: 95, 7: 85}
     for k, m in means.items():
-        exp1 += [{"scenario_id": k, "loop": i, "score": m + rng.normal(0, 1)} for i in range(50)]
-    exp1 += [{"scenario_id": 8, "loop": i, "score": 60 + rng.normal(0, 1)} for i in range(500)]
+        exp1 += [{"scenario_id": k, "long_run": False, "loop": i, "score": m + rng.normal(0, 1)}
+                 for i in range(50)]
+    exp1 += [{"scenario_id": 1, "long_run": True, "loop": i, "score": 60 + rng.normal(0, 1)}
+             for i in range(500)]
     sweep = lambda xkey, xs, f: [{"scenario_id": k, xkey: x, "loop": i, "score": f(x) + rng.normal(0, 1)}
                                  for k in (1, 2, 3, 4) for x in xs for i in range(50)]
     results = {

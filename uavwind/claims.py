@@ -66,7 +66,9 @@ def _scores(df, **where):
     return sub.sort_values("loop")["score"].to_numpy()
 
 
-def _by_id(df, scenario_id):
+def _by_id(df, scenario_id, long_run=False):
+    if "long_run" in df.columns:
+        return _scores(df, scenario_id=scenario_id, long_run=long_run)
     return _scores(df, scenario_id=scenario_id)
 
 
@@ -76,7 +78,7 @@ def _excludes(ci, sign):
 
 def claim_c1(r):
     df = r["exp1"]
-    d = df[df["scenario_id"] <= 7]
+    d = df[~df["long_run"]] if "long_run" in df.columns else df
     means = d.groupby("scenario_id")["score"].mean()
     lowest = set(means.nsmallest(2).index)
     others = [k for k in means.index if k not in (1, 4)]
@@ -85,7 +87,7 @@ def claim_c1(r):
     ok = [_excludes(diffs[k], -1) for k in (1, 4)]
     verdict = ("reproduced" if lowest == {1, 4} and all(ok)
                else "partly" if lowest & {1, 4} else "not reproduced")
-    ev = (f"means by scenario: " + ", ".join(f"S{k} {m:.1f}" for k, m in means.items())
+    ev = ("means by scenario: " + ", ".join(f"S{k} {m:.1f}" for k, m in means.items())
           + f"; paired difference vs the lowest other scenario (S{worst_other}): "
           + ", ".join(f"S{k} {_fmt(diffs[k])}" for k in (1, 4)))
     return Verdict("C1", "Light-vs-light cases (scenarios 1 and 4) score lowest in Exp 1.",
@@ -115,7 +117,7 @@ def claim_c2(r):
 
 def claim_c3(r):
     df = r["exp1"]
-    long = _by_id(df, 8)
+    long = _by_id(df, 1, long_run=True)
     short = long[:min(50, max(1, long.size // 10))]
     gain = long.max() - short.max()
     verdict = "reproduced" if gain <= 1.0 else "partly" if gain <= 3.0 else "not reproduced"

@@ -97,6 +97,16 @@ class Experiment:
         (empty: its own).
     search : dict
         Extra arguments of the search (e.g. CEM's ``rank_by``); part of the cache key.
+    group_by : tuple of str
+        Label columns of :func:`summary_table`'s rows (max and mean per group).
+    paper_keys : tuple of str
+        Columns that join a result row to the paper's row in :func:`comparison_table`
+        (empty: the paper reports nothing to compare with).
+    summary : callable, optional
+        ``df -> DataFrame`` replacing the max/mean summary (CEM, the fits).
+    reference : callable, optional
+        ``df -> DataFrame`` of the paper's rows (``paper_keys``, ``scenario``,
+        ``maximum``, ``mean``); default: :func:`uavwind.paper.load_paper_values`.
     """
 
     id: str
@@ -108,6 +118,10 @@ class Experiment:
     build: object = field(repr=False)
     tables_as: str = ""
     search: dict = field(default_factory=dict, hash=False, compare=False)
+    group_by: tuple = ("scenario",)
+    paper_keys: tuple = ()
+    summary: object = field(default=None, repr=False)
+    reference: object = field(default=None, repr=False)
 
     def cases(self, reading=None):
         """The cases under ``reading`` (a name or :class:`~uavwind.scenarios.Reading`)."""
@@ -129,11 +143,11 @@ def _exp1(reading):
     cases = []
     for k, (a, b) in PAPER_SCENARIOS.items():
         cases.append(Case(_make(reading, a, b, 5),
-                          {"scenario": _scenario_label(a, b), "scenario_id": k}))
+                          {"scenario": _scenario_label(a, b), "scenario_id": k, "long_run": False}))
     a, b = PAPER_SCENARIOS[1]
     cases.append(Case(_make(reading, a, b, reading.long_run_per_group),
-                      {"scenario": _scenario_label(a, b) + " (long run)", "scenario_id": 8},
-                      long=True))
+                      {"scenario": _scenario_label(a, b) + " (long run)", "scenario_id": 1,
+                       "long_run": True}, long=True))
     return cases
 
 
@@ -217,34 +231,56 @@ def _fit_turbulence(reading):
             for name, t in TURBULENCE_CANDIDATES.items()]
 
 
+def _cem_summary(df):
+    g = df.groupby("iteration")["score"]
+    elite = df[df["elite"]].groupby("iteration")["score"].mean()
+    return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Elite mean": elite,
+                         "Best so far": g.max().cummax()})
+
+
+def _example_reference(df):
+    from .paper import load_paper_values
+    ref = load_paper_values("example")
+    score = float(ref.loc[ref["quantity"] == "score", "value"].iloc[0])
+    return pd.DataFrame({"scenario": [df["scenario"].iloc[0]], "maximum": [score],
+                         "mean": [float("nan")]})
+
+
 EXPERIMENTS = {e.id: e for e in [
     Experiment("example", "Worked example", "How does one loop look, and how do 50 random "
                "loops score, for strong shear vs light constant?", "model.md",
-               "Table 3, Figure 3", "random", _example),
+               "Table 3, Figure 3", "random", _example, paper_keys=("scenario",),
+               reference=_example_reference),
     Experiment("exp1", "Wind speed", "How does the wind speed of the two conditions affect "
-               "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1),
+               "the classification?", "exp1_wind_speed.md", "Table 4, Figure 4", "random", _exp1,
+               paper_keys=("scenario_id", "long_run")),
     Experiment("exp2", "Range similarity", "Does a wider gap between the groups' speed ranges "
                "raise the score?", "exp2_range_similarity.md", "Table 5, Figure 5", "random",
-               _sweep(range_similarity_settings, "n_env")),
+               _sweep(range_similarity_settings, "n_env"), group_by=("scenario", "n_env"),
+               paper_keys=("scenario_id", "n_env")),
     Experiment("exp3", "Number of environments", "Do more environments per group raise the "
                "score, with the gap fixed?", "exp3_environment_count.md", "Table 6, Figure 6",
-               "random", _sweep(environment_count_settings, "n_env")),
+               "random", _sweep(environment_count_settings, "n_env"),
+               group_by=("scenario", "n_env"), paper_keys=("scenario_id", "n_env")),
     Experiment("exp4", "Thrust changes", "Does the number of thrust changes matter?",
-               "exp4_thrust_changes.md", "Table 7, Figure 7", "random", _exp4),
+               "exp4_thrust_changes.md", "Table 7, Figure 7", "random", _exp4,
+               group_by=("scenario", "thrust_changes"), paper_keys=("scenario_id", "thrust_changes")),
     Experiment("exp5", "Wind direction", "Do opposite wind directions remove the "
                "misclassifications?", "exp5_wind_direction.md", "Table 8, Figure 8", "random",
-               _exp5),
+               _exp5, paper_keys=("direction",)),
     Experiment("exp6", "Cross-Entropy Method", "Does CEM find better thrust sequences than "
-               "random search?", "exp6_cem.md", "Figure 9", "cem", _exp6),
+               "random search?", "exp6_cem.md", "Figure 9", "cem", _exp6,
+               summary=_cem_summary),
     Experiment("exp6_raw", "Cross-Entropy Method, raw silhouette", "Does CEM find a signal "
                "when its elites are ranked by the raw silhouette instead of the floored score?",
                "exp6_cem.md", "Figure 9 (alternative objective)", "cem", _exp6,
-               tables_as="exp6", search={"rank_by": "silhouette"}),
+               tables_as="exp6", search={"rank_by": "silhouette"}, summary=_cem_summary),
     Experiment("fit_layout", "Layout fit", "Which gap between same-strength groups gives "
-               "Table 4's scores?", "inference.md", "Table 4 (fit)", "random", _fit_layout),
+               "Table 4's scores?", "inference.md", "Table 4 (fit)", "random", _fit_layout,
+               group_by=("scenario_id", "scenario", "gap_ratio")),
     Experiment("fit_turbulence", "Turbulence reading", "Which reading of the cited Dryden "
                "implementation gives Table 4's turbulence row?", "inference.md",
-               "Table 4 (scenario 7)", "random", _fit_turbulence),
+               "Table 4 (scenario 7)", "random", _fit_turbulence, group_by=("candidate",)),
 ]}
 
 
@@ -373,8 +409,8 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     return out
 
 
-_LABEL_KEYS = ("scenario", "scenario_id", "n_env", "thrust_changes", "direction", "gap_ratio",
-               "candidate")
+_LABEL_KEYS = ("scenario", "scenario_id", "long_run", "n_env", "thrust_changes", "direction",
+               "gap_ratio", "candidate")
 
 
 def _check_cases(cases, n):
@@ -399,44 +435,23 @@ def _n_loops(prof, case):
 # summaries in the paper's layout
 # --------------------------------------------------------------------------- #
 def _maxmean(df, by):
-    g = df.groupby(by, sort=False)["score"]
+    g = df.groupby(list(by), sort=False)["score"]
     return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Correct (%)": 100 * g.apply(
         lambda s: (s > 0).mean()), "Loops": g.size()})
 
 
-def _table_id(df):
-    """The experiment id whose tables ``df`` (an experiment's results) is laid out as."""
-    exp = df["experiment"].iloc[0]
-    e = EXPERIMENTS.get(exp)
-    return (e.tables_as or e.id) if e is not None else exp
+def _record(df):
+    """The :class:`Experiment` whose tables ``df`` (an experiment's results) is laid out as."""
+    exp = get_experiment(df["experiment"].iloc[0])
+    return EXPERIMENTS[exp.tables_as] if exp.tables_as else exp
 
 
 def summary_table(df):
-    """The replication's version of the paper's table for ``df`` (an experiment's results).
-
-    exp1/exp5: Maximum and Mean per scenario. exp2/exp3: per scenario and
-    number of environments. exp4: per scenario and thrust changes. exp6: max,
-    mean and elite mean per iteration.
-    """
-    exp = _table_id(df)
-    if exp in ("example", "exp1", "exp5"):
-        return _maxmean(df, "scenario")
-    if exp in ("exp2", "exp3"):
-        return _maxmean(df, ["scenario", "n_env"])
-    if exp == "exp4":
-        return _maxmean(df, ["scenario", "thrust_changes"])
-    if exp == "fit_layout":
-        from .inference import silhouette_curves
-        return silhouette_curves(df).set_index(["scenario_id", "gap_ratio"])
-    if exp == "fit_turbulence":
-        from .inference import compare_turbulence
-        return compare_turbulence(df)
-    if exp == "exp6":
-        g = df.groupby("iteration")["score"]
-        elite = df[df["elite"]].groupby("iteration")["score"].mean()
-        return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Elite mean": elite,
-                             "Best so far": g.max().cummax()})
-    raise ValueError(f"unknown experiment {exp!r}")
+    """The replication's version of the paper's table for ``df`` (an experiment's results):
+    maximum, mean, share correct and loops per the experiment's ``group_by`` columns, or
+    its own ``summary`` (CEM: per iteration)."""
+    exp = _record(df)
+    return exp.summary(df) if exp.summary is not None else _maxmean(df, exp.group_by)
 
 
 def paper_table(exp_id):
@@ -477,11 +492,6 @@ def n_loops_total(profile):
     return total
 
 
-_JOIN = {"example": ["scenario"], "exp1": ["scenario_id"], "exp2": ["scenario_id", "n_env"],
-         "exp3": ["scenario_id", "n_env"], "exp4": ["scenario_id", "thrust_changes"],
-         "exp5": ["direction"]}
-
-
 def comparison_table(df):
     """Paper vs replication, side by side, for the rows the paper reports.
 
@@ -493,17 +503,11 @@ def comparison_table(df):
     from .claims import bootstrap_ci
     from .paper import load_paper_values
 
-    exp = _table_id(df)
-    if exp not in _JOIN:
-        raise ValueError(f"no paper table to compare for {exp!r}")
-    if exp == "example":
-        ref = load_paper_values("example")
-        score = float(ref.loc[ref["quantity"] == "score", "value"].iloc[0])
-        ref = pd.DataFrame({"scenario": [df["scenario"].iloc[0]], "maximum": [score],
-                            "mean": [float("nan")]})
-    else:
-        ref = load_paper_values(exp)
-    keys = _JOIN[exp]
+    exp = _record(df)
+    if not exp.paper_keys:
+        raise ValueError(f"no paper table to compare for {exp.id!r}")
+    ref = exp.reference(df) if exp.reference is not None else load_paper_values(exp.id)
+    keys = exp.paper_keys
     rows = []
     for _, p in ref.iterrows():
         sub = df
