@@ -10,7 +10,8 @@ JOBS    ?= -1
 BOOK    ?= book
 GEN     := $(BOOK)/generated
 NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count \
-             exp4_thrust_changes exp5_wind_direction exp6_cem inference claims performance explore
+             exp4_thrust_changes exp5_wind_direction exp6_cem inference exp7_noise \
+             exp8_observation exp9_baseline claims performance explore
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js

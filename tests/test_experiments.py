@@ -14,11 +14,16 @@ TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
 
 def test_registry_matches_the_paper():
     assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6",
-                                    "exp6_raw", "fit_layout", "fit_turbulence"]
+                                    "exp6_raw", "exp7", "exp8", "exp9", "fit_layout",
+                                    "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
     n_ratios = len(ex.FIT_RATIOS)
     assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
-                     "exp6": 1, "exp6_raw": 1, "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
+                     "exp6": 1, "exp6_raw": 1, "exp7": 3 * 11, "exp8": 3 * 4 * 2, "exp9": 3 * 11,
+                     "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
+    # Exp 9 is Exp 7's loops seen by the baseline: the same settings, so one cache
+    assert [c.setting.key() for c in ex.EXPERIMENTS["exp9"].cases()] == \
+        [c.setting.key() for c in ex.EXPERIMENTS["exp7"].cases()]
     # the layout fit: Exp 1's same-strength scenarios, every ratio of the grid
     fit = ex.EXPERIMENTS["fit_layout"].cases()
     assert sorted({c.labels["scenario_id"] for c in fit}) == [1, 3, 4, 6]
@@ -41,13 +46,14 @@ def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
     assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
     # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
-    # exp6 and exp6_raw 30x20 each, fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
+    # exp6 and exp6_raw 30x20 each, exp7/exp9 33x50 each, exp8 24x50,
+    # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
     assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 2 * 600
-                                         + 4 * 16 * 20 + 6 * 50)
+                                         + 2 * 33 * 50 + 24 * 50 + 4 * 16 * 20 + 6 * 50)
     with pytest.raises(ValueError, match="profile"):
         ex.run_experiment("exp5", profile="huge")
-    with pytest.raises(ValueError, match="unknown experiment 'exp7'"):
-        ex.run_experiment("exp7")
+    with pytest.raises(ValueError, match="unknown experiment 'exp99'"):
+        ex.run_experiment("exp99")
     with pytest.raises(TypeError, match="experiment id"):
         ex.get_experiment(5)
 
@@ -193,7 +199,7 @@ def test_claims_verdicts_on_synthetic_results():
     }
     results["exp5"].loc[::2, "score"] = 40.0
     v = evaluate_claims(results)["verdict"]
-    assert v.to_dict() == {f"C{i}": "reproduced" for i in range(1, 9)}
+    assert v.to_dict() == {**{f"C{i}": "reproduced" for i in range(1, 9)}, "C9": "not run"}
     # break C7: opposite directions misgroup as often as similar ones
     results["exp5"]["score"] = 0.0
     assert evaluate_claims(results).loc["C7", "verdict"] == "not reproduced"

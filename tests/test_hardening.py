@@ -178,7 +178,7 @@ def test_cem_refuses_a_wrong_objective():
 # --------------------------------------------------------------------------- #
 @pytest.mark.parametrize("argv, option", [
     (["run", "exp1", "--jobs", "0"], "--jobs"), (["run", "exp1", "--seed", "-5"], "--seed"),
-    (["run", "exp1", "--engine", "bogus"], "--engine"), (["run", "exp9"], "exp9"),
+    (["run", "exp1", "--engine", "bogus"], "--engine"), (["run", "exp99"], "exp99"),
 ])
 def test_cli_usage_errors_are_one_line(argv, option, capsys):
     with pytest.raises(SystemExit) as stop:

@@ -61,6 +61,8 @@ class LoopResult:
         k-means iterations run.
     groups : ndarray of int, shape (n_env,)
         The true group (0/1) of each environment.
+    metrics : dict
+        Further per-loop figures (e.g. the physics baseline's), added to the row.
     """
 
     score: float
@@ -69,6 +71,7 @@ class LoopResult:
     correct: bool
     n_iter: int
     groups: np.ndarray = field(repr=False)
+    metrics: dict = field(default_factory=dict, repr=False)
 
     @property
     def observations(self):
@@ -78,7 +81,7 @@ class LoopResult:
     def to_dict(self):
         """Flat row for a pandas table."""
         return {"score": self.score, "silhouette": self.silhouette, "correct": self.correct,
-                "n_iter": self.n_iter, "labels": self.labels.tolist()}
+                "n_iter": self.n_iter, "labels": self.labels.tolist(), **self.metrics}
 
     def to_table(self, thrust=None):
         """The paper's "Simulation parameters and outputs after one simulation loop" table.

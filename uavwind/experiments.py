@@ -32,7 +32,7 @@ damaged chunk is moved aside and recomputed) and locked while computed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import pandas as pd
@@ -40,14 +40,15 @@ import pandas as pd
 from .cache import RESULTS_VERSION, Expected, cache_key, cached, check_writable, results_dir
 from .clustering import ENGINES, default_engine
 from .config import check_scalar
-from .scenarios import (PAPER_SCENARIOS, Layout, Setting, direction_settings,
+from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
+from .scenarios import (PAPER_SCENARIOS, Layout, Setting, WindCondition, direction_settings,
                         environment_count_settings, get_reading, make_setting,
                         range_similarity_settings, table3_setting)
 from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
-           "FIT_RATIOS", "DEFAULT_READING", "provenance"]
+           "FIT_RATIOS", "DEFAULT_READING", "provenance", "NOISE_LEVELS", "BIAS_LEVELS"]
 
 #: The reading experiments run under unless told otherwise.
 DEFAULT_READING = "inferred"
@@ -231,6 +232,49 @@ def _fit_turbulence(reading):
             for name, t in TURBULENCE_CANDIDATES.items()]
 
 
+#: Exp 7's white position-noise levels [m] (0.02: RTK) and bias levels [m] (on 0.1 m white).
+NOISE_LEVELS = (0.0, 0.02, 0.1, 0.3, 0.5, 1.0, 2.0, 5.0)
+BIAS_LEVELS = (0.5, 1.0, 2.0)
+#: Correlation time of Exp 7's Gauss-Markov bias [s].
+BIAS_TIME = 300.0
+
+
+def _beyond_scenarios(reading):
+    """The three scenarios of Exps 7-9: the worked example, light vs light constant, and
+    light constant vs light shear (5 environments per group)."""
+    out = [("Strong shear vs light constant (Table 3)", table3_setting())]
+    for a, b in (("light constant", "light constant"), ("light constant", "light shear")):
+        s = _make(reading, a, b, 5)
+        out.append((_scenario_label(WindCondition.parse(a), WindCondition.parse(b)), s))
+    return out
+
+
+def _exp7(reading):
+    cases = []
+    for label, s in _beyond_scenarios(reading):
+        levels = [(sig, 0.0) for sig in NOISE_LEVELS] + [(0.1, b) for b in BIAS_LEVELS]
+        for sig, bias in levels:
+            noise = Noise(position=sig, bias=bias, bias_time=BIAS_TIME)
+            cases.append(Case(replace(s, noise=noise, baseline=True),
+                              {"scenario": label, "noise_sigma": sig, "noise_bias": bias}))
+    return cases
+
+
+def _exp8(reading):
+    cases = []
+    for label, s in _beyond_scenarios(reading):
+        for obs in OBSERVATIONS:
+            for name, noise in (("none", None), ("consumer", CONSUMER_NOISE)):
+                cases.append(Case(replace(s, observation=obs, noise=noise),
+                                  {"scenario": label, "observation": obs, "noise": name}))
+    return cases
+
+
+def _baseline_summary(df):
+    from .beyond import baseline_table
+    return baseline_table(df)
+
+
 def _cem_summary(df):
     g = df.groupby("iteration")["score"]
     elite = df[df["elite"]].groupby("iteration")["score"].mean()
@@ -275,6 +319,16 @@ EXPERIMENTS = {e.id: e for e in [
                "when its elites are ranked by the raw silhouette instead of the floored score?",
                "exp6_cem.md", "Figure 9 (alternative objective)", "cem", _exp6,
                tables_as="exp6", search={"rank_by": "silhouette"}, summary=_cem_summary),
+    Experiment("exp7", "Position noise", "How much GNSS-like position noise can the method "
+               "take (the paper's sub-metre claim)?", "exp7_noise.md", "beyond the paper",
+               "random", _exp7, group_by=("scenario", "noise_sigma", "noise_bias")),
+    Experiment("exp8", "What to observe", "Which observation separates which wind conditions: "
+               "position, velocity, acceleration or position and velocity?",
+               "exp8_observation.md", "beyond the paper", "random", _exp8,
+               group_by=("scenario", "observation", "noise")),
+    Experiment("exp9", "A physics baseline", "What does a model-based wind estimate from the "
+               "same positions achieve, beside causal curiosity?", "exp9_baseline.md",
+               "beyond the paper", "random", _exp7, summary=_baseline_summary),
     Experiment("fit_layout", "Layout fit", "Which gap between same-strength groups gives "
                "Table 4's scores?", "inference.md", "Table 4 (fit)", "random", _fit_layout,
                group_by=("scenario_id", "scenario", "gap_ratio")),
@@ -410,7 +464,7 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
 
 
 _LABEL_KEYS = ("scenario", "scenario_id", "long_run", "n_env", "thrust_changes", "direction",
-               "gap_ratio", "candidate")
+               "gap_ratio", "candidate", "noise_sigma", "noise_bias", "observation", "noise")
 
 
 def _check_cases(cases, n):

@@ -328,3 +328,76 @@ def predicted_vs_paper(table):
            title="Rows the fit never saw")
     ax.legend(fontsize=7, loc="upper left")
     return fig
+
+
+# --------------------------------------------------------------------------- #
+# beyond the paper
+# --------------------------------------------------------------------------- #
+def noise_curves(table):
+    """Exp 7: mean score and share of correctly grouped loops against the white position
+    noise (log x; 0 drawn at 0.01 m), one line per scenario, 95% bands."""
+    plt = _plt()
+    t = table[table["noise_bias"] == 0]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    for scen, sub in t.groupby("scenario", sort=False):
+        x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
+        for ax, (y, lo, hi, scale) in zip(axes, [("mean", "ci_low", "ci_high", 1),
+                                                  ("correct_rate", "correct_low",
+                                                   "correct_high", 100)]):
+            line, = ax.plot(x, scale * sub[y], marker="o", ms=3, label=scen)
+            ax.fill_between(x, scale * sub[lo], scale * sub[hi], color=line.get_color(),
+                            alpha=0.15)
+    for ax, label in zip(axes, ["mean score", "correctly grouped loops (%)"]):
+        ax.set_xscale("log")
+        ax.axvline(1.0, color="0.5", ls=":", lw=0.8)
+        ax.set(xlabel="position noise sigma [m] (0 drawn at 0.01)", ylabel=label, ylim=(-2, 102))
+    axes[1].axhline(50, color="0.5", ls="--", lw=0.8)
+    axes[0].legend(fontsize=7, loc="lower left")
+    return fig
+
+
+def observation_bars(table):
+    """Exp 8: mean score (95% CI) per observation, one panel per scenario, without and
+    with consumer-grade noise."""
+    plt = _plt()
+    scen = list(dict.fromkeys(table["scenario"]))
+    fig, axes = plt.subplots(1, len(scen), figsize=(4.2 * len(scen), 3.6), sharey=True,
+                             constrained_layout=True)
+    axes = np.atleast_1d(axes)
+    for ax, sc in zip(axes, scen):
+        sub = table[table["scenario"] == sc]
+        obs = list(dict.fromkeys(sub["observation"]))
+        x = np.arange(len(obs))
+        for j, (noise, colour) in enumerate((("none", "tab:blue"), ("consumer", "tab:orange"))):
+            s = sub[sub["noise"] == noise].set_index("observation").reindex(obs)
+            err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
+            ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err, capsize=2, color=colour,
+                   label=f"noise: {noise}")
+        ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=8)
+        ax.set(title=sc, ylim=(0, 102))
+    axes[0].set_ylabel("mean score")
+    axes[0].legend(fontsize=7, loc="lower left")
+    return fig
+
+
+def baseline_vs_clustering(table):
+    """Exp 9: the baseline's wind RMSE and both methods' correct shares against the
+    white position noise, one line per scenario."""
+    plt = _plt()
+    t = table[table["noise_bias"] == 0]
+    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    for scen, sub in t.groupby("scenario", sort=False):
+        x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
+        line, = axes[0].plot(x, sub["rmse"], marker="o", ms=3, label=scen)
+        c = line.get_color()
+        axes[1].plot(x, 100 * sub["baseline_correct_rate"], marker="s", ms=3, color=c,
+                     label=f"{scen}: baseline")
+        axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=3, ls="--", color=c,
+                     label=f"{scen}: causal curiosity")
+    axes[0].set(xscale="log", yscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+                ylabel="baseline wind RMSE [m/s]")
+    axes[1].set(xscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+                ylabel="correctly grouped loops (%)", ylim=(-2, 102))
+    axes[0].legend(fontsize=7)
+    axes[1].legend(fontsize=6, loc="lower left")
+    return fig

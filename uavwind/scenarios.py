@@ -37,6 +37,7 @@ import pandas as pd
 
 from .actions import SAMPLERS
 from .config import UAV, check_scalar
+from .observation import Noise, check_observation
 from .wind import VARIANTS, CitedDryden, CombinedWind, ConstantWind, DrydenWind, ShearWind
 
 __all__ = [
@@ -228,6 +229,14 @@ class Setting:
         Time step [s], flight time [s], initial height [m].
     name : str
         Short label for tables.
+    observation : str
+        What the loop clusters (:data:`uavwind.observation.OBSERVATIONS`); the paper:
+        ``"position"``.
+    noise : Noise, optional
+        Observation noise (:class:`uavwind.observation.Noise`); the paper: none.
+    baseline : bool
+        Also run the physics baseline (:func:`uavwind.baseline.baseline_metrics`) on
+        the observed positions of every loop (Exp 9).
     """
 
     group_a: EnvironmentGroup
@@ -239,8 +248,16 @@ class Setting:
     duration: float = 12.0
     start_altitude: float = 10.0
     name: str = ""
+    observation: str = "position"
+    noise: Noise | None = None
+    baseline: bool = False
 
     def __post_init__(self):
+        check_observation(self.observation)
+        if self.noise is not None and not isinstance(self.noise, Noise):
+            raise TypeError(f"noise must be a Noise or None, got {type(self.noise).__name__}")
+        if not isinstance(self.baseline, bool):
+            raise TypeError(f"baseline must be a bool, got {type(self.baseline).__name__}")
         for g in ("group_a", "group_b"):
             if not isinstance(getattr(self, g), EnvironmentGroup):
                 raise TypeError(f"{g} must be an EnvironmentGroup, got {type(getattr(self, g)).__name__}")
@@ -263,6 +280,11 @@ class Setting:
     def groups(self):
         """Group of each environment, shape (n_env,): 0 for ``group_a``, 1 for ``group_b``."""
         return np.repeat([0, 1], [self.group_a.n_env, self.group_b.n_env])
+
+    @property
+    def plain(self):
+        """The paper's loop: positions, no noise, no baseline."""
+        return self.observation == "position" and self.noise is None and not self.baseline
 
     @property
     def has_turbulence(self):
@@ -288,6 +310,23 @@ class Setting:
         return simulate(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                         duration=self.duration, start_altitude=self.start_altitude)
 
+    def observe(self, thrust, seed=None):
+        """``(observations, flight, positions)`` of one loop: the observed channel with
+        its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
+        :class:`~uavwind.dynamics.Flight`, and the noisy positions (what the baseline sees)."""
+        from .dynamics import simulate_flight
+        from .observation import noise_seed, observe
+
+        flight = simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
+                                 duration=self.duration, start_altitude=self.start_altitude)
+        ns = noise_seed(seed)
+        obs = observe(flight, self.observation, self.noise, seed=ns, gravity=self.uav.gravity)
+        if not self.baseline:
+            return obs, flight, None
+        pos = obs if self.observation == "position" else observe(
+            flight, "position", self.noise, seed=noise_seed(seed), gravity=self.uav.gravity)
+        return obs, flight, pos
+
     def to_dict(self):
         return asdict(self)
 
@@ -298,6 +337,9 @@ class Setting:
         for g in ("group_a", "group_b"):  # the standard variant keeps its earlier keys
             if fields[g]["variant"] == "mil-f-8785c" and fields[g]["cited"] is None:
                 del fields[g]["variant"], fields[g]["cited"]
+        for k, default in (("observation", "position"), ("noise", None), ("baseline", False)):
+            if fields[k] == default:  # the paper's loop keeps its earlier keys
+                del fields[k]
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

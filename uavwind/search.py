@@ -80,8 +80,19 @@ def _pin_threads():
 def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     if pin:  # inside a worker process: do not oversubscribe the cores
         _pin_threads()
-    traj = setting.simulate(thrust, seed=wind_seed)
-    return score_loop(traj, setting.groups, engine=engine, **params)
+    if setting.plain:
+        traj = setting.simulate(thrust, seed=wind_seed)
+        return score_loop(traj, setting.groups, engine=engine, **params)
+    obs, flight, positions = setting.observe(thrust, seed=wind_seed)
+    res = score_loop(obs, setting.groups, engine=engine, **params)
+    if setting.baseline:
+        from dataclasses import replace
+
+        from .baseline import baseline_metrics
+        metrics = baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
+                                   setting.groups, start_position=flight.start)
+        res = replace(res, metrics=metrics)
+    return res
 
 
 def _check_jobs(n_jobs):
@@ -174,7 +185,7 @@ def _rows(results, thrusts):
                      "correct": res.correct, "n_iter": res.n_iter,
                      "labels": res.labels.tolist(), "times": th.times.tolist(),
                      "magnitudes": th.magnitudes.tolist(),
-                     "directions": th.directions.tolist()})
+                     "directions": th.directions.tolist(), **res.metrics})
     return rows
 
 

@@ -1,0 +1,125 @@
+"""A physics baseline: the wind estimated from the same positions with the UAV's own model.
+
+This module owns :func:`estimate_wind` and :func:`baseline_metrics` (Exp 9).
+
+The UAV flew a known thrust sequence, and under eqs 2-8 its air-relative velocity
+does not depend on the wind. Simulating the same thrust in still air therefore gives
+the still-air positions ``s[k]``, and the flown positions are ``p[k] = s[k] +
+sum_{j<=k} w[j] dt``. Least squares on this discrete model gives:
+
+* ``model="constant"``: one wind per environment, ``w = sum_k t_k (p_k - s_k) /
+  sum_k t_k^2`` with ``t_k = (k + 1) dt`` (the start position is known). Exact for
+  noise-free positions under a constant wind, and unbiased under zero-mean noise
+  (the estimate is linear in the noise);
+* ``model="path"``: the wind along the path, ``w[k] = ((p_k - p_{k-1}) - (s_k -
+  s_{k-1})) / dt``; exact without noise for any wind model, noisy with it.
+
+This is the drag-model reasoning that flight controllers use for sensorless wind
+estimation (the PX4 and ArduPilot EKFs fuse a drag model with GNSS velocity to
+estimate the wind), reduced to the paper's point mass. It needs the UAV's mass and
+drag coefficient; :func:`baseline_metrics` also measures what a 20% error in them does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .actions import ThrustSequence
+from .config import UAV, check_array, check_scalar
+
+__all__ = ["estimate_wind", "baseline_metrics", "WIND_MODELS"]
+
+#: The wind models :func:`estimate_wind` fits.
+WIND_MODELS = ("constant", "path")
+
+
+def _still_air(thrust, uav, dt, n, start):
+    from .dynamics import simulate
+    from .wind import ConstantWind
+
+    return simulate(thrust, ConstantWind([[0.0, 0.0, 0.0]]), uav=uav, dt=dt, duration=n * dt,
+                    start_position=start)[0]
+
+
+def estimate_wind(positions, thrust, uav=None, dt=0.1, model="constant", start_position=None):
+    """Estimate each environment's wind from its positions and the known thrust.
+
+    Parameters
+    ----------
+    positions : array_like, shape (n_env, n_steps, 3)
+        Observed positions [m] after each step (as :func:`uavwind.simulate` returns).
+    thrust : ThrustSequence
+        The thrust the UAV flew.
+    uav : UAV, optional
+        The model the estimator assumes (default ``UAV()``).
+    dt : float
+        Step [s] of the positions.
+    model : {"constant", "path"}
+    start_position : array_like, shape (3,), optional
+        Known start [m]; default (0, 0, 10) as :func:`uavwind.simulate`.
+
+    Returns
+    -------
+    ndarray
+        ``"constant"``: (n_env, 3) [m/s]; ``"path"``: (n_env, n_steps, 3) [m/s].
+
+    Examples
+    --------
+    >>> import uavwind as uw
+    >>> pos = uw.simulate(uw.PAPER_EXAMPLE, uw.ConstantWind([[1.5, -0.5, 0.0]]))
+    >>> estimate_wind(pos, uw.PAPER_EXAMPLE).round(12).tolist()
+    [[1.5, -0.5, 0.0]]
+    """
+    p = check_array(positions, "positions", ndim=3)
+    if p.shape[2] != 3 or p.shape[1] < 1 or p.shape[0] < 1:
+        raise ValueError(f"positions must have shape (n_env, n_steps, 3), got {p.shape}")
+    if not isinstance(thrust, ThrustSequence):
+        raise TypeError(f"thrust must be a ThrustSequence, got {type(thrust).__name__}")
+    uav = UAV() if uav is None else uav
+    if not isinstance(uav, UAV):
+        raise TypeError(f"uav must be a UAV, got {type(uav).__name__}")
+    dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False)
+    if model not in WIND_MODELS:
+        raise ValueError(f"model must be one of {list(WIND_MODELS)}, got {model!r}")
+    start = (np.array([0.0, 0.0, 10.0]) if start_position is None
+             else check_array(start_position, "start_position", shape=(3,)))
+    n = p.shape[1]
+    drift = p - _still_air(thrust, uav, dt, n, start)[None]  # (n_env, n, 3): sum of w dt
+    if model == "constant":
+        t = (np.arange(n) + 1.0) * dt
+        return np.einsum("k,ekx->ex", t, drift) / np.dot(t, t)
+    prev = np.concatenate([np.zeros_like(drift[:, :1]), drift[:, :-1]], axis=1)
+    return (drift - prev) / dt
+
+
+def _grouped(estimates, groups):
+    """Whether 2-means on the estimated winds reproduces ``groups`` (up to a label swap)."""
+    from sklearn.cluster import KMeans
+
+    labels = KMeans(n_clusters=2, n_init=10, random_state=0).fit_predict(estimates)
+    return bool(np.array_equal(labels, groups) or np.array_equal(labels, 1 - groups))
+
+
+def baseline_metrics(flight, positions, thrust, uav, dt, groups, start_position=None,
+                     model_error=0.2):
+    """The baseline on one loop: wind RMSE and grouping, with the true UAV and with
+    ``model_error`` (20%) too much mass or drag coefficient.
+
+    Returns a flat dict: ``baseline_rmse`` [m/s] (root mean square over environments of
+    the error of the constant-wind estimate against each environment's mean wind along
+    its path), ``baseline_correct`` (2-means on the estimates reproduces the groups), and
+    the same with suffixes ``_mass`` and ``_drag`` for the mis-specified models.
+    """
+    from dataclasses import replace
+
+    truth = flight.winds.mean(axis=1)
+    out = {}
+    models = {"": uav,
+              "_mass": replace(uav, mass=uav.mass * (1 + model_error)),
+              "_drag": replace(uav, drag_coefficient=uav.drag_coefficient * (1 + model_error))}
+    for suffix, m in models.items():
+        est = estimate_wind(positions, thrust, uav=m, dt=dt, start_position=start_position)
+        err = np.linalg.norm(est - truth, axis=1)
+        out[f"baseline_rmse{suffix}"] = float(np.sqrt(np.mean(err ** 2)))
+        out[f"baseline_correct{suffix}"] = _grouped(est, np.asarray(groups))
+    return out
