@@ -43,7 +43,7 @@ def test_every_experiment_page_has_its_table_and_figures(built_book):
         assert "<table" in html, name
         assert len(re.findall(r"<img[^>]+src=\"[^\"]+\.png", html)) >= 1, name
         assert "Traceback" not in html, name
-    assert "paper max" in _html(built_book, "generated/exp1_wind_speed")
+    assert "paper maximum" in _html(built_book, "generated/exp1_wind_speed")
 
 
 def test_model_notes_claims_and_other_pages(built_book):

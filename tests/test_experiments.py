@@ -102,9 +102,10 @@ def test_run_resume_and_reuse(tmp_path, monkeypatch):
     assert set(fresh["direction"]) == {"similar", "opposite"}
     assert {"setting_key", "seed", "engine", "uavwind_version", "results_version"} <= set(fresh.columns)
     table = ex.summary_table(fresh)
-    assert list(table.columns[:2]) == ["Maximum", "Mean"] and len(table) == 2
+    assert list(table.columns) == ["max", "mean", "ci_low", "ci_high", "correct_rate",
+                                   "n_loops"] and len(table) == 2
     cmp = ex.comparison_table(fresh)
-    assert cmp["paper mean"].tolist() == [21.58, 90.33]
+    assert cmp["paper_mean"].tolist() == [21.58, 90.33]
 
 
 def test_changed_setting_recomputes_only_itself(tmp_path):
@@ -132,7 +133,7 @@ def test_cem_experiment_and_worker_independence(tmp_path):
     pd.testing.assert_frame_equal(one, two)
     assert len(one) == 6 and one["iteration"].tolist() == [1, 1, 1, 2, 2, 2]
     hist = ex.summary_table(one)
-    assert list(hist.index) == [1, 2] and np.all(np.diff(hist["Best so far"]) >= 0)
+    assert list(hist.index) == [1, 2] and np.all(np.diff(hist["best_so_far"]) >= 0)
 
 
 def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
@@ -144,7 +145,7 @@ def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
         assert len(ex.summary_table(df)) == 3
         cmp = ex.comparison_table(df)
         assert list(cmp.index) == [t4.index[k] for k in (0, 2, 3)]
-        assert cmp["paper mean"].tolist() == [t4.iloc[k]["mean"] for k in (0, 2, 3)]
+        assert cmp["paper_mean"].tolist() == [t4.iloc[k]["mean"] for k in (0, 2, 3)]
         assert "'" + reading + "' reading" in ex.provenance(df)
     with pytest.raises(ValueError, match="no paper table"):
         ex.comparison_table(df.assign(experiment="exp6"))

@@ -19,6 +19,7 @@ _warnings.filterwarnings("ignore", message="h5py not installed", category=UserWa
 from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
                       sample_paper)
 from .clustering import LoopResult, score_loop
+from .display import pretty
 from .config import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
 from .dynamics import Flight, simulate, simulate_flight
 from .scenarios import (INFERRED_GAP_RATIOS, LAYOUTS, PAPER_SCENARIOS, READINGS, SPEED_RANGES,

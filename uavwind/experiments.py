@@ -278,8 +278,8 @@ def _baseline_summary(df):
 def _cem_summary(df):
     g = df.groupby("iteration")["score"]
     elite = df[df["elite"]].groupby("iteration")["score"].mean()
-    return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Elite mean": elite,
-                         "Best so far": g.max().cummax()})
+    return pd.DataFrame({"max": g.max(), "mean": g.mean(), "elite_mean": elite,
+                         "best_so_far": g.max().cummax()})
 
 
 def _example_reference(df):
@@ -489,9 +489,19 @@ def _n_loops(prof, case):
 # summaries in the paper's layout
 # --------------------------------------------------------------------------- #
 def _maxmean(df, by):
-    g = df.groupby(list(by), sort=False)["score"]
-    return pd.DataFrame({"Maximum": g.max(), "Mean": g.mean(), "Correct (%)": 100 * g.apply(
-        lambda s: (s > 0).mean()), "Loops": g.size()})
+    from .claims import bootstrap_ci
+
+    rows = {}
+    for key, sub in df.groupby(list(by), sort=False):
+        s = sub.sort_values("loop")["score"].to_numpy()
+        mean, lo, hi = bootstrap_ci(s)
+        rows[key] = {"max": float(s.max()), "mean": mean, "ci_low": lo, "ci_high": hi,
+                     "correct_rate": float((s > 0).mean()), "n_loops": s.size}
+    out = pd.DataFrame.from_dict(rows, orient="index")
+    out.index = (pd.MultiIndex.from_tuples(out.index, names=list(by)) if len(by) > 1
+                 else pd.Index([k[0] if isinstance(k, tuple) else k for k in out.index],
+                               name=by[0]))
+    return out
 
 
 def _record(df):
@@ -502,8 +512,9 @@ def _record(df):
 
 def summary_table(df):
     """The replication's version of the paper's table for ``df`` (an experiment's results):
-    maximum, mean, share correct and loops per the experiment's ``group_by`` columns, or
-    its own ``summary`` (CEM: per iteration)."""
+    ``max``, ``mean`` (with its 95% bootstrap ``ci_low``/``ci_high``), ``correct_rate``
+    and ``n_loops`` per the experiment's ``group_by`` columns, or its own ``summary``
+    (CEM: ``max``, ``mean``, ``elite_mean``, ``best_so_far`` per iteration)."""
     exp = _record(df)
     return exp.summary(df) if exp.summary is not None else _maxmean(df, exp.group_by)
 
@@ -549,9 +560,9 @@ def n_loops_total(profile):
 def comparison_table(df):
     """Paper vs replication, side by side, for the rows the paper reports.
 
-    Columns: ``paper max, replication max, paper mean, replication mean``,
-    ``ci_low``, ``ci_high`` (95% bootstrap interval of the mean over loops) and
-    ``correct (%)``; index: the
+    Columns: ``paper_max, max, paper_mean, mean``, ``ci_low``, ``ci_high`` (95%
+    bootstrap interval of the mean over loops), ``correct_rate``, ``n_loops`` and the
+    ``case``; index: the
     paper's row labels. Reads the paper's values from ``data/paper/``.
     """
     from .claims import bootstrap_ci
@@ -572,8 +583,8 @@ def comparison_table(df):
         est, lo, hi = bootstrap_ci(sub["score"].to_numpy())
         units = {"n_env": "environments", "thrust_changes": "thrust changes"}
         label = p["scenario"] + "".join(f", {p[k]} {units[k]}" for k in keys if k in units)
-        rows.append({"row": label, "case": int(sub["case"].iloc[0]), "paper max": p["maximum"],
-                     "replication max": sub["score"].max(), "paper mean": p["mean"],
-                     "replication mean": est, "ci_low": lo, "ci_high": hi,
-                     "correct (%)": 100 * (sub["score"] > 0).mean(), "loops": len(sub)})
+        rows.append({"row": label, "case": int(sub["case"].iloc[0]), "paper_max": p["maximum"],
+                     "max": sub["score"].max(), "paper_mean": p["mean"], "mean": est,
+                     "ci_low": lo, "ci_high": hi,
+                     "correct_rate": float((sub["score"] > 0).mean()), "n_loops": len(sub)})
     return pd.DataFrame(rows).set_index("row")

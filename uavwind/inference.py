@@ -184,11 +184,11 @@ def out_of_sample(results):
     Returns
     -------
     pandas.DataFrame
-        One row per paper row: ``table``, ``paper mean``, ``predicted mean`` with
-        ``ci_low``/``ci_high``, ``paper max``, ``predicted max``, ``difference``
-        (predicted minus paper mean), ``paper in CI``, ``correct_rate`` and
-        ``geometry alone`` (:func:`line_silhouette` x 100: the score the layout's
-        speeds would get as points on a line).
+        One row per paper row: ``paper_mean``, ``mean`` (predicted) with
+        ``ci_low``/``ci_high``, ``paper_max``, ``max``, ``difference`` (predicted minus
+        paper mean), ``paper_in_ci``, ``correct_rate`` and ``geometry_alone``
+        (:func:`line_silhouette` x 100: the score the layout's speeds would get as
+        points on a line).
     """
     from .experiments import EXPERIMENTS, comparison_table
 
@@ -205,13 +205,12 @@ def out_of_sample(results):
         cases = EXPERIMENTS[exp].cases(df["reading"].iloc[0])
         geometry = [line_silhouette(cases[int(k)].setting) for k in c["case"]]
         frames.append(pd.DataFrame({
-            "table": label, "row": c["row"], "paper mean": c["paper mean"],
-            "predicted mean": c["replication mean"], "ci_low": c["ci_low"], "ci_high": c["ci_high"],
-            "paper max": c["paper max"], "predicted max": c["replication max"],
-            "difference": c["replication mean"] - c["paper mean"],
-            "paper in CI": (c["ci_low"] <= c["paper mean"]) & (c["paper mean"] <= c["ci_high"]),
-            "correct_rate": c["correct (%)"] / 100,
-            "geometry alone": [100 * g for g in geometry], "n_loops": c["loops"]}))
+            "table": label, "row": c["row"], "paper_mean": c["paper_mean"], "mean": c["mean"],
+            "ci_low": c["ci_low"], "ci_high": c["ci_high"], "paper_max": c["paper_max"],
+            "max": c["max"], "difference": c["mean"] - c["paper_mean"],
+            "paper_in_ci": (c["ci_low"] <= c["paper_mean"]) & (c["paper_mean"] <= c["ci_high"]),
+            "correct_rate": c["correct_rate"],
+            "geometry_alone": [100 * g for g in geometry], "n_loops": c["n_loops"]}))
     return pd.concat(frames, ignore_index=True).set_index(["table", "row"])
 
 

@@ -219,10 +219,10 @@ def fig9_cem(history, random_scores=None, paper=None):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
     it = history.index.to_numpy() if "iteration" not in history else history["iteration"]
-    ax.plot(it, history["Maximum"], marker="^", color="tab:red", label="CEM maximum")
-    ax.plot(it, history["Mean"], marker="o", color="tab:blue", label="CEM mean")
-    if "Elite mean" in history:
-        ax.plot(it, history["Elite mean"], ls="--", color="tab:purple", label="CEM elite mean")
+    ax.plot(it, history["max"], marker="^", color="tab:red", label="CEM maximum")
+    ax.plot(it, history["mean"], marker="o", color="tab:blue", label="CEM mean")
+    if "elite_mean" in history:
+        ax.plot(it, history["elite_mean"], ls="--", color="tab:purple", label="CEM elite mean")
     if random_scores is not None:
         rs = np.asarray(random_scores, dtype=float)
         ax.axhline(rs.max(), color="tab:red", ls=":", lw=1, label=f"random max {rs.max():.2f}")
@@ -267,16 +267,18 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
 
 def paper_vs_replication(table, ncols=1, title=None):
     """Bar chart of reported vs regenerated values: ``table`` has an index of row labels
-    and columns ``paper max, paper mean, replication max, replication mean``."""
+    and columns ``paper_max, max, paper_mean, mean`` (:func:`~uavwind.experiments.comparison_table`)."""
     plt = _plt()
     n = len(table)
     fig, ax = plt.subplots(figsize=(8, 0.45 * n + 1.5), constrained_layout=True)
     y = np.arange(n)
     h = 0.2
-    for k, (col, c) in enumerate((("paper max", "0.55"), ("replication max", "tab:red"),
-                                  ("paper mean", "0.8"), ("replication mean", "tab:blue"))):
+    for k, (col, c, label) in enumerate((("paper_max", "0.55", "paper maximum"),
+                                         ("max", "tab:red", "replication maximum"),
+                                         ("paper_mean", "0.8", "paper mean"),
+                                         ("mean", "tab:blue", "replication mean"))):
         if col in table:
-            ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c, label=col)
+            ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c, label=label)
     ax.set_yticks(y, [str(i) for i in table.index], fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
@@ -318,11 +320,11 @@ def predicted_vs_paper(table):
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.2, 5), constrained_layout=True)
     for (label, sub), m in zip(table.groupby(level="table", sort=False), "osD^v"):
-        err = np.clip(np.vstack([sub["predicted mean"] - sub["ci_low"],
-                                 sub["ci_high"] - sub["predicted mean"]]), 0, None)
-        ax.errorbar(sub["paper mean"], sub["predicted mean"], yerr=err, fmt=m, ms=5, capsize=2,
+        err = np.clip(np.vstack([sub["mean"] - sub["ci_low"],
+                                 sub["ci_high"] - sub["mean"]]), 0, None)
+        ax.errorbar(sub["paper_mean"], sub["mean"], yerr=err, fmt=m, ms=5, capsize=2,
                     label=label)
-    lims = (min(table["paper mean"].min(), table["ci_low"].min()) - 3, 101)
+    lims = (min(table["paper_mean"].min(), table["ci_low"].min()) - 3, 101)
     ax.plot(lims, lims, color="0.5", lw=0.8, ls="--", label="prediction = paper")
     ax.set(xlim=lims, ylim=lims, xlabel="paper's mean score", ylabel="predicted mean score",
            title="Rows the fit never saw")

@@ -1,0 +1,73 @@
+"""Presentation: the one place where the library's column names become pretty names.
+
+This module owns how tables and verdicts look on a page, so that notebooks stay thin
+and tests can reach the presentation too:
+
+* :data:`PRETTY` and :func:`pretty` -- the project's vocabulary (``max``, ``mean``,
+  ``ci_low``, ``ci_high``, ``correct_rate``, ``n_loops``, ...) turned into display
+  names, shares shown as percentages;
+* :func:`claims_markdown` -- the claims page's evidence under both readings;
+* :func:`group_name` -- the display name of group 0 or 1 (code always says 0 and 1).
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+__all__ = ["PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
+
+#: Column name -> display name.
+PRETTY = {
+    "max": "maximum", "mean": "mean", "ci_low": "95% CI low", "ci_high": "95% CI high",
+    "correct_rate": "correct (%)", "correct_low": "correct, CI low (%)",
+    "correct_high": "correct, CI high (%)", "n_loops": "loops",
+    "paper_max": "paper maximum", "paper_mean": "paper mean", "elite_mean": "elite mean",
+    "best_so_far": "best so far", "difference": "difference", "paper_in_ci": "paper in CI",
+    "geometry_alone": "geometry alone", "n_env": "environments",
+    "thrust_changes": "thrust changes", "noise_sigma": "noise sigma (m)",
+    "noise_bias": "noise bias (m)", "gap_ratio": "gap / spacing", "scenario_id": "scenario",
+    "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
+    "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
+    "rmse_high": "RMSE CI high", "paper_mean_t4": "paper mean",
+}
+#: Columns holding shares in [0, 1], shown as percentages.
+SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate",
+          "cc_correct_rate")
+
+
+def pretty(df, precision=2):
+    """A display copy of ``df``: shares as percentages, columns and index levels renamed
+    by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``."""
+    out = df.copy()
+    for col in out.columns:
+        if col in SHARES or str(col).startswith("correct_rate"):
+            out[col] = 100 * out[col]
+    out = out.rename(columns=lambda c: PRETTY.get(c, c.replace("_", " ") if isinstance(c, str) else c))
+    if isinstance(out.index, pd.MultiIndex):
+        out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
+    elif out.index.name:
+        out.index.name = PRETTY.get(out.index.name, out.index.name)
+    return out.round(precision)
+
+
+def group_name(setting, group):
+    """Display name of group ``group`` (0 or 1) of ``setting``: its condition's label."""
+    if group not in (0, 1):
+        raise ValueError(f"group must be 0 or 1, got {group!r}")
+    g = setting.group_a if group == 0 else setting.group_b
+    return g.label or f"group {group}"
+
+
+def claims_markdown(verdicts, readings=("inferred", "halves")):
+    """The claims page's evidence: per claim, the verdict and evidence under each reading,
+    what the difference teaches and the rule (from :func:`uavwind.claims.compare_readings`)."""
+    names = {"inferred": "Inferred reading", "halves": "Halves (decision 5)"}
+    parts = []
+    for cid, row in verdicts.iterrows():
+        lines = [f"**{cid}.** {row['statement']}", ""]
+        lines += [f"- *{names.get(r, r)}: {row[f'verdict ({r})']}.* {row[f'evidence ({r})']}"
+                  for r in readings]
+        lines += ["", f"*What the difference teaches.* {row['lesson']}", "",
+                  f"*Rule.* {row['rule']}"]
+        parts.append("\n".join(lines))
+    return "\n\n".join(parts)
