@@ -15,6 +15,7 @@ NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count 
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
+PLOTLYJS  := $(BOOK)/_vendor/plotly/plotly.min.js
 HTML      := $(BOOK)/_build/html/index.html
 
 export PYTHONPATH := $(CURDIR)
@@ -65,7 +66,13 @@ $(MATHJAX): $(STAMP)
 	mkdir -p $(BOOK)/_vendor
 	cp -r $$($(BIN)/python -c 'import jupyter_server_mathjax, pathlib; print(pathlib.Path(jupyter_server_mathjax.__file__).parent / "static")') $(BOOK)/_vendor/mathjax
 
-$(HTML): $(EXECUTED) $(MATHJAX) $(wildcard $(BOOK)/*.md) $(BOOK)/_config.yml $(BOOK)/_toc.yml
+# plotly.js for the Explore page, from the pinned plotly package: no CDN
+$(PLOTLYJS): $(STAMP)
+	mkdir -p $(dir $@)
+	cp $$($(BIN)/python -c 'import plotly, pathlib; print(pathlib.Path(plotly.__file__).parent / "package_data" / "plotly.min.js")') $@
+
+$(HTML): $(EXECUTED) $(MATHJAX) $(PLOTLYJS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
+         $(BOOK)/_config.yml $(BOOK)/_toc.yml
 	$(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
 	touch $@
 

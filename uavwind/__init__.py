@@ -19,7 +19,9 @@ _warnings.filterwarnings("ignore", message="h5py not installed", category=UserWa
 from .actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
                       sample_paper)
 from .clustering import LoopResult, score_loop
+from .baseline import estimate_wind
 from .display import pretty
+from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
 from .config import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
 from .dynamics import Flight, simulate, simulate_flight
 from .scenarios import (INFERRED_GAP_RATIOS, LAYOUTS, PAPER_SCENARIOS, READINGS, SPEED_RANGES,

@@ -1,8 +1,10 @@
 """The interactive "Explore" page: one loop, live, from a few sliders.
 
 This module owns :func:`explore_loop` (build a setting from plain choices, fly
-one random thrust sequence, score it, draw it) and :func:`explorer` (the
-ipywidgets interface around it). The static book shows the default state.
+one random thrust sequence, score it, draw it), :func:`explorer` (the ipywidgets
+interface around it, for ``make lab``), and the static explorer that works in the
+built book without a kernel: :func:`explore_grid` precomputes every combination of
+its controls and :func:`explorer_html` draws them with plotly.js in the browser.
 """
 
 from __future__ import annotations
@@ -13,7 +15,9 @@ from .clustering import score_loop
 from .plotting import fig3_loop
 from .scenarios import make_setting
 
-__all__ = ["explore_loop", "explorer"]
+__all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "explorer_html",
+           "explore_thrusts",
+           "EXPLORE_PAIRS"]
 
 
 def explore_loop(condition_a="light constant", condition_b="strong shear", n_per_group=5,
@@ -55,3 +59,144 @@ def explorer():
     out = w.interactive_output(show, {"condition_a": a, "condition_b": b, "n_per_group": n,
                                       "thrust_seed": seed, "n_changes": changes})
     return w.VBox([w.HBox([a, b]), w.HBox([n, seed, changes]), out])
+
+
+# --------------------------------------------------------------------------- #
+# the static explorer: a grid of precomputed loops, no kernel needed
+# --------------------------------------------------------------------------- #
+#: The pairs of the static explorer: Table 2's scenarios and Exp 5's pair.
+EXPLORE_PAIRS = (("light constant", "light constant"), ("light constant", "strong constant"),
+                 ("strong constant", "strong constant"), ("light shear", "light shear"),
+                 ("light shear", "strong shear"), ("strong shear", "strong shear"),
+                 ("light constant", "strong turbulence"), ("light constant", "light shear"))
+
+
+def explore_thrusts():
+    """The thrust sequences the static explorer offers: label -> ThrustSequence."""
+    from .actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
+
+    return {"the paper's example (Table 3)": PAPER_EXAMPLE,
+            "climb, then push along x": ThrustSequence([0, 6], [40, 20], [[0, 0, 1], [1, 0, 0]]),
+            "level push along x": ThrustSequence([0], [20], [[1, 0, 0]]),
+            "random (seed 1)": sample_paper(np.random.default_rng(1)),
+            "random (seed 2)": sample_paper(np.random.default_rng(2))}
+
+
+def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "halves"),
+                 every=3, engine=None, seed=0):
+    """Fly and score every combination of the explorer's controls.
+
+    Returns a JSON-ready dict: ``controls`` (the options of each control) and
+    ``loops`` (key ``"pair|n|thrust|layout"`` -> ``{"x", "y", "z"`` (one list per
+    environment, every ``every``-th sample, cm resolution), ``"groups"``, ``"score"``,
+    ``"correct"``}). Turbulence uses the loop's reading and ``seed``.
+    """
+    from .scenarios import get_reading
+
+    thrusts = explore_thrusts()
+    loops = {}
+    for i, (a, b) in enumerate(pairs):
+        for n in n_per_group:
+            for j, (tname, thrust) in enumerate(thrusts.items()):
+                for layout in layouts:
+                    rd = get_reading(layout)
+                    s = make_setting(a, b, n, layout=rd.layout, turbulence=rd.turbulence)
+                    traj = s.simulate(thrust, seed=seed)
+                    res = score_loop(traj, s.groups, engine=engine)
+                    pts = np.round(traj[:, ::every], 2)
+                    loops[f"{i}|{n}|{j}|{layout}"] = {
+                        "x": pts[..., 0].tolist(), "y": pts[..., 1].tolist(),
+                        "z": pts[..., 2].tolist(), "groups": s.groups.tolist(),
+                        "score": round(res.score, 2), "correct": res.correct}
+    return {"controls": {"pair": [f"{a} vs {b}" for a, b in pairs],
+                         "n": list(n_per_group), "thrust": list(thrusts),
+                         "layout": list(layouts)},
+            "loops": loops}
+
+
+def cached_grid(folder=None, **kwargs):
+    """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a digest of its
+    arguments and the results version (a damaged file is recomputed)."""
+    import hashlib
+    import json
+
+    from .cache import RESULTS_VERSION, results_dir
+
+    folder = results_dir() if folder is None else folder
+    blob = json.dumps({"kwargs": kwargs, "version": RESULTS_VERSION}, sort_keys=True, default=str)
+    path = folder / "explore" / f"grid-{hashlib.sha256(blob.encode()).hexdigest()[:16]}.json"
+    try:
+        return json.loads(path.read_text())
+    except (OSError, ValueError):
+        grid = explore_grid(**kwargs)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.write_text(json.dumps(grid))
+        tmp.replace(path)
+        return grid
+
+
+def explorer_html(grid, plotly_src="../_static/plotly/plotly.min.js", element_id="uw-explorer"):
+    """A self-contained HTML widget over ``grid`` (:func:`explore_grid`): four selects, a
+    rotatable 3-D plot and the score, redrawn in the browser on every change.
+
+    ``plotly_src`` is the plotly.js the page loads (the book serves its own copy: no CDN).
+    The URL fragment can preset the controls, e.g. ``#pair=2&n=5&thrust=1&layout=halves``.
+    """
+    import html
+    import json
+
+    c = grid["controls"]
+
+    def select(name, options, label):
+        opts = "".join(f'<option value="{v}">{html.escape(str(t))}</option>' for v, t in options)
+        return (f'<label style="margin-right:1em">{label} <select data-control="{name}">'
+                f"{opts}</select></label>")
+    controls = "".join([
+        select("pair", list(enumerate(c["pair"])), "wind conditions"),
+        select("n", [(n, n) for n in c["n"]], "environments per group"),
+        select("thrust", list(enumerate(c["thrust"])), "thrust sequence"),
+        select("layout", [(v, v) for v in c["layout"]], "reading")])
+    data = json.dumps(grid["loops"], separators=(",", ":"))
+    return f"""<div id="{element_id}" class="uw-explorer">
+<div style="margin-bottom:0.5em">{controls}</div>
+<div class="uw-score" style="font-weight:bold;margin:0.3em 0"></div>
+<div class="uw-plot" style="width:100%;height:520px"></div>
+</div>
+<script src="{plotly_src}"></script>
+<script>
+(function() {{
+  var root = document.getElementById("{element_id}");
+  var loops = {data};
+  var selects = root.querySelectorAll("select");
+  var colours = ["#1f77b4", "#d62728"];
+  var names = {json.dumps(c["pair"])};
+  function key() {{
+    var v = {{}};
+    selects.forEach(function(s) {{ v[s.dataset.control] = s.value; }});
+    return [v.pair, v.n, v.thrust, v.layout].join("|");
+  }}
+  function draw() {{
+    var k = key(), loop = loops[k];
+    var groupNames = names[+k.split("|")[0]].split(" vs ");
+    var traces = loop.x.map(function(x, e) {{
+      var g = loop.groups[e];
+      return {{type: "scatter3d", mode: "lines", x: x, y: loop.y[e], z: loop.z[e],
+               line: {{color: colours[g], width: 4}}, name: "group " + g + ": " + groupNames[g],
+               legendgroup: "g" + g, showlegend: e === loop.groups.indexOf(g)}};
+    }});
+    root.querySelector(".uw-score").textContent = "score " + loop.score.toFixed(2) +
+      (loop.correct ? " (the clusters are the two groups)" : " (misgrouped: score 0)");
+    Plotly.react(root.querySelector(".uw-plot"), traces, {{
+      margin: {{l: 0, r: 0, t: 10, b: 0}}, legend: {{x: 0, y: 1}},
+      scene: {{xaxis: {{title: "x [m]"}}, yaxis: {{title: "y [m]"}}, zaxis: {{title: "z [m]"}}}}
+    }}, {{responsive: true}});
+  }}
+  var preset = new URLSearchParams(location.hash.slice(1));
+  selects.forEach(function(s) {{
+    if (preset.has(s.dataset.control)) s.value = preset.get(s.dataset.control);
+    s.addEventListener("change", draw);
+  }});
+  draw();
+}})();
+</script>"""
