@@ -132,10 +132,23 @@ def max_stable_dt(thrust, uav):
     return 1.0 / (2.0 * math.sqrt(c * a_max))
 
 
+def _round_step(most, duration):
+    """The largest of 1, 2, 5 x 10^k not above ``most`` that divides ``duration`` (else
+    ``duration / ceil(duration / most)``)."""
+    k = math.floor(math.log10(most))
+    for exp in (k, k - 1, k - 2):
+        for m in (5, 2, 1):
+            step = m * 10.0 ** exp
+            n = duration / step
+            if step <= most and abs(n - round(n)) < 1e-9 * n:
+                return float(f"{step:.12g}")
+    return duration / math.ceil(duration / most)
+
+
 def _check_drag_stability(thrust, uav, dt, duration):
     limit = max_stable_dt(thrust, uav)
     if dt >= limit:
-        works = duration / math.ceil(duration / (0.5 * limit))  # divides the duration
+        works = _round_step(0.5 * limit, duration)
         raise ValueError(
             f"dt = {dt:g} s is too long for this UAV's drag (mass = {uav.mass:g} kg, "
             f"drag_coefficient = {uav.drag_coefficient:g}, area = {uav.area:g} m^2, "

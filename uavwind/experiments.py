@@ -520,7 +520,7 @@ def summary_table(df):
 
 
 def paper_table(exp_id):
-    """The paper's reported values for ``exp_id`` from ``data/paper/`` (see :mod:`uavwind.paper`)."""
+    """The paper's reported values for ``exp_id`` (see :mod:`uavwind.paper`)."""
     from .paper import load_paper_values
     return load_paper_values(exp_id)
 
@@ -563,7 +563,7 @@ def comparison_table(df):
     Columns: ``paper_max, max, paper_mean, mean``, ``ci_low``, ``ci_high`` (95%
     bootstrap interval of the mean over loops), ``correct_rate``, ``n_loops`` and the
     ``case``; index: the
-    paper's row labels. Reads the paper's values from ``data/paper/``.
+    paper's row labels. Reads the paper's values through :mod:`uavwind.paper`.
     """
     from .claims import bootstrap_ci
     from .paper import load_paper_values

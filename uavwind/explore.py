@@ -77,7 +77,8 @@ def explore_thrusts():
 
     return {"the paper's example (Table 3)": PAPER_EXAMPLE,
             "climb, then push along x": ThrustSequence([0, 6], [40, 20], [[0, 0, 1], [1, 0, 0]]),
-            "level push along x": ThrustSequence([0], [20], [[1, 0, 0]]),
+            "hover and push along x": ThrustSequence([0], [float(np.hypot(15.0, 2 * 9.81))],
+                                                     [[15.0, 0.0, 2 * 9.81]]),
             "random (seed 1)": sample_paper(np.random.default_rng(1)),
             "random (seed 2)": sample_paper(np.random.default_rng(2))}
 

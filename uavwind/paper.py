@@ -1,4 +1,7 @@
-"""The paper's reported numbers, read from ``data/paper/`` (transcribed, with sources).
+"""The paper's reported numbers, read from ``uavwind/paper_values/`` (transcribed, with sources).
+
+The CSV files ship inside the package, so an installed ``uavwind`` (``pip install .``)
+finds them without a checkout.
 
 This module owns the mapping from an experiment id to the CSV file holding the
 values the paper reports for it, and the loader every comparison uses.
@@ -12,7 +15,7 @@ import pandas as pd
 
 __all__ = ["PAPER_FILES", "paper_dir", "load_paper_values"]
 
-#: Experiment id (or ``"example"``) -> file under ``data/paper``.
+#: Experiment id (or ``"example"``) -> file under ``uavwind/paper_values``.
 PAPER_FILES = {
     "example": "table3_worked_example.csv",
     "exp1": "table4_wind_speed.csv",
@@ -25,7 +28,7 @@ PAPER_FILES = {
 
 
 def paper_dir() -> Path:
-    return Path(__file__).resolve().parents[1] / "data" / "paper"
+    return Path(__file__).resolve().parent / "paper_values"
 
 
 def load_paper_values(exp_id) -> pd.DataFrame:

@@ -32,6 +32,17 @@ def _plt():
     return plt
 
 
+def stamp(fig, results, note=""):
+    """Write how ``fig`` was made under it: experiment, reading, profile, seed, engine,
+    rows, library version and commit of ``results`` (an experiment's table), as
+    :func:`uavwind.experiments.provenance` says it. Returns ``fig``."""
+    from .experiments import provenance
+
+    text = provenance(results) + (f" {note}" if note else "")
+    fig.text(0.005, -0.01, text, fontsize=6, color="0.35", ha="left", va="top", wrap=True)
+    return fig
+
+
 def panel_grid(n, ncols=2, size=(4.2, 3.0)):
     """Figure with ``n`` axes on a grid of ``ncols`` columns (extra axes hidden)."""
     plt = _plt()

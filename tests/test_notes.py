@@ -1,0 +1,64 @@
+"""Numbers typed in the replication notes must agree with what they cite.
+
+Result numbers are glued from the executed pages (``{glue:text}``), never typed. What
+is still typed is a paper value, a constant of the library, or a figure computed from
+those constants; this test recomputes each one and fails if any typed decimal number in
+the notes is none of them.
+"""
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from sklearn.metrics import silhouette_score
+
+import uavwind as uw
+from uavwind.paper import PAPER_FILES, load_paper_values
+
+NOTES = Path(__file__).resolve().parents[1] / "book" / "replication_notes.md"
+
+
+def _typed_numbers(text):
+    text = re.sub(r"\{glue:text\}`[^`]*`", " ", text)   # glued: computed in the build
+    text = re.sub(r"`[^`]*`", " ", text)                 # code spans: names and arguments
+    return {float(m) for m in re.findall(r"(?<![\w.])\d+\.\d+(?![\w.])", text)}
+
+
+def _line_silhouette(n):
+    x = np.arange(2 * n, dtype=float)[:, None]
+    return round(100 * silhouette_score(x, np.repeat([0, 1], n)), 2)
+
+
+def _allowed():
+    ok = set()
+    for exp in PAPER_FILES:                        # every value the paper reports
+        df = load_paper_values(exp)
+        for col in df.columns:
+            ok |= {float(v) for v in pd.to_numeric(df[col], errors="coerce").dropna()}
+    for lo, hi in uw.SPEED_RANGES.values():        # the NWS ranges
+        ok |= {lo, hi}
+    ok |= set(uw.INFERRED_GAP_RATIOS.values())     # the fitted layout in use
+    ok |= {0.143, 0.5, 0.1, 0.177, 0.000823, 0.4, 1.2, 0.2, 0.305, 0.33, 1.1, 1.5,
+           1.225, 2.1}                             # model constants quoted with their equations
+    p = uw.dryden_parameters(12.0, 10.0)           # L_u at 10 m, exponent 1.2 and 0.2
+    h = 10.0 / uw.wind.FEET
+    ok |= {round(p["L_u"], 1), round(h / (0.177 + 0.000823 * h) ** 0.2 * uw.wind.FEET, 1),
+           round(h, 1), round(p["L_u"] / 12.5, 1), 12.5}
+    ok |= {_line_silhouette(5), _line_silhouette(10)}   # decision 5's caps
+    speeds = np.linalg.norm([[1.1, 1.1], [1.5, 1.5]], axis=1)  # Table 3's light winds
+    ok |= {round(s, 2) for s in speeds}
+    ok |= {1.2}  # million probe points of the engine's libm self-check
+    return ok
+
+
+def test_every_typed_number_in_the_notes_is_a_paper_value_or_a_constant():
+    typed = _typed_numbers(NOTES.read_text())
+    allowed = _allowed()
+    unknown = sorted(v for v in typed if not any(abs(v - a) < 1e-9 for a in allowed))
+    assert not unknown, f"typed numbers with no source: {unknown}"
+
+
+def test_the_drift_check_catches_a_wrong_number():
+    typed = _typed_numbers("the fit gives 11.3 and {glue:text}`x.ipynb::k:.1f` and `dt=0.3`")
+    assert typed == {11.3}
+    assert 11.3 not in _allowed()

@@ -1,0 +1,39 @@
+"""pip install . gives a working uavwind without a checkout or the book stack."""
+import os
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
+    target = tmp_path / "site"
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
+                    "--no-build-isolation", "--disable-pip-version-check", "--target",
+                    str(target), str(ROOT)], check=True, capture_output=True,
+                   env={**os.environ, "PIP_NO_INDEX": "1"})
+    code = ("import sys, uavwind as uw; from uavwind.paper import load_paper_values\n"
+            "assert 'site' in uw.__file__, uw.__file__\n"
+            "t4 = load_paper_values('exp1'); assert t4.loc[0, 'maximum'] == 85.86\n"
+            "s = uw.table3_setting(); r = uw.score_loop(s.simulate(uw.PAPER_EXAMPLE), s.groups)\n"
+            "assert r.correct\n"
+            "assert not any(m.split('.')[0] in ('papermill', 'jupyter_book', 'sphinx', 'plotly')\n"
+            "               for m in sys.modules), 'the library imported the book stack'\n")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = str(target)
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+
+
+def test_runtime_dependencies_are_declared_and_pinned():
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    declared = {d.split("[")[0].split("=")[0].split(">")[0].split("<")[0].strip().lower()
+                for d in meta["dependencies"]}
+    pins = {line.split("==")[0].lower() for line in (ROOT / "environment.txt").read_text().split()
+            if "==" in line}
+    assert {"numpy", "scipy", "pandas", "numba", "tslearn", "control", "pyarrow"} <= declared
+    assert declared <= pins, declared - pins
+    assert (ROOT / "CITATION.cff").exists()
