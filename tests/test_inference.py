@@ -8,7 +8,7 @@ import uavwind as uw
 from uavwind import experiments as ex
 from uavwind import inference as inf
 from uavwind.scenarios import Layout
-from uavwind.wind import CitedDryden, cited_dryden_parameters, cited_transfer_functions
+from uavwind.dryden import CitedDryden, cited_dryden_parameters, cited_transfer_functions
 
 
 # --------------------------------------------------------------------------- #

@@ -6,7 +6,7 @@ import pytest
 from scipy.signal import welch
 
 import uavwind as uw
-from uavwind.wind import FEET, dryden_parameters, dryden_psd
+from uavwind.dryden import FEET, dryden_parameters, dryden_psd
 
 
 def _models():

@@ -30,9 +30,9 @@ from .scenarios import (INFERRED_GAP_RATIOS, LAYOUTS, PAPER_SCENARIOS, READINGS,
                         make_group, make_setting, range_similarity_settings, resolve_layout,
                         scenario_table, table3_setting)
 from .search import CEMResult, cem, random_search, summarise
-from .wind import (CitedDryden, CombinedWind, ConstantWind, DrydenWind, ShearWind, WindModel,
-                   cited_dryden_parameters, cited_gusts, dryden_parameters, dryden_psd,
-                   dryden_transfer_functions)
+from .dryden import (CitedDryden, DrydenWind, cited_dryden_parameters, cited_gusts,
+                     dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .wind import CombinedWind, ConstantWind, ShearWind, WindModel
 
 
 __version__ = "0.1.0"

@@ -10,7 +10,7 @@ This module owns the summaries the "Beyond the paper" pages and claim C9 read:
 * :func:`baseline_table` -- the model-based wind estimate beside causal curiosity on
   the same loops, with a mis-specified UAV too (Exp 9).
 
-Every interval is :func:`uavwind.claims.bootstrap_ci` (95%, over loops), the one
+Every interval is :func:`uavwind.stats.bootstrap_ci` (95%, over loops), the one
 confidence-interval function of the project.
 """
 
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .claims import bootstrap_ci
+from .stats import bootstrap_ci
 
 __all__ = ["noise_table", "breaking_level", "observation_table", "best_observation",
            "baseline_table"]

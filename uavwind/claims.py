@@ -15,29 +15,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .stats import bootstrap_ci, paired_difference
+
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
            "LESSONS", "compare_readings"]
-
-N_BOOT = 2000
-SEED = 12345
-
-
-def bootstrap_ci(values, stat=np.mean, n_boot=N_BOOT, level=0.95, seed=SEED):
-    """Percentile bootstrap: ``(estimate, low, high)`` of ``stat`` over ``values``."""
-    v = np.asarray(values, dtype=float)
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, v.size, size=(n_boot, v.size))
-    boots = stat(v[idx], axis=1)
-    a = (1 - level) / 2
-    return float(stat(v)), float(np.quantile(boots, a)), float(np.quantile(boots, 1 - a))
-
-
-def paired_difference(a, b, n_boot=N_BOOT, seed=SEED):
-    """Mean of ``a - b`` over loops paired by index, with a bootstrap 95% CI."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    n = min(a.size, b.size)
-    return bootstrap_ci(a[:n] - b[:n], n_boot=n_boot, seed=seed)
-
 
 def _fmt(ci):
     est, lo, hi = ci
@@ -226,7 +207,7 @@ def claim_c8(r):
 
 
 def claim_c9(r):
-    from .beyond import breaking_level, noise_table
+    from .beyond import breaking_level, noise_table  # beyond builds on stats, not on claims
 
     df = r["exp7"]
     t = noise_table(df)

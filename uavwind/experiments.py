@@ -41,9 +41,9 @@ from .cache import RESULTS_VERSION, Expected, cache_key, cached, check_writable,
 from .clustering import ENGINES, default_engine
 from .config import check_scalar
 from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
-from .scenarios import (PAPER_SCENARIOS, Layout, Setting, WindCondition, direction_settings,
-                        environment_count_settings, get_reading, make_setting,
-                        range_similarity_settings, table3_setting)
+from .scenarios import (PAPER_SCENARIOS, TURBULENCE_CANDIDATES, Layout, Setting, WindCondition,
+                        direction_settings, environment_count_settings, get_reading,
+                        make_setting, range_similarity_settings, table3_setting)
 from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
@@ -224,8 +224,6 @@ def _fit_layout(reading):
 
 def _fit_turbulence(reading):
     """Table 4's light constant vs strong turbulence under each turbulence candidate."""
-    from .inference import TURBULENCE_CANDIDATES
-
     a, b = PAPER_SCENARIOS[7]
     return [Case(make_setting(a, b, 5, layout=reading.layout, turbulence=t),
                  {"scenario": _scenario_label(a, b), "scenario_id": 7, "candidate": name})
@@ -489,7 +487,7 @@ def _n_loops(prof, case):
 # summaries in the paper's layout
 # --------------------------------------------------------------------------- #
 def _maxmean(df, by):
-    from .claims import bootstrap_ci
+    from .stats import bootstrap_ci
 
     rows = {}
     for key, sub in df.groupby(list(by), sort=False):
@@ -565,7 +563,7 @@ def comparison_table(df):
     ``case``; index: the
     paper's row labels. Reads the paper's values through :mod:`uavwind.paper`.
     """
-    from .claims import bootstrap_ci
+    from .stats import bootstrap_ci
     from .paper import load_paper_values
 
     exp = _record(df)

@@ -31,24 +31,13 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .claims import bootstrap_ci
-from .scenarios import (HORIZONTAL, INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
-                        CitedDryden, Setting)
+from .stats import bootstrap_ci
+from .scenarios import (INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
+                        TURBULENCE_CANDIDATES, Setting)
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "silhouette_curves",
            "compare_turbulence", "out_of_sample", "scale_invariance", "scaled_setting",
            "line_silhouette"]
-
-#: Readings of "strong turbulence" tried on Table 4's scenario 7 (label -> turbulence).
-TURBULENCE_CANDIDATES = {
-    "MIL-F-8785C (decision 4)": "mil-f-8785c",
-    "cited, as published (level 15, fixed seeds)": CitedDryden(),
-    "cited, level = W20, fixed seeds": CitedDryden(turbulence_level=None),
-    "cited, level = W20, seed per environment": CitedDryden(turbulence_level=None, seeds=None),
-    "cited, level = W20, seed per environment, W20 base wind": CitedDryden(
-        turbulence_level=None, seeds=None, base_direction=HORIZONTAL),
-    "cited, as published, W20 base wind": CitedDryden(base_direction=HORIZONTAL),
-}
 
 N_BOOT = 1000
 SEED = 12345

@@ -255,7 +255,7 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     whose environments share one W20."""
     from scipy.signal import welch
 
-    from .wind import dryden_psd
+    from .dryden import dryden_psd
 
     plt = _plt()
     g = wind.gusts(n_samples)

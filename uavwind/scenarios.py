@@ -38,14 +38,15 @@ import pandas as pd
 from .actions import SAMPLERS
 from .config import UAV, check_scalar
 from .observation import Noise, check_observation
-from .wind import VARIANTS, CitedDryden, CombinedWind, ConstantWind, DrydenWind, ShearWind
+from .dryden import VARIANTS, CitedDryden, DrydenWind
+from .wind import CombinedWind, ConstantWind, ShearWind
 
 __all__ = [
     "SPEED_RANGES", "KINDS", "WindCondition", "EnvironmentGroup", "Setting",
     "PAPER_SCENARIOS", "scenario_table", "group_speeds", "make_group", "make_setting",
     "table3_setting", "range_similarity_settings", "environment_count_settings",
     "direction_settings", "HORIZONTAL", "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS",
-    "INFERRED_TURBULENCE", "resolve_layout", "Reading", "READINGS", "get_reading",
+    "INFERRED_TURBULENCE", "TURBULENCE_CANDIDATES", "resolve_layout", "Reading", "READINGS", "get_reading",
 ]
 
 #: NWS wind-speed classes [m/s] (paper section "Experiments").
@@ -480,6 +481,18 @@ def resolve_layout(layout, condition_a, condition_b):
 #: strong wind with gusts). Chosen by :func:`uavwind.inference.compare_turbulence` as
 #: the candidate closest to Table 4's light constant vs strong turbulence row.
 INFERRED_TURBULENCE = CitedDryden(turbulence_level=None, seeds=None, base_direction=HORIZONTAL)
+
+
+#: Readings of "strong turbulence" tried on Table 4's scenario 7 (label -> turbulence).
+TURBULENCE_CANDIDATES = {
+    "MIL-F-8785C (decision 4)": "mil-f-8785c",
+    "cited, as published (level 15, fixed seeds)": CitedDryden(),
+    "cited, level = W20, fixed seeds": CitedDryden(turbulence_level=None),
+    "cited, level = W20, seed per environment": CitedDryden(turbulence_level=None, seeds=None),
+    "cited, level = W20, seed per environment, W20 base wind": CitedDryden(
+        turbulence_level=None, seeds=None, base_direction=HORIZONTAL),
+    "cited, as published, W20 base wind": CitedDryden(base_direction=HORIZONTAL),
+}
 
 
 def _turbulence_fields(turbulence):

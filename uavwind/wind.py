@@ -8,7 +8,7 @@ This module owns every wind field the UAV can fly through (paper section
 * :class:`DrydenWind` -- Dryden turbulence (eqs 10-12), as MIL-F-8785C specifies it
   (``variant="mil-f-8785c"``) or as the implementation the paper cites computes it
   (``variant="cited"``, every quirk a field of :class:`CitedDryden`); defined in
-  :mod:`uavwind.dryden` and re-exported here;
+  :mod:`uavwind.dryden` (and exported as ``uavwind.DrydenWind``);
 * :class:`CombinedWind` -- several models side by side, one group of
   environments each, so one :func:`uavwind.simulate` call flies a whole loop.
 
@@ -28,11 +28,7 @@ import numpy as np
 from .config import check_array, check_scalar
 
 
-__all__ = [
-    "WindModel", "ConstantWind", "ShearWind", "DrydenWind", "CombinedWind", "CitedDryden",
-    "VARIANTS", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
-    "cited_dryden_parameters", "cited_gusts",
-]
+__all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "MAX_WIND"]
 
 
 class WindModel(ABC):
@@ -208,9 +204,3 @@ class CombinedWind(WindModel):
 
     def __repr__(self):
         return "CombinedWind(" + ", ".join(map(repr, self.models)) + ")"
-
-
-# the turbulence models live in their own module; they are part of this contract
-from .dryden import (FEET, VARIANTS, W20_MAX, W20_MIN, CitedDryden, DrydenWind,  # noqa: E402
-                     cited_dryden_parameters, cited_gusts, cited_transfer_functions,
-                     dryden_parameters, dryden_psd, dryden_transfer_functions)
