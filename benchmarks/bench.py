@@ -260,7 +260,7 @@ def bench_where_time_goes(report, n_loops=20):
     for label, share in shares.items():
         print(f"  {100 * share:5.1f}%  {label}")
     # the cost per cell of the two kernels, on one loop's series against a centre-like series
-    from uavwind import fastkmeans as fk
+    from uavwind import softdtw as fk
 
     X = np.ascontiguousarray(inputs[3])
     centres = np.ascontiguousarray(np.stack([X[:10].mean(0), X[10:].mean(0)]))

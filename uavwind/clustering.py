@@ -11,8 +11,11 @@ Engines compute the same clustering in different ways:
 * ``"tslearn"`` -- the reference: ``tslearn.clustering.TimeSeriesKMeans`` and
   ``tslearn.clustering.silhouette_score``, exactly as the paper (and the Causal
   Curiosity reference code) call them;
-* ``"fast"`` (default) -- :mod:`uavwind.fastkmeans`, a numba re-implementation of
-  the same algorithm that gives the same labels and scores (tested against tslearn).
+* ``"fast"`` (default) -- :class:`uavwind.softdtw.SoftDTWKMeans` and
+  :func:`uavwind.softdtw.silhouette_score`, a numba re-implementation of the same
+  algorithm that gives the same labels and scores (tested with ``==`` against tslearn).
+
+Both are driven by one adapter: an estimator with tslearn's interface and a silhouette.
 """
 
 from __future__ import annotations
@@ -124,43 +127,49 @@ def check_groups(groups, n_env):
     return g
 
 
-def _score_tslearn(X, p):
+def _tslearn_engine(p):
     from tslearn.clustering import TimeSeriesKMeans, silhouette_score
 
     km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": p["gamma"]},
                           max_iter=p["max_iter"], max_iter_barycenter=p["max_iter_barycenter"],
                           tol=p["tol"], n_init=p["n_init"], random_state=p["random_state"])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        labels = km.fit_predict(X)
-    labels = np.asarray(labels, dtype=np.int64)
-    if len(np.unique(labels)) < 2:
-        return labels, float("nan"), int(km.n_iter_)
-    if p["silhouette_metric"] == "dtw":
-        sil = silhouette_score(X, labels, metric="dtw")
-    else:
-        sil = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": p["gamma"]})
-    return labels, float(sil), int(km.n_iter_)
+
+    def silhouette(X, labels, metric, gamma):
+        params = {"gamma": gamma} if metric == "softdtw" else None
+        return silhouette_score(X, labels, metric=metric, metric_params=params)
+    return km, silhouette
 
 
-def _score_fast(X, p):
-    from . import fastkmeans as fk
+def _fast_engine(p):
+    from .softdtw import SoftDTWKMeans, silhouette_score
 
     # serial kernels: parallelism comes from running loops in separate processes,
     # and a fixed order of operations keeps results independent of the machine
-    res = fk.fit(X, n_clusters=2, gamma=p["gamma"], max_iter=p["max_iter"],
-                 max_iter_barycenter=p["max_iter_barycenter"], tol=p["tol"],
-                 n_init=p["n_init"], random_state=p["random_state"], parallel=False)
-    labels = np.asarray(res.labels, dtype=np.int64)
+    km = SoftDTWKMeans(n_clusters=2, gamma=p["gamma"], max_iter=p["max_iter"],
+                       max_iter_barycenter=p["max_iter_barycenter"], tol=p["tol"],
+                       n_init=p["n_init"], random_state=p["random_state"], parallel=False)
+
+    def silhouette(X, labels, metric, gamma):
+        return silhouette_score(X, labels, metric=metric, gamma=gamma, parallel=False)
+    return km, silhouette
+
+
+#: Engine name -> ``params -> (estimator, silhouette(X, labels, metric, gamma))``: the
+#: estimator has tslearn's interface (``fit_predict``, ``n_iter_``).
+ENGINES = {"tslearn": _tslearn_engine, "fast": _fast_engine}
+
+
+def _cluster(X, p, engine):
+    """``(labels, silhouette, n_iter)`` of one loop with ``engine``: the one adapter."""
+    km, silhouette = ENGINES[engine](p)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        labels = np.asarray(km.fit_predict(X), dtype=np.int64)
     if len(np.unique(labels)) < 2:
-        return labels, float("nan"), int(res.n_iter)
-    gamma = p["gamma"] if p["silhouette_metric"] == "softdtw" else None
-    sil = fk.silhouette(X, labels, metric=p["silhouette_metric"], gamma=gamma, parallel=False)
-    return labels, float(sil), int(res.n_iter)
-
-
-#: Engine name -> function ``(X, params) -> (labels, silhouette, n_iter)``.
-ENGINES = {"tslearn": _score_tslearn, "fast": _score_fast}
+        return labels, float("nan"), int(km.n_iter_)
+    sil = silhouette(X, labels, p["silhouette_metric"],
+                     p["gamma"] if p["silhouette_metric"] == "softdtw" else None)
+    return labels, float(sil), int(km.n_iter_)
 
 
 def _check_params(params):
@@ -228,7 +237,7 @@ def score_loop(trajectories, groups, engine=None, **params):
         raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
     p = _check_params(params)
     X = np.ascontiguousarray(X, dtype=np.float64)
-    labels, sil, n_iter = ENGINES[engine](X, p)
+    labels, sil, n_iter = _cluster(X, p, engine)
     two = len(np.unique(labels)) == 2
     correct = bool(two and (np.array_equal(labels, g) or np.array_equal(labels, 1 - g)))
     score = 100.0 * sil if correct and np.isfinite(sil) else 0.0

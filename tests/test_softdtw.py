@@ -7,7 +7,8 @@ from tslearn.metrics import dtw as ts_dtw
 from tslearn.metrics import soft_dtw as ts_soft_dtw
 
 import uavwind as uw
-from uavwind import fastkmeans as fk
+from uavwind import softdtw as fk
+from uavwind.softdtw._lbfgsb import _lbfgsb
 from uavwind.clustering import score_loop
 from uavwind.scenarios import PAPER_SCENARIOS
 
@@ -50,7 +51,7 @@ def test_lbfgsb_driver_is_bit_identical_to_scipy_minimize(maxiter):
         for tol in (1e-3, 1e-8):
             ref = minimize(fg, x0, method="L-BFGS-B", tol=tol, jac=True,
                            options=dict(maxiter=maxiter)).x
-            ours = fk._lbfgsb(fg, x0, maxiter, ftol=tol, gtol=tol)
+            ours = _lbfgsb(fg, x0, maxiter, ftol=tol, gtol=tol)
             assert np.array_equal(ours, ref)
 
 
@@ -81,9 +82,11 @@ def test_fast_equals_tslearn_on_table2_loops(scenario):
     X, g = _loop(scenario, seed=scenario)
     ref = score_loop(X, g, engine="tslearn")
     fast = score_loop(X, g, engine="fast")
+    # the contract: the same doubles, not close ones
     assert np.array_equal(fast.labels, ref.labels)
     assert fast.correct == ref.correct
-    assert fast.score == pytest.approx(ref.score, abs=1e-6)
+    assert fast.score == ref.score
+    assert fast.silhouette == ref.silhouette or (np.isnan(fast.silhouette) and np.isnan(ref.silhouette))
     assert fast.n_iter == ref.n_iter
 
 
@@ -92,12 +95,12 @@ def test_fast_equals_tslearn_k_means_directly():
     km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 0.5},
                           max_iter=100, max_iter_barycenter=5, random_state=0)
     labels = km.fit_predict(X)
-    res = fk.fit(X, gamma=0.5, parallel=False)
-    assert np.array_equal(res.labels, labels)
-    assert np.allclose(res.cluster_centers, km.cluster_centers_, rtol=1e-9, atol=1e-9)
-    assert res.inertia == pytest.approx(km.inertia_, rel=1e-9)
-    assert fk.silhouette(X, labels) == pytest.approx(silhouette_score(X, labels, metric="dtw"),
-                                                     abs=1e-9)
+    ours = fk.SoftDTWKMeans(n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
+                            random_state=0, parallel=False).fit(X)
+    assert np.array_equal(ours.labels_, labels)
+    assert np.array_equal(ours.cluster_centers_, km.cluster_centers_)
+    assert ours.inertia_ == km.inertia_ and ours.n_iter_ == km.n_iter_
+    assert fk.silhouette_score(X, labels) == silhouette_score(X, labels, metric="dtw")
     sil_soft = fk.silhouette(X, labels, metric="softdtw", gamma=0.5)
     ref_soft = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": 0.5})
     assert sil_soft == pytest.approx(ref_soft, abs=1e-9)
@@ -108,3 +111,68 @@ def test_parallel_kernels_give_the_same_answer():
     a = fk.fit(X, parallel=False)
     b = fk.fit(X, parallel=True)
     assert np.array_equal(a.labels, b.labels) and a.inertia == b.inertia
+
+
+def test_exact_with_the_libm_replica_forced_off():
+    """FASTKMEANS_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import numpy as np, uavwind as uw\n"
+            "from uavwind.softdtw._libm import _libm_selfcheck\n"
+            "assert _libm_selfcheck() is False\n"
+            "s = uw.make_setting('light constant', 'light shear', 4)\n"
+            "for seed in range(3):\n"
+            "    X = s.simulate(s.sample_thrust(np.random.default_rng(seed)))\n"
+            "    a = uw.score_loop(X, s.groups, engine='fast')\n"
+            "    b = uw.score_loop(X, s.groups, engine='tslearn')\n"
+            "    assert (a.labels == b.labels).all() and a.score == b.score, seed\n")
+    env = {**os.environ, "FASTKMEANS_GLIBC_REPLICA": "0"}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr[-2000:]
+
+
+def test_a_failed_selfcheck_warns_once_and_falls_back(monkeypatch):
+    from uavwind.softdtw import _libm
+
+    monkeypatch.setattr(_libm, "_FASTMATH_OK", None)
+    monkeypatch.setattr(_libm, "_selfcheck_kernel", lambda xe, xl: 3)
+    with pytest.warns(RuntimeWarning, match="differ from this platform's libm"):
+        assert _libm._libm_selfcheck(n=10) is False
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert _libm._libm_selfcheck(n=10) is False  # once
+
+
+def test_an_untested_scipy_falls_back_to_minimize(monkeypatch):
+    from uavwind.softdtw import _lbfgsb as lb
+
+    monkeypatch.setattr(lb, "_SCIPY_OK", None)
+    monkeypatch.setattr(lb, "SCIPY_TESTED", ("0.1",))
+    with pytest.warns(RuntimeWarning, match="not one the L-BFGS-B driver was tested"):
+        x = lb.lbfgsb(lambda z: (float(z @ z), 2 * z), np.ones(3), 50, 1e-8, 1e-8)
+    assert np.allclose(x, 0, atol=1e-6)
+
+
+def test_estimator_follows_scikit_learn_conventions():
+    from sklearn.base import clone
+
+    est = fk.SoftDTWKMeans(n_clusters=3, gamma=0.3, max_iter=7, random_state=5)
+    assert est.get_params()["gamma"] == 0.3 and est.n_clusters == 3
+    assert not hasattr(est, "labels_")  # fitted attributes appear with fit
+    twin = clone(est)
+    assert twin.get_params() == est.get_params() and twin is not est
+    X, _ = _loop(1, seed=3)
+    a = est.fit(X)
+    assert a is est and est.labels_.shape == (10,) and est.cluster_centers_.shape == (3, 120, 3)
+    assert est.n_iter_ <= 7 and np.isfinite(est.inertia_)
+    assert np.array_equal(twin.fit_predict(X), est.labels_)  # random_state=5: reproducible
+    assert est.set_params(n_clusters=2) is est and est.n_clusters == 2
+    with pytest.raises(ValueError, match="unknown parameter"):
+        est.set_params(metric="dtw")
+    for bad, match in (({"n_clusters": 0}, "n_clusters"), ({"max_iter": 0}, "max_iter"),
+                       ({"n_clusters": 11}, "n_clusters"), ({"tol": -1.0}, "tol")):
+        with pytest.raises(ValueError, match=match):
+            fk.SoftDTWKMeans(**{"random_state": 0, **bad}).fit(X)

@@ -1,0 +1,53 @@
+"""The ``"fast"`` clustering engine: tslearn's soft-DTW k-means and DTW silhouette, exactly.
+
+The face of this subpackage is one scikit-learn style estimator,
+:class:`SoftDTWKMeans`, and :func:`silhouette_score`; together they give the labels and
+the silhouette of ``tslearn.clustering.TimeSeriesKMeans(metric="softdtw")`` and
+``tslearn.clustering.silhouette_score(metric="dtw")`` bit for bit, several times faster
+(the performance page has the figures). Behind them, as tslearn splits ``metrics/``
+kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
+``_k_means_*`` kernels:
+
+* :mod:`._libm` -- bit-exact replicas of glibc's ``exp``/``log`` and their self-check;
+* :mod:`._kernels` -- the numba kernels (soft-DTW value, gradient, barycentre
+  objective, DTW), each tslearn's arithmetic in a faster schedule;
+* :mod:`.metrics` -- the kernels as functions of series and batches;
+* :mod:`._lbfgsb` -- the L-BFGS-B driver of the barycentres, with a scipy-version guard;
+* :mod:`.kmeans` -- :class:`SoftDTWKMeans` and its loop;
+* :mod:`.silhouette` -- :func:`silhouette_score`.
+
+The replication notes ("The fast engine") say why the arithmetic is the same and where it
+could stop being so.
+"""
+
+import numpy as np
+
+from .kmeans import EmptyClusterError, SoftDTWKMeans, fit
+from .metrics import dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad
+from .silhouette import silhouette
+
+__all__ = ["SoftDTWKMeans", "silhouette_score", "EmptyClusterError", "soft_dtw",
+           "soft_dtw_cross", "soft_dtw_grad", "soft_dtw_objgrad", "dtw", "dtw_pdist",
+           "warmup"]
+
+
+def silhouette_score(X, labels, metric="dtw", gamma=None, parallel=None):
+    """= ``tslearn.clustering.silhouette_score(X, labels, metric=metric)`` (``"dtw"``,
+    ``"softdtw"`` with ``gamma``, or ``"precomputed"``)."""
+    return silhouette(X, labels, metric=metric, gamma=gamma, parallel=parallel)
+
+
+def warmup():
+    """Compile / load from cache every kernel (call once at start-up)."""
+    rng = np.random.RandomState(0)
+    X = rng.randn(4, 6, 3)
+    for par in (True, False):
+        r = fit(X, n_clusters=2, gamma=0.5, max_iter=2, max_iter_barycenter=2,
+                parallel=par)
+        silhouette(X, np.array([0, 0, 1, 1]), metric="dtw", parallel=par)
+        silhouette(X, np.array([0, 0, 1, 1]), metric="softdtw", gamma=0.5,
+                   parallel=par)
+    for g in (0.5, 0.1):
+        soft_dtw(X[0], X[1], g)
+        soft_dtw_grad(X[0], X[1], g)
+    return r

@@ -1,0 +1,332 @@
+"""Soft-DTW time-series k-means: :class:`SoftDTWKMeans`, the estimator, and its loop.
+
+The estimator follows scikit-learn's conventions (parameters stored as given in
+``__init__``, fitted attributes ending in ``_``) and reproduces
+``tslearn.clustering.TimeSeriesKMeans(metric="softdtw")`` exactly: k-means++ from the
+same ``RandomState`` stream, assignments by soft-DTW, centres as soft-DTW barycentres
+(:mod:`uavwind.softdtw._lbfgsb`), tslearn's stopping rule and empty-cluster handling.
+"""
+
+import numbers
+import os
+
+import numpy as np
+
+from ._lbfgsb import lbfgsb
+from ._libm import _libm_selfcheck
+from .metrics import _as_dataset, _check_gamma, _objgrad, _sdtw_cross, _use_parallel
+
+
+# ---------------------------------------------------------------------------
+# k-means
+# ---------------------------------------------------------------------------
+class EmptyClusterError(Exception):
+    """The final assignment left a cluster empty (tslearn raises it at the same point)."""
+
+
+class KMeansResult:
+    """labels, cluster_centers, inertia, n_iter as tslearn's fitted
+    estimator attributes labels_, cluster_centers_, inertia_, n_iter_.
+    ``success`` is False when no initialisation succeeded (tslearn then
+    leaves labels_ from the last failed attempt; we do the same)."""
+    __slots__ = ("labels", "cluster_centers", "inertia", "n_iter", "success",
+                 "n_attempts")
+
+    def __init__(self, labels, cluster_centers, inertia, n_iter, success,
+                 n_attempts):
+        self.labels = labels
+        self.cluster_centers = cluster_centers
+        self.inertia = inertia
+        self.n_iter = n_iter
+        self.success = success
+        self.n_attempts = n_attempts
+
+    def __repr__(self):
+        return ("KMeansResult(labels=%r, inertia=%r, n_iter=%r, success=%r)"
+                % (self.labels, self.inertia, self.n_iter, self.success))
+
+
+def _check_random_state(seed):
+    """sklearn.utils.check_random_state, verbatim semantics."""
+    import numbers
+    if seed is None or seed is np.random:
+        return np.random.mtrand._rand
+    if isinstance(seed, numbers.Integral):
+        return np.random.RandomState(seed)
+    if isinstance(seed, np.random.RandomState):
+        return seed
+    raise ValueError("%r cannot be used to seed a numpy.random.RandomState"
+                     " instance" % seed)
+
+
+def _k_init_metric(X, n_clusters, cdist_metric, random_state):
+    """tslearn.clustering.kmeans._k_init_metric, verbatim."""
+    n_samples, n_timestamps, n_features = X.shape
+    centers = np.empty((n_clusters, n_timestamps, n_features), dtype=X.dtype)
+    n_local_trials = 2 + int(np.log(n_clusters))
+    center_id = random_state.randint(n_samples)
+    centers[0] = X[center_id]
+    closest_dist_sq = cdist_metric(centers[0, np.newaxis], X) ** 2
+    current_pot = closest_dist_sq.sum()
+    for c in range(1, n_clusters):
+        rand_vals = random_state.random_sample(n_local_trials) * current_pot
+        candidate_ids = np.searchsorted(
+            np.cumsum(closest_dist_sq, dtype=np.float64), rand_vals)
+        np.clip(candidate_ids, None, closest_dist_sq.size - 1,
+                out=candidate_ids)
+        distance_to_candidates = cdist_metric(X[candidate_ids], X) ** 2
+        np.minimum(closest_dist_sq, distance_to_candidates,
+                   out=distance_to_candidates)
+        candidates_pot = distance_to_candidates.sum(axis=1)
+        best_candidate = np.argmin(candidates_pot)
+        current_pot = candidates_pot[best_candidate]
+        closest_dist_sq = distance_to_candidates[best_candidate]
+        best_candidate = candidate_ids[best_candidate]
+        centers[c] = X[best_candidate]
+    return centers
+
+
+
+def _softdtw_barycenter(Xk, init, gamma, max_iter, objgrad, tol=1e-3):
+    """tslearn.barycenters.softdtw_barycenter(X=Xk, gamma, max_iter,
+    init=init) with unit weights and no constraint: ``scipy.optimize.minimize(
+    method="L-BFGS-B", tol=tol, jac=True, options={"maxiter": max_iter})``,
+    i.e. ``ftol = gtol = tol``, run by :func:`_lbfgsb`."""
+    if max_iter <= 0:
+        return init
+    m, d = init.shape
+
+    def f(Z):
+        obj, G = objgrad(Z.reshape(m, d), Xk, gamma)
+        return float(obj), G.ravel()
+
+    return lbfgsb(f, init.ravel(), max_iter, ftol=tol, gtol=tol).reshape(init.shape)
+
+
+_TP_CONTROLLER = None
+
+
+def _blas_single_thread():
+    """Context manager limiting the BLAS used by scipy's L-BFGS-B to one
+    thread (threadpoolctl, if installed).  The L-BFGS-B vectors are far below
+    OpenBLAS' multi-threading thresholds, so results are unchanged, but an
+    idle OpenBLAS pool costs ~0.5 ms per setulb call on a busy machine."""
+    global _TP_CONTROLLER
+    import contextlib
+    if os.environ.get("FASTKMEANS_LIMIT_BLAS", "1") in ("0", "false", "False"):
+        return contextlib.nullcontext()
+    if _TP_CONTROLLER is None:
+        try:
+            from threadpoolctl import ThreadpoolController
+            _TP_CONTROLLER = ThreadpoolController()
+        except Exception:
+            _TP_CONTROLLER = False
+    if _TP_CONTROLLER is False:
+        return contextlib.nullcontext()
+    return _TP_CONTROLLER.limit(limits=1, user_api="blas")
+
+
+def fit(X, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
+        tol=1e-6, n_init=1, random_state=0, parallel=None):
+    """Exact equivalent of
+
+        km = tslearn.clustering.TimeSeriesKMeans(
+            n_clusters=n_clusters, metric="softdtw",
+            metric_params={"gamma": gamma}, max_iter=max_iter,
+            max_iter_barycenter=max_iter_barycenter, tol=tol, n_init=n_init,
+            random_state=random_state)          # init="k-means++"
+        labels = km.fit_predict(X)
+
+    Returns a KMeansResult (labels, cluster_centers, inertia, n_iter).
+    X: (n_ts, sz, d) float array without NaN.  random_state: None, int or
+    numpy RandomState (consumed exactly as tslearn does).
+    Raises EmptyClusterError where tslearn raises it (final re-assignment).
+    """
+    X = _as_dataset(X)
+    gamma = _check_gamma(gamma)
+    if max_iter < 1:
+        raise ValueError("max_iter must be >= 1")
+    with _blas_single_thread():
+        return _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol,
+                    n_init, random_state, parallel)
+
+
+def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
+         random_state, parallel):
+    par = _use_parallel(parallel)
+
+    fx = _libm_selfcheck()
+
+    def objgrad(Z, Xk, gamma):
+        return _objgrad(Z, Xk, gamma, par, fx)
+    n_ts = X.shape[0]
+
+    def cdist_sdtw(A, B):
+        A = np.ascontiguousarray(A)
+        out = np.empty((A.shape[0], B.shape[0]))
+        _sdtw_cross(A, B, gamma, out, par, fx)
+        return out
+
+    arange = np.arange(n_ts)
+
+    def assign(centers):
+        dists = cdist_sdtw(X, centers)
+        labels = dists.argmin(axis=1)
+        inertia = np.sum(dists[arange, labels] ** 2) / n_ts
+        return labels, inertia
+
+    rs = _check_random_state(random_state)
+    max_attempts = max(n_init, 10)
+
+    state_labels = None
+    state_centers = None
+    best_centers = None
+    min_inertia = np.inf
+    n_iter_best = 0
+    n_successful = 0
+    n_attempts = 0
+    while n_successful < n_init and n_attempts < max_attempts:
+        n_attempts += 1
+        centers = _k_init_metric(X, n_clusters, cdist_sdtw, rs)
+        state_centers = centers
+        old_inertia = np.inf
+        failed = False
+        it = 0
+        for it in range(max_iter):
+            labels, inertia = assign(centers)
+            state_labels = labels
+            if np.any(np.bincount(labels, minlength=n_clusters) == 0):
+                failed = True
+                break
+            # _update_centroids
+            for k in range(n_clusters):
+                Xk = np.ascontiguousarray(X[labels == k])
+                centers[k] = _softdtw_barycenter(
+                    Xk, centers[k], gamma, max_iter_barycenter, objgrad)
+            if np.abs(old_inertia - inertia) < tol:
+                break
+            old_inertia = inertia
+        if failed:
+            continue
+        if inertia < min_inertia:
+            best_centers = centers.copy()
+            min_inertia = inertia
+            n_iter_best = it + 1
+        n_successful += 1
+
+    if np.isfinite(min_inertia) and best_centers is not None:
+        labels, _ = assign(best_centers)
+        if np.any(np.bincount(labels, minlength=n_clusters) == 0):
+            raise EmptyClusterError(
+                "final assignment leads to an empty cluster (tslearn raises "
+                "EmptyClusterError here too)")
+        return KMeansResult(labels, best_centers, min_inertia, n_iter_best,
+                            True, n_attempts)
+    # no successful init: tslearn keeps labels_ of the last failed attempt
+    return KMeansResult(state_labels, state_centers, np.inf, 0, False,
+                        n_attempts)
+
+
+class SoftDTWKMeans:
+    """Time-series k-means under soft-DTW, equal to tslearn's, in the scikit-learn style.
+
+    ``SoftDTWKMeans(n_clusters, gamma, max_iter, max_iter_barycenter, random_state)``
+    gives the labels, centres, inertia and iteration count of
+    ``tslearn.clustering.TimeSeriesKMeans(n_clusters, metric="softdtw",
+    metric_params={"gamma": gamma}, max_iter, max_iter_barycenter, random_state)``
+    bit for bit (tested with ``==``).
+
+    Parameters
+    ----------
+    n_clusters : int
+        Number of clusters, >= 1.
+    gamma : float
+        Soft-DTW smoothing, > 0 (0.5 in the paper's reference code).
+    max_iter : int
+        Cap on k-means iterations, >= 1.
+    max_iter_barycenter : int
+        Cap on L-BFGS-B iterations per barycentre update, >= 0.
+    tol : float
+        Stop when the inertia changes by less than this, >= 0 (tslearn: 1e-6).
+    n_init : int
+        k-means++ restarts kept, >= 1 (the best inertia wins).
+    random_state : None, int or numpy.random.RandomState
+        Consumed exactly as tslearn consumes it.
+    parallel : bool, optional
+        Run the batched kernels over numba threads (default: ``FASTKMEANS_PARALLEL``);
+        the result does not depend on it.
+
+    Attributes
+    ----------
+    labels_ : ndarray of int, shape (n_ts,)
+    cluster_centers_ : ndarray, shape (n_clusters, sz, d)
+    inertia_ : float
+        Mean squared soft-DTW to the assigned centre (``inf`` if no start succeeded).
+    n_iter_ : int
+        Iterations run by the kept start.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> X = np.random.default_rng(0).normal(size=(6, 20, 2)) + np.repeat([0, 5], 3)[:, None, None]
+    >>> SoftDTWKMeans(n_clusters=2, random_state=0).fit_predict(X).tolist()
+    [1, 1, 1, 0, 0, 0]
+    """
+
+    def __init__(self, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
+                 tol=1e-6, n_init=1, random_state=None, parallel=None):
+        self.n_clusters = n_clusters
+        self.gamma = gamma
+        self.max_iter = max_iter
+        self.max_iter_barycenter = max_iter_barycenter
+        self.tol = tol
+        self.n_init = n_init
+        self.random_state = random_state
+        self.parallel = parallel
+
+    def get_params(self, deep=True):
+        """The constructor's parameters (scikit-learn's convention)."""
+        return {k: getattr(self, k) for k in ("n_clusters", "gamma", "max_iter",
+                                              "max_iter_barycenter", "tol", "n_init",
+                                              "random_state", "parallel")}
+
+    def set_params(self, **params):
+        """Set constructor parameters; unknown names raise ``ValueError``."""
+        for k, v in params.items():
+            if k not in self.get_params():
+                raise ValueError(f"unknown parameter {k!r} of SoftDTWKMeans")
+            setattr(self, k, v)
+        return self
+
+    def _check(self, n_ts):
+        for name, low in (("n_clusters", 1), ("max_iter", 1), ("max_iter_barycenter", 0),
+                          ("n_init", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < low:
+                raise ValueError(f"{name} must be an integer >= {low}, got {v!r}")
+        if self.n_clusters > n_ts:
+            raise ValueError(f"n_clusters must be <= the number of series ({n_ts}), "
+                             f"got {self.n_clusters}")
+        if not (isinstance(self.tol, numbers.Real) and self.tol >= 0):
+            raise ValueError(f"tol must be a real number >= 0, got {self.tol!r}")
+
+    def fit(self, X, y=None):
+        """Cluster ``X`` (n_ts, sz, d); returns ``self`` with the fitted attributes."""
+        X = _as_dataset(X)
+        self._check(X.shape[0])
+        res = fit(X, n_clusters=self.n_clusters, gamma=self.gamma, max_iter=self.max_iter,
+                  max_iter_barycenter=self.max_iter_barycenter, tol=self.tol,
+                  n_init=self.n_init, random_state=self.random_state, parallel=self.parallel)
+        self.labels_ = np.asarray(res.labels, dtype=np.int64)
+        self.cluster_centers_ = res.cluster_centers
+        self.inertia_ = float(res.inertia)
+        self.n_iter_ = int(res.n_iter)
+        return self
+
+    def fit_predict(self, X, y=None):
+        """:meth:`fit`, then the labels of ``X``."""
+        return self.fit(X).labels_
+
+    def __repr__(self):
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"SoftDTWKMeans({args})"
