@@ -276,8 +276,80 @@ def bench_where_time_goes(report, n_loops=20):
                              "ns_per_cell_value_and_gradient": ns_grad}
 
 
-SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "agreement": bench_agreement,
-            "search": bench_search, "profile": bench_where_time_goes}
+def _varied_loop(i):
+    """Loop ``i`` of the varied set: every Table 2 scenario and Exp 5's pair, both readings
+    (so both layouts and both turbulence variants), 5-20 environments per group, the
+    paper's and the continuous thrust sampler. Seeds 10_000 + i: no other section's loops."""
+    from uavwind.scenarios import PAPER_SCENARIOS
+
+    pairs = [(a.label, b.label) for a, b in PAPER_SCENARIOS.values()]
+    pairs.append(("light constant", "light shear"))
+    a, b = pairs[i % len(pairs)]
+    reading = uw.get_reading(("inferred", "halves")[(i // len(pairs)) % 2])
+    n = (5, 8, 10, 15, 20)[(i // 3) % 5]
+    sampler = ("paper", "continuous")[(i // 5) % 2]
+    s = uw.make_setting(a, b, n, layout=reading.layout, turbulence=reading.turbulence,
+                        sampler=sampler)
+    thrust = s.sample_thrust(np.random.default_rng(10_000 + i))
+    label = f"{a} vs {b}, {n}+{n}, {reading.name}, {sampler}"
+    return s.simulate(thrust, seed=10_000 + i), s.groups, label
+
+
+def _time_loop(i, engine):
+    X, g, _ = _varied_loop(i)
+    t0 = time.perf_counter()
+    res = uw.score_loop(X, g, engine=engine)
+    return time.perf_counter() - t0, res.labels.tolist(), res.score
+
+
+def bench_spread(report, n_loops=None):
+    """Per-loop speed-up over tslearn on a varied set of loops, its median and spread, and
+    throughput on 2 cores: tslearn with its own numba threads against 2 fast workers."""
+    from joblib import Parallel, delayed
+
+    n_loops = int(os.environ.get("SPREAD_LOOPS", "100")) if n_loops is None else n_loops
+    print(f"\n== per-loop speed-up over tslearn on {n_loops} varied loops (one thread each) ==")
+    import numba
+    numba.set_num_threads(1)
+    for e in ("fast", "tslearn"):
+        _time_loop(0, e)  # compile / load caches
+    rows, same = [], 0
+    for i in range(n_loops):
+        tf, lf, sf = _time_loop(i, "fast")
+        tt, lt, st = _time_loop(i, "tslearn")
+        same += (lf == lt and sf == st)
+        rows.append((tt / tf, tf, tt, _varied_loop(i)[2]))
+    ratios = np.array([r[0] for r in rows])
+    q10, q50, q90 = np.percentile(ratios, [10, 50, 90])
+    print(f"  speed-up: median {q50:.1f}x, 10th-90th percentile {q10:.1f}x-{q90:.1f}x, "
+          f"min {ratios.min():.1f}x, max {ratios.max():.1f}x; identical labels and scores on "
+          f"{same}/{n_loops}")
+    slow = sorted(rows)[:3]
+    for r in slow:
+        print(f"    slowest speed-ups: {r[0]:.1f}x ({r[3]}; fast {r[1] * 1e3:.0f} ms, tslearn {r[2] * 1e3:.0f} ms)")
+    n_tp = min(20, n_loops)
+    numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+    t0 = time.perf_counter()
+    for i in range(n_tp):
+        _time_loop(i, "tslearn")
+    t_ts = time.perf_counter() - t0
+    numba.set_num_threads(1)
+    Parallel(n_jobs=2)(delayed(_time_loop)(i, "fast") for i in range(2))  # start the workers
+    t0 = time.perf_counter()
+    Parallel(n_jobs=2)(delayed(_time_loop)(i, "fast") for i in range(n_tp))
+    t_fast = time.perf_counter() - t0
+    print(f"  throughput on 2 cores, {n_tp} loops: tslearn with 2 numba threads {t_ts:.1f} s, "
+          f"fast on 2 workers {t_fast:.1f} s ({t_ts / t_fast:.1f}x)")
+    report["spread"] = {"loops": n_loops, "median": float(q50), "p10": float(q10),
+                        "p90": float(q90), "min": float(ratios.min()), "max": float(ratios.max()),
+                        "identical": int(same),
+                        "throughput": {"loops": n_tp, "tslearn_2_threads": t_ts,
+                                       "fast_2_workers": t_fast}}
+
+
+SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
+            "agreement": bench_agreement, "search": bench_search,
+            "profile": bench_where_time_goes}
 
 
 def main():
