@@ -12,7 +12,7 @@ from uavwind.baseline import estimate_wind
 from uavwind.observation import CONSUMER_NOISE, Noise, gauss_markov, noise_seed, observe
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
-        "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 
 
 def _flight(wind, thrust=uw.PAPER_EXAMPLE):
@@ -152,3 +152,17 @@ def test_consumer_noise_levels_are_the_cited_figures():
     assert CONSUMER_NOISE.position == pytest.approx(2.5 / 1.1774)
     assert CONSUMER_NOISE.velocity == 0.05
     assert CONSUMER_NOISE.acceleration == pytest.approx(0.0088, abs=1e-4)
+
+
+def test_two_means_separates_two_clouds_and_matches_kmeans():
+    from sklearn.cluster import KMeans
+
+    from uavwind.baseline import two_means
+
+    rng = np.random.default_rng(4)
+    for trial in range(20):
+        x = np.concatenate([rng.normal(0, 0.3, (6, 3)), rng.normal(rng.uniform(1, 4), 0.3, (7, 3))])
+        ours = two_means(x)
+        ref = KMeans(n_clusters=2, n_init=10, random_state=0).fit_predict(x)
+        assert np.array_equal(ours, ref) or np.array_equal(ours, 1 - ref)
+    assert two_means(np.zeros((4, 3))).tolist() == [0, 0, 0, 0]

@@ -9,7 +9,7 @@ from uavwind.claims import bootstrap_ci, evaluate_claims, paired_difference
 from uavwind.paper import PAPER_FILES, load_paper_values
 
 TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
-        "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 
 
 def test_registry_matches_the_paper():
@@ -44,7 +44,7 @@ def test_registry_matches_the_paper():
 
 def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
-    assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "n_iter": 20}
+    assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "max_iter": 20}
     # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
     # exp6 and exp6_raw 30x20 each, exp7/exp9 33x50 each, exp8 24x50,
     # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50

@@ -15,7 +15,7 @@ from uavwind import search
 from uavwind.__main__ import main
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
-        "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 RUN = dict(profile=TINY, n_jobs=1, progress=False, cases=[0])
 
 
@@ -166,10 +166,10 @@ def test_tiny_huge_and_too_few_are_refused(call, err, match):
 def test_cem_refuses_a_wrong_objective():
     s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
     with pytest.raises(ValueError, match="one score per sample"):
-        uw.cem(s, n_samples=4, n_elite=2, n_iter=1, objective=lambda x: np.zeros(3),
+        uw.cem(s, n_samples=4, n_elite=2, max_iter=1, objective=lambda x: np.zeros(3),
                progress=False)
     with pytest.raises(ValueError, match="NaN"):
-        uw.cem(s, n_samples=4, n_elite=2, n_iter=1, progress=False,
+        uw.cem(s, n_samples=4, n_elite=2, max_iter=1, progress=False,
                objective=lambda x: np.full(len(x), np.nan))
 
 
@@ -217,7 +217,7 @@ def test_run_experiment_validates_cases(tmp_path, cases, err, match):
 
 @pytest.mark.parametrize("profile, match", [
     ({}, "missing"), ({**TINY, "loops": 0}, "loops"),
-    ({**TINY, "cem": {"n_samples": 2, "n_elite": 3, "n_iter": 1}}, "n_elite"),
+    ({**TINY, "cem": {"n_samples": 2, "n_elite": 3, "max_iter": 1}}, "n_elite"),
 ])
 def test_run_experiment_validates_profiles(tmp_path, profile, match):
     with pytest.raises(ValueError, match=match):

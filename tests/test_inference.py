@@ -91,7 +91,7 @@ def test_readings_build_every_experiment_and_label_rows(tmp_path):
 
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
-        "cem": {"n_samples": 3, "n_elite": 1, "n_iter": 2}}
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 
 
 # --------------------------------------------------------------------------- #

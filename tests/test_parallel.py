@@ -17,7 +17,7 @@ def test_dask_local_cluster_is_bit_identical():
             distributed.Client(cluster):
         with joblib.parallel_config(backend="dask"):
             remote = uw.random_search(s, n_loops=6, seed=3, progress=False)
-            res = uw.cem(s, n_samples=4, n_elite=2, n_iter=2, seed=1, progress=False)
+            res = uw.cem(s, n_samples=4, n_elite=2, max_iter=2, seed=1, progress=False)
     pd.testing.assert_frame_equal(local, remote)
-    ref = uw.cem(s, n_samples=4, n_elite=2, n_iter=2, seed=1, n_jobs=1, progress=False)
+    ref = uw.cem(s, n_samples=4, n_elite=2, max_iter=2, seed=1, n_jobs=1, progress=False)
     pd.testing.assert_frame_equal(res.samples, ref.samples)

@@ -65,7 +65,7 @@ def test_cem_converges_on_a_known_optimum():
     def objective(samples):
         return -np.sum(((samples - target) / scale) ** 2, axis=1)
 
-    res = uw.cem(s, n_samples=100, n_elite=10, n_iter=40, seed=2, objective=objective,
+    res = uw.cem(s, n_samples=100, n_elite=10, max_iter=40, seed=2, objective=objective,
                  progress=False)
     mu = np.array(res.history["mu"].iloc[-1])
     assert np.all(np.abs(mu - target) < 0.05 * scale), mu
@@ -75,14 +75,14 @@ def test_cem_converges_on_a_known_optimum():
 
 def test_cem_patience_stops_early():
     s = small()
-    res = uw.cem(s, n_samples=5, n_elite=2, n_iter=30, seed=0, patience=3, progress=False,
+    res = uw.cem(s, n_samples=5, n_elite=2, max_iter=30, seed=0, patience=3, progress=False,
                  objective=lambda x: np.zeros(len(x)))
     assert res.stopped_early and len(res.history) == 4
 
 
 def test_cem_on_the_worked_example_never_loses_its_best():
     s = uw.table3_setting(n_changes=2)
-    res = uw.cem(s, n_samples=6, n_elite=2, n_iter=3, seed=1, n_jobs=1, progress=False)
+    res = uw.cem(s, n_samples=6, n_elite=2, max_iter=3, seed=1, n_jobs=1, progress=False)
     h = res.history
     assert len(h) == 3 and len(res.samples) == 18
     assert np.all(h["best_so_far"] >= h["max"].iloc[0])
@@ -95,14 +95,14 @@ def test_cem_on_the_worked_example_never_loses_its_best():
 
 def test_cem_ranked_by_raw_silhouette_picks_the_best_silhouettes():
     s = uw.make_setting("light constant", "light shear", 4, n_changes=1)
-    res = uw.cem(s, n_samples=6, n_elite=2, n_iter=2, seed=3, n_jobs=1, progress=False,
+    res = uw.cem(s, n_samples=6, n_elite=2, max_iter=2, seed=3, n_jobs=1, progress=False,
                  rank_by="silhouette")
     first = res.samples[res.samples["iteration"] == 1]
     sil = first["silhouette"].fillna(-1.0).to_numpy()
     assert set(np.flatnonzero(first["elite"])) == set(np.argsort(-sil, kind="stable")[:2])
     assert res.best_score == res.samples["score"].max()  # the paper's score is reported
     with pytest.raises(ValueError, match="rank_by"):
-        uw.cem(s, n_samples=2, n_elite=1, n_iter=1, rank_by="inertia", progress=False)
+        uw.cem(s, n_samples=2, n_elite=1, max_iter=1, rank_by="inertia", progress=False)
 
 
 @pytest.mark.parametrize("call, err, match", [

@@ -54,10 +54,13 @@ def cache_key(setting, seed, start, stop, engine, params, extra=None):
     """Digest of everything that determines a chunk of results."""
     from .clustering import DEFAULT_PARAMS
 
-    blob = json.dumps({"setting": setting.key(), "seed": seed, "loops": [start, stop],
-                       "engine": engine, "params": {**DEFAULT_PARAMS, **params},
-                       "version": RESULTS_VERSION, "extra": extra},
-                      sort_keys=True, default=str)
+    fields = {"setting": setting.key(), "seed": seed, "loops": [start, stop], "engine": engine,
+              "params": {**DEFAULT_PARAMS, **params}, "version": RESULTS_VERSION,
+              "extra": extra}
+    if getattr(setting, "baseline", False):  # loops that also run the physics baseline
+        from .baseline import BASELINE_VERSION
+        fields["baseline"] = BASELINE_VERSION
+    blob = json.dumps(fields, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 

@@ -57,9 +57,9 @@ CHUNK = 50
 #: Profiles: loop counts and CEM sizes.
 PROFILES = {
     "paper": {"loops": 50, "long_loops": 500, "fit_loops": 20,
-              "cem": {"n_samples": 30, "n_elite": 4, "n_iter": 20}},
+              "cem": {"n_samples": 30, "n_elite": 4, "max_iter": 20}},
     "quick": {"loops": 4, "long_loops": 8, "fit_loops": 2,
-              "cem": {"n_samples": 6, "n_elite": 2, "n_iter": 3}},
+              "cem": {"n_samples": 6, "n_elite": 2, "max_iter": 3}},
 }
 #: Default seed of every experiment (its SeedSequence root).
 DEFAULT_SEED = 20240101
@@ -354,12 +354,12 @@ def _check_profile(profile):
         for k in ("loops", "long_loops", "fit_loops"):
             check_scalar(profile[k], f"profile[{k!r}]", low=1, high=10 ** 6, integer=True)
         cem_cfg = profile["cem"]
-        if not isinstance(cem_cfg, dict) or set(cem_cfg) != {"n_samples", "n_elite", "n_iter"}:
-            raise ValueError("profile['cem'] must be a dict with n_samples, n_elite, n_iter")
+        if not isinstance(cem_cfg, dict) or set(cem_cfg) != {"n_samples", "n_elite", "max_iter"}:
+            raise ValueError("profile['cem'] must be a dict with n_samples, n_elite, max_iter")
         n = check_scalar(cem_cfg["n_samples"], "profile['cem']['n_samples']", low=1,
                          high=10 ** 5, integer=True)
         check_scalar(cem_cfg["n_elite"], "profile['cem']['n_elite']", low=1, high=n, integer=True)
-        check_scalar(cem_cfg["n_iter"], "profile['cem']['n_iter']", low=1, high=10 ** 4,
+        check_scalar(cem_cfg["max_iter"], "profile['cem']['max_iter']", low=1, high=10 ** 4,
                      integer=True)
         return profile
     if profile not in PROFILES:
@@ -424,15 +424,18 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         if exp.kind == "cem":
             cfg = prof["cem"]
-            extra = {**cfg, **exp.search} if exp.search else cfg
-            key = cache_key(s, seed, 0, cfg["n_iter"], engine, params, extra=extra)
+            # the key spells the cap "n_iter", its name when these results were first
+            # cached: the name changed, the results did not
+            extra = {"n_samples": cfg["n_samples"], "n_elite": cfg["n_elite"],
+                     "n_iter": cfg["max_iter"], **exp.search}
+            key = cache_key(s, seed, 0, cfg["max_iter"], engine, params, extra=extra)
             path = folder / exp.id / f"cem-{key}.parquet"
 
             def compute(s=s, cfg=cfg):
                 res = cem(s, seed=seed, n_jobs=n_jobs, engine=engine, progress=progress,
                           **cfg, **exp.search, **params)
                 return res.samples
-            expect = Expected(s.key(), seed, engine, cfg["n_samples"] * cfg["n_iter"])
+            expect = Expected(s.key(), seed, engine, cfg["n_samples"] * cfg["max_iter"])
             df, hit = cached(path, compute, meta, expect)
             n_cached += hit
             n_chunks += 1
@@ -549,7 +552,7 @@ def n_loops_total(profile):
     total = 0
     for exp in EXPERIMENTS.values():
         if exp.kind == "cem":
-            total += prof["cem"]["n_samples"] * prof["cem"]["n_iter"]
+            total += prof["cem"]["n_samples"] * prof["cem"]["max_iter"]
         else:
             total += sum(_n_loops(prof, c) for c in exp.cases())
     return total

@@ -289,7 +289,7 @@ def cem_step(samples, scores, n_elite):
     return mu, sigma, order[:n_elite]
 
 
-def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
+def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
         magnitude_mean=25.0, magnitude_std=50.0, direction_mean=0.0, direction_std=0.33,
         max_magnitude=MAX_THRUST, n_jobs=None, engine=None, progress=True, objective=None,
         rank_by="score", **params):
@@ -307,8 +307,8 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
     setting : Setting
     n_samples, n_elite : int
         N and N_e (paper: 30 and 4); ``1 <= n_elite <= n_samples``.
-    n_iter : int
-        Maximum number of iterations (default 20).
+    max_iter : int
+        Cap on the iterations (default 20); the history's length is the count run.
     seed : int or SeedSequence
     patience : int, optional
         Stop when the best score has not improved for this many iterations
@@ -335,7 +335,7 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
         raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
     n_samples = check_scalar(n_samples, "n_samples", low=1, integer=True)
     n_elite = check_scalar(n_elite, "n_elite", low=1, high=n_samples, integer=True)
-    n_iter = check_scalar(n_iter, "n_iter", low=1, integer=True)
+    max_iter = check_scalar(max_iter, "max_iter", low=1, integer=True)
     if patience is not None:
         patience = check_scalar(patience, "patience", low=1, integer=True)
     magnitude_std = check_scalar(magnitude_std, "magnitude_std", low=0)
@@ -356,7 +356,7 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
     history, sample_rows = [], []
     best_score, best_thrust, best_iter = -np.inf, None, -1
     stopped = False
-    for it in range(n_iter):
+    for it in range(max_iter):
         draws = _rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
         thrusts = [ThrustSequence.from_vector(x, times, max_magnitude) for x in draws]
         if objective is None:
@@ -391,7 +391,7 @@ def cem(setting, n_samples=30, n_elite=4, n_iter=20, seed=0, patience=None,
                         "elite_mean": float(scores[elite].mean()),
                         "best_so_far": best_score, "mu": mu.tolist(), "sigma": sigma.tolist()})
         if patience is not None and it - best_iter >= patience:
-            stopped = it + 1 < n_iter
+            stopped = it + 1 < max_iter
             break
     return CEMResult(history=pd.DataFrame(history), samples=pd.DataFrame(sample_rows),
                      best_thrust=best_thrust, best_score=best_score, times=times,
