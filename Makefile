@@ -23,6 +23,18 @@ export PYTHONHASHSEED := 0
 # papermill loses every figure under a non-interactive backend: never inherit one
 unexport MPLBACKEND
 
+# papermill's injected parameter cell: provenance lines on the pages say the same, readably
+define HIDE_INJECTED
+import sys, nbformat
+nb = nbformat.read(sys.argv[1], as_version=4)
+for cell in nb.cells:
+    tags = cell.metadata.setdefault("tags", [])
+    if "injected-parameters" in tags and "remove-cell" not in tags:
+        tags.append("remove-cell")
+nbformat.write(nb, sys.argv[1])
+endef
+export HIDE_INJECTED
+
 .DEFAULT_GOAL := help
 .PHONY: help venv test bench book results lab clean clean-results FORCE
 
@@ -59,6 +71,7 @@ $(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP)
 	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
 	$(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
 	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb
+	$(BIN)/python -c "$$HIDE_INJECTED" $(GEN)/.src/$*.out.ipynb
 	mv $(GEN)/.src/$*.out.ipynb $@
 
 $(MATHJAX): $(STAMP)

@@ -68,3 +68,43 @@ def test_no_cell_errored_and_no_network_assets(built_book):
     html = _html(built_book, "method")
     assert "cdn.jsdelivr" not in html and "_static/mathjax/MathJax.js" in html
     assert (built_book / "_build" / "html" / "_static" / "mathjax" / "MathJax.js").exists()
+
+
+def _chromium(args, tmp_path, tag):
+    chromium = shutil.which("chromium") or shutil.which("chromium-browser")
+    if chromium is None:
+        pytest.skip("no headless chromium on this machine")
+    base = [chromium, "--headless=new", "--no-sandbox", "--no-zygote", "--single-process",
+            "--disable-gpu", "--disable-dev-shm-usage", f"--user-data-dir={tmp_path / tag}",
+            "--virtual-time-budget=8000"]
+    return subprocess.run(base + args, capture_output=True, text=True, timeout=180)
+
+
+def test_explore_page_redraws_without_a_kernel(built_book, tmp_path):
+    """The static explorer's controls change the figure in the built HTML: the URL
+    fragment sets the selects as a reader would, and the page's own script redraws."""
+    page = built_book / "_build" / "html" / "generated" / "explore.html"
+    html = page.read_text()
+    assert "_static/plotly/plotly.min.js" in html and "cdn.plot.ly" not in html
+    assert (built_book / "_build" / "html" / "_static" / "plotly" / "plotly.min.js").exists()
+    scores = []
+    for k, frag in enumerate(("", "#pair=2&n=5&thrust=1&layout=halves")):
+        dom = _chromium(["--dump-dom", f"file://{page}{frag}"], tmp_path, f"d{k}").stdout
+        m = re.search(r'class="uw-score"[^>]*>([^<]*)<', dom)
+        assert m and m.group(1).startswith("score "), dom[-500:]
+        scores.append(m.group(1))
+    assert scores[0] != scores[1], scores
+
+
+def test_exercises_citations_and_provenance(built_book):
+    pages = list((built_book / "_build" / "html" / "generated").glob("*.html"))
+    html = {p.stem: p.read_text() for p in pages}
+    n_ex = sum(len(re.findall(r'class="admonition exercise', h)) for h in html.values())
+    n_sol = sum(len(re.findall(r'class="[^"]*solution[^"]*dropdown', h)) for h in html.values())
+    assert n_ex >= 15 and n_sol >= n_ex, (n_ex, n_sol)  # every solution hidden by default
+    refs = _html(built_book, "references")
+    for key in ("Sontakke", "Cuturi", "MIL-F-8785C", "Tavenard", "Elkinton"):
+        assert key in refs, key
+    assert "Made by experiment exp1 under the" in html["exp1_wind_speed"]
+    teaching = _html(built_book, "teaching")
+    assert "ex-constant-drift" in teaching or "Exercise" in teaching
