@@ -99,8 +99,8 @@ def test_explore_page_redraws_without_a_kernel(built_book, tmp_path):
 def test_exercises_citations_and_provenance(built_book):
     pages = list((built_book / "_build" / "html" / "generated").glob("*.html"))
     html = {p.stem: p.read_text() for p in pages}
-    n_ex = sum(len(re.findall(r'class="admonition exercise', h)) for h in html.values())
-    n_sol = sum(len(re.findall(r'class="[^"]*solution[^"]*dropdown', h)) for h in html.values())
+    n_ex = sum(len(re.findall(r'class="exercise admonition"', h)) for h in html.values())
+    n_sol = sum(len(re.findall(r'class="solution dropdown admonition"', h)) for h in html.values())
     assert n_ex >= 15 and n_sol >= n_ex, (n_ex, n_sol)  # every solution hidden by default
     refs = _html(built_book, "references")
     for key in ("Sontakke", "Cuturi", "MIL-F-8785C", "Tavenard", "Elkinton"):
