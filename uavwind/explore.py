@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .clustering import score_loop
+from .display import group_name
 from .plotting import fig3_loop
 from .scenarios import make_setting
 
@@ -31,7 +32,7 @@ def explore_loop(condition_a="light constant", condition_b="strong shear", n_per
     traj = setting.simulate(thrust, seed=thrust_seed)
     res = score_loop(traj, setting.groups, engine=engine)
     fig = fig3_loop(traj, setting.groups, [res.score],
-                    group_labels=(condition_a, condition_b),
+                    group_labels=(group_name(setting, 0), group_name(setting, 1)),
                     title=f"score {res.score:.2f} ({'correct' if res.correct else 'misgrouped'})")
     fig.axes[1].set_visible(False)
     return fig, res, setting, thrust

@@ -347,7 +347,8 @@ class Setting:
     def to_frame(self):
         """Both groups side by side, as in the paper's Table 3."""
         a, b = self.group_a.to_frame(), self.group_b.to_frame()
-        return pd.concat({self.group_a.label or "group A": a, self.group_b.label or "group B": b},
+        from .display import group_name
+        return pd.concat({group_name(self, 0): a, group_name(self, 1): b},
                          axis=1)
 
     def __str__(self):
