@@ -107,4 +107,5 @@ def test_exercises_citations_and_provenance(built_book):
         assert key in refs, key
     assert "Made by experiment exp1 under the" in html["exp1_wind_speed"]
     teaching = _html(built_book, "teaching")
-    assert "ex-constant-drift" in teaching or "Exercise" in teaching
+    assert 'generated/model.html#ex-constant-drift' in teaching  # links to the exercises
+    assert len(re.findall(r'href="generated/[a-z0-9_]+\.html#ex-', teaching)) >= 15

@@ -242,3 +242,63 @@ def test_an_interrupt_shuts_the_workers_down(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         uw.random_search(s, n_loops=2, n_jobs=2, progress=False)
     assert stopped == [True]
+
+
+# --------------------------------------------------------------------------- #
+# regressions found in review
+# --------------------------------------------------------------------------- #
+def test_a_correct_loop_with_a_negative_silhouette_is_cached(tmp_path):
+    path = tmp_path / "loops" / "c.parquet"
+    expect = cache.Expected("k", 1, "fast", 2)
+    rows = pd.DataFrame({"score": [-12.5, 0.0], "silhouette": [-0.125, 0.4],
+                         "correct": [True, False]})
+    df, hit = cache.cached(path, lambda: rows.copy(), {"setting_key": "k", "seed": 1,
+                                                       "engine": "fast"}, expect)
+    assert not hit and cache.read_verified(path, expect) is not None
+    from uavwind.stats import correct_share
+    assert correct_share(df) == 0.5  # the correct column, not score > 0
+
+
+def test_cem_keeps_its_cap_apart_from_the_k_means_cap(tmp_path):
+    s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
+    res = uw.cem(s, n_samples=3, n_elite=1, max_iter=2, seed=0, n_jobs=1, progress=False,
+                 clustering={"max_iter": 1})
+    assert len(res.history) == 2 and (res.samples["n_iter"] <= 1).all()
+    df = ex.run_experiment("exp6", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                           max_iter=1)
+    assert (df["n_iter"] <= 1).all() and df["iteration"].max() == 2
+
+
+def test_cem_history_ignores_nan_scores():
+    s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
+    res = uw.cem(s, n_samples=4, n_elite=2, max_iter=1, progress=False,
+                 objective=lambda x: np.array([1.0, np.nan, 3.0, 2.0]))
+    assert res.history["max"].iloc[0] == 3.0 and res.history["mean"].iloc[0] == 2.0
+
+
+def test_inferred_layout_with_a_turbulent_group_a():
+    s = uw.make_setting("strong turbulence", "strong shear", 3)
+    assert s.group_a.kind == "turbulence" and s.n_env == 6
+    with pytest.raises(ValueError, match="no fitted gap"):
+        uw.make_setting("strong turbulence", "strong turbulence", 3)
+
+
+def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
+    from uavwind import explore, scenarios
+
+    calls = []
+    monkeypatch.setattr(explore, "explore_grid", _stub_grid(calls))
+    kw = dict(pairs=(("light constant", "light constant"),), n_per_group=(3,), layouts=("inferred",))
+    explore.cached_grid(tmp_path, **kw)
+    explore.cached_grid(tmp_path, **kw)
+    assert len(calls) == 1  # cached
+    monkeypatch.setitem(scenarios.INFERRED_GAP_RATIOS, "light constant", 20.0)
+    explore.cached_grid(tmp_path, **kw)
+    assert len(calls) == 2  # a refitted layout is a new grid
+
+
+def _stub_grid(calls):
+    def explore_grid(pairs=(), n_per_group=(), layouts=(), every=3, engine=None, seed=0):
+        calls.append(1)
+        return {"controls": {}, "loops": {}}
+    return explore_grid

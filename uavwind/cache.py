@@ -111,18 +111,21 @@ def _problem(df, expect):
     if "score" not in df.columns:
         return "no score column"
     score = df["score"].to_numpy(dtype=float)
-    if not np.all(np.isfinite(score)) or score.min() < 0 or score.max() > 100:
-        return "scores outside [0, 100]"
-    if "silhouette" in df.columns:
-        sil = df["silhouette"].to_numpy(dtype=float)
-        sil = sil[np.isfinite(sil)]
-        if sil.size and (sil.min() < -1 - 1e-9 or sil.max() > 1 + 1e-9):
-            return "silhouettes outside [-1, 1]"
-        pos = score > 0
-        if np.any(np.abs(score[pos] - 100 * df["silhouette"].to_numpy(dtype=float)[pos]) > 1e-6):
-            return "scores that are not 100 x silhouette"
-    if "correct" in df.columns and np.any(score[~df["correct"].to_numpy(dtype=bool)] != 0):
-        return "a misgrouped loop with a non-zero score"
+    # 100 x silhouette where the loop is grouped correctly (a silhouette may be <= 0), 0 else
+    if not np.all(np.isfinite(score)) or score.min() < -100 or score.max() > 100:
+        return "scores outside [-100, 100]"
+    if "correct" in df.columns:
+        ok = df["correct"].to_numpy(dtype=bool)
+        if np.any(score[~ok] != 0):
+            return "a misgrouped loop with a non-zero score"
+        if "silhouette" in df.columns:
+            sil = df["silhouette"].to_numpy(dtype=float)
+            if np.any(np.abs(sil[np.isfinite(sil)]) > 1 + 1e-9):
+                return "silhouettes outside [-1, 1]"
+            if np.any(np.abs(score[ok] - 100 * sil[ok]) > 1e-6):
+                return "scores that are not 100 x silhouette"
+    elif score.min() < 0:
+        return "negative scores without a correct column"
     return ""
 
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .stats import bootstrap_ci, paired_difference
+from .stats import bootstrap_ci, correct_share, paired_difference
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
            "LESSONS", "compare_readings"]
@@ -171,7 +171,8 @@ def claim_c6(r):
 def claim_c7(r):
     df = r["exp5"]
     same, opp = _scores(df, direction="similar"), _scores(df, direction="opposite")
-    rs, ro = (same > 0).mean(), (opp > 0).mean()
+    rs = correct_share(df[df["direction"] == "similar"])
+    ro = correct_share(df[df["direction"] == "opposite"])
     verdict = ("reproduced" if ro == 1.0 and rs < 1.0 else
                "partly" if ro > rs else "not reproduced")
     ev = (f"correctly grouped loops: similar {100 * rs:.0f}%, opposite {100 * ro:.0f}%; "

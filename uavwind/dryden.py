@@ -206,8 +206,9 @@ class CitedDryden:
         sample time (the code: 10).
     seeds : tuple of 3 ints or None
         Seeds of the u, v, w noise (the code: 23341, 23342, 23343, "same as the
-        Simulink blockset"), so every call and every environment gets the same
-        gusts. ``None``: one seed ``s`` per environment drawn from the wind's
+        Simulink blockset"), so every call gets the same gusts, and so does every
+        environment of equal airspeed (the airspeed defaults to each environment's W20,
+        which makes the filters, and so the gusts, differ between environments). ``None``: one seed ``s`` per environment drawn from the wind's
         seed, and ``s, s+1, s+2`` for u, v, w (the derivative).
     grid_duration : float
         Length of the simulated gust series [s] (the code: ``linspace(0, 5, 1000)``).

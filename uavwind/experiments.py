@@ -1,4 +1,5 @@
-"""The paper's six experiments, declared as data, run with cached, resumable results.
+"""The experiments -- the paper's six, three beyond it, and the fits of the inferred reading --
+declared as data, run with cached, resumable results.
 
 This module owns the registry :data:`EXPERIMENTS` (id, title, notebook, cases,
 loop counts per profile), :func:`run_experiment` (one tidy ``pandas`` table per
@@ -377,7 +378,8 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     Parameters
     ----------
     exp_id : str
-        ``"exp1"`` ... ``"exp6"``.
+        An id of :data:`EXPERIMENTS`: ``"example"``, ``"exp1"`` ... ``"exp9"``,
+        ``"exp6_raw"``, ``"fit_layout"``, ``"fit_turbulence"``.
     profile : {"quick", "paper"}
     seed : int
         Root seed (one SeedSequence for the experiment).
@@ -433,7 +435,7 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
 
             def compute(s=s, cfg=cfg):
                 res = cem(s, seed=seed, n_jobs=n_jobs, engine=engine, progress=progress,
-                          **cfg, **exp.search, **params)
+                          **cfg, **exp.search, clustering=params)
                 return res.samples
             expect = Expected(s.key(), seed, engine, cfg["n_samples"] * cfg["max_iter"])
             df, hit = cached(path, compute, meta, expect)
@@ -490,14 +492,14 @@ def _n_loops(prof, case):
 # summaries in the paper's layout
 # --------------------------------------------------------------------------- #
 def _maxmean(df, by):
-    from .stats import bootstrap_ci
+    from .stats import bootstrap_ci, correct_share
 
     rows = {}
     for key, sub in df.groupby(list(by), sort=False):
         s = sub.sort_values("loop")["score"].to_numpy()
         mean, lo, hi = bootstrap_ci(s)
         rows[key] = {"max": float(s.max()), "mean": mean, "ci_low": lo, "ci_high": hi,
-                     "correct_rate": float((s > 0).mean()), "n_loops": s.size}
+                     "correct_rate": correct_share(sub), "n_loops": s.size}
     out = pd.DataFrame.from_dict(rows, orient="index")
     out.index = (pd.MultiIndex.from_tuples(out.index, names=list(by)) if len(by) > 1
                  else pd.Index([k[0] if isinstance(k, tuple) else k for k in out.index],
@@ -566,8 +568,8 @@ def comparison_table(df):
     ``case``; index: the
     paper's row labels. Reads the paper's values through :mod:`uavwind.paper`.
     """
-    from .stats import bootstrap_ci
     from .paper import load_paper_values
+    from .stats import bootstrap_ci, correct_share
 
     exp = _record(df)
     if not exp.paper_keys:
@@ -587,5 +589,5 @@ def comparison_table(df):
         rows.append({"row": label, "case": int(sub["case"].iloc[0]), "paper_max": p["maximum"],
                      "max": sub["score"].max(), "paper_mean": p["mean"], "mean": est,
                      "ci_low": lo, "ci_high": hi,
-                     "correct_rate": float((sub["score"] > 0).mean()), "n_loops": len(sub)})
+                     "correct_rate": correct_share(sub), "n_loops": len(sub)})
     return pd.DataFrame(rows).set_index("row")

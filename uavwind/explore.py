@@ -117,15 +117,26 @@ def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "
 
 
 def cached_grid(folder=None, **kwargs):
-    """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a digest of its
-    arguments and the results version (a damaged file is recomputed)."""
+    """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a digest of
+    everything that determines it -- its arguments with their defaults, every setting's
+    key (so a refitted layout changes it), the thrust sequences and the results version;
+    a damaged file is recomputed."""
     import hashlib
     import json
 
     from .cache import RESULTS_VERSION, results_dir
 
+    from .scenarios import get_reading
+
     folder = results_dir() if folder is None else folder
-    blob = json.dumps({"kwargs": kwargs, "version": RESULTS_VERSION}, sort_keys=True, default=str)
+    args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),
+                       explore_grid.__defaults__)), **kwargs}
+    settings = [make_setting(a, b, n, layout=get_reading(r).layout,
+                             turbulence=get_reading(r).turbulence).key()
+                for a, b in args["pairs"] for n in args["n_per_group"] for r in args["layouts"]]
+    thrusts = {k: t.to_dict() for k, t in explore_thrusts().items()}
+    blob = json.dumps({"args": args, "settings": settings, "thrusts": thrusts,
+                       "version": RESULTS_VERSION}, sort_keys=True, default=str)
     path = folder / "explore" / f"grid-{hashlib.sha256(blob.encode()).hexdigest()[:16]}.json"
     try:
         return json.loads(path.read_text())

@@ -31,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .stats import bootstrap_ci
+from .stats import bootstrap_ci, correct_share
 from .scenarios import (INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
                         TURBULENCE_CANDIDATES, Setting)
 
@@ -91,9 +91,10 @@ def fit_ratio(ratios, scores, target):
 
 def silhouette_curves(fit_results):
     """Mean, max and correct share of the score per scenario and gap ratio."""
-    g = fit_results.groupby(["scenario_id", "scenario", "gap_ratio"])["score"]
-    return pd.DataFrame({"mean": g.mean(), "max": g.max(),
-                         "correct_rate": g.apply(lambda s: float((s > 0).mean())),
+    keys = ["scenario_id", "scenario", "gap_ratio"]
+    g = fit_results.groupby(keys)["score"]
+    rate = fit_results.groupby(keys)[["score", "correct"]].apply(correct_share)
+    return pd.DataFrame({"mean": g.mean(), "max": g.max(), "correct_rate": rate,
                          "n_loops": g.size()}).reset_index()
 
 
@@ -153,7 +154,7 @@ def compare_turbulence(turb_results):
         s = sub.sort_values("loop")["score"].to_numpy()
         est, lo, hi = bootstrap_ci(s)
         rows.append({"candidate": name, "mean": est, "ci_low": lo, "ci_high": hi,
-                     "max": float(s.max()), "correct_rate": float((s > 0).mean()),
+                     "max": float(s.max()), "correct_rate": correct_share(sub),
                      "paper_mean": float(paper["mean"]), "paper_max": float(paper["maximum"]),
                      "distance": max(abs(est - paper["mean"]), abs(s.max() - paper["maximum"])),
                      "in_use": TURBULENCE_CANDIDATES.get(name) == INFERRED_TURBULENCE,

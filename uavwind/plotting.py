@@ -251,7 +251,7 @@ def fig9_cem(history, random_scores=None, paper=None):
 # --------------------------------------------------------------------------- #
 def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     """Simulated gust spectra (Welch, averaged over environments) over the analytic
-    MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.wind.DrydenWind`
+    MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.dryden.DrydenWind`
     whose environments share one W20."""
     from scipy.signal import welch
 

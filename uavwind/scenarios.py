@@ -130,7 +130,7 @@ class EnvironmentGroup:
     alpha, reference_height, floor : float
         Shear profile (see :class:`~uavwind.wind.ShearWind`).
     altitude : float
-        Altitude of the Dryden parameters [m] (see :class:`~uavwind.wind.DrydenWind`).
+        Altitude of the Dryden parameters [m] (see :class:`~uavwind.dryden.DrydenWind`).
     variant : {"mil-f-8785c", "cited"}
         Dryden variant of a turbulence group.
     cited : CitedDryden, optional
@@ -446,7 +446,8 @@ LAYOUTS = {"halves": Layout("halves"), "gap": Layout("gap", gap=1 / 3)}
 #: :func:`uavwind.inference.fit_layouts` (paper profile; the book's "What the
 #: paper's numbers reveal" page refits them and fails if these values leave the
 #: fit's 95% interval). Keyed by group A's condition: a mixed same-strength pair
-#: (Exp 5's light constant vs light shear) takes group A's ratio.
+#: (Exp 5's light constant vs light shear) takes group A's ratio, a turbulent group A
+#: group B's.
 INFERRED_GAP_RATIOS = {
     "light constant": 11.2,
     "strong constant": 64.0,
@@ -470,7 +471,13 @@ def resolve_layout(layout, condition_a, condition_b):
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
     if ca.strength != cb.strength:
         return Layout("inferred")
-    return Layout("inferred", gap_ratio=INFERRED_GAP_RATIOS[ca.label])
+    # the ratio of group A's condition; a turbulent group A takes group B's (the paper
+    # fitted no turbulent same-strength pair)
+    for c in (ca, cb):
+        if c.label in INFERRED_GAP_RATIOS:
+            return Layout("inferred", gap_ratio=INFERRED_GAP_RATIOS[c.label])
+    raise ValueError(f"layout 'inferred' has no fitted gap for {ca.label} vs {cb.label}: "
+                     f"pass a Layout (e.g. Layout(gap_ratio=10.0)) or layout='halves'")
 
 
 # --------------------------------------------------------------------------- #

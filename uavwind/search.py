@@ -190,12 +190,16 @@ def _rows(results, thrusts):
 
 
 def summarise(scores):
-    """``{"max", "mean", "n", "correct_rate"}`` of a score column (or DataFrame)."""
+    """``{"max", "mean", "n", "correct_rate"}`` of a score column (or a result table, whose
+    ``correct`` column then gives the share)."""
+    from .stats import correct_share
+
+    rate = correct_share(scores)
     if isinstance(scores, pd.DataFrame):
         scores = scores["score"]
     s = np.asarray(scores, dtype=float)
     return {"max": float(s.max()), "mean": float(s.mean()), "n": int(s.size),
-            "correct_rate": float(np.mean(s > 0))}
+            "correct_rate": rate}
 
 
 def random_search(setting, n_loops=50, seed=0, n_jobs=None, engine=None, progress=True,
@@ -292,7 +296,7 @@ def cem_step(samples, scores, n_elite):
 def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
         magnitude_mean=25.0, magnitude_std=50.0, direction_mean=0.0, direction_std=0.33,
         max_magnitude=MAX_THRUST, n_jobs=None, engine=None, progress=True, objective=None,
-        rank_by="score", **params):
+        rank_by="score", clustering=None, **params):
     """Cross-Entropy Method over thrust magnitudes and direction components.
 
     The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``
@@ -320,6 +324,11 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
     objective : callable, optional
         ``f(samples (n, dim)) -> scores (n,)`` replacing the simulation (for tests
         and other uses); the setting then only provides the change times.
+    clustering : dict, optional
+        Clustering parameters of every loop (see :func:`uavwind.clustering.score_loop`);
+        the k-means cap goes here, ``clustering={"max_iter": 50}``, since ``max_iter``
+        is this search's own cap. Other clustering parameters may also be given as
+        keyword arguments.
     rank_by : {"score", "silhouette"}
         What picks the elites: the paper's score (0 when the clusters miss the
         groups, so a population without a correct loop carries no signal) or the
@@ -342,6 +351,7 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
     direction_std = check_scalar(direction_std, "direction_std", low=0)
     magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
     direction_mean = check_scalar(direction_mean, "direction_mean")
+    params = {**params, **(clustering or {})}
     if rank_by not in ("score", "silhouette"):
         raise ValueError(f"rank_by must be 'score' or 'silhouette', got {rank_by!r}")
     if rank_by == "silhouette" and objective is not None:
@@ -386,9 +396,9 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
         j_best = int(np.nanargmax(scores))
         if scores[j_best] > best_score:
             best_score, best_thrust, best_iter = float(scores[j_best]), thrusts[j_best], it
-        history.append({"iteration": it + 1, "max": float(scores.max()),
-                        "mean": float(scores.mean()),
-                        "elite_mean": float(scores[elite].mean()),
+        history.append({"iteration": it + 1, "max": float(np.nanmax(scores)),
+                        "mean": float(np.nanmean(scores)),
+                        "elite_mean": float(np.nanmean(scores[elite])),
                         "best_so_far": best_score, "mu": mu.tolist(), "sigma": sigma.tolist()})
         if patience is not None and it - best_iter >= patience:
             stopped = it + 1 < max_iter

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["bootstrap_ci", "paired_difference", "N_BOOT", "SEED"]
+__all__ = ["bootstrap_ci", "paired_difference", "correct_share", "N_BOOT", "SEED"]
 
 N_BOOT = 2000
 SEED = 12345
@@ -31,3 +31,13 @@ def paired_difference(a, b, n_boot=N_BOOT, seed=SEED):
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     n = min(a.size, b.size)
     return bootstrap_ci(a[:n] - b[:n], n_boot=n_boot, seed=seed)
+
+
+def correct_share(rows):
+    """Share of loops whose clusters are the two groups: the ``correct`` column of a result
+    table (a loop can be grouped correctly with a silhouette <= 0, so a score > 0 is not
+    the same test); a bare score array falls back to ``score > 0``."""
+    if hasattr(rows, "columns") and "correct" in rows.columns:
+        return float(np.asarray(rows["correct"], dtype=bool).mean())
+    s = np.asarray(rows["score"] if hasattr(rows, "columns") else rows, dtype=float)
+    return float((s > 0).mean())
