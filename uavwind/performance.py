@@ -88,13 +88,18 @@ def report_tables(report):
             "smallest": sp["min"], "largest": sp["max"]}})
     if "paper_profile" in report:
         p = report["paper_profile"]
-        rows = {"loops (before cache sharing)": f"{p['loops']}",
-                "estimated, one core (min)": f"{p['estimated_seconds_one_core'] / 60:.1f}",
-                "estimated, all cores (min)": f"{p['estimated_seconds_all_cores'] / 60:.1f}"}
+        rows = {"loops (before cache sharing)": f"{p['loops']}"}
+        if "estimated_seconds_one_core" in p:
+            rows["estimated, one core (min)"] = f"{p['estimated_seconds_one_core'] / 60:.1f}"
+            rows["estimated, all cores (min)"] = f"{p['estimated_seconds_all_cores'] / 60:.1f}"
         if "measured_seconds" in p:
             rows[f"measured: {p.get('measured_command', 'paper run')} (min)"] = \
                 f"{p['measured_seconds'] / 60:.1f}"
-            rows["peak memory, whole process tree (MiB)"] = f"{p['peak_tree_rss_mib']:.0f}"
+            if "peak_tree_rss_mib" in p:
+                rows["peak memory, whole process tree (MiB)"] = f"{p['peak_tree_rss_mib']:.0f}"
+            if "peak_rss_largest_process_mib" in p:
+                rows["peak memory, largest single process (MiB)"] = \
+                    f"{p['peak_rss_largest_process_mib']:.0f}"
         out["paper"] = pd.DataFrame({"value": rows})
     return out
 
