@@ -288,8 +288,7 @@ def _varied_loop(i):
     reading = uw.get_reading(("inferred", "halves")[(i // len(pairs)) % 2])
     n = (5, 8, 10, 15, 20)[(i // 3) % 5]
     sampler = ("paper", "continuous")[(i // 5) % 2]
-    s = uw.make_setting(a, b, n, layout=reading.layout, turbulence=reading.turbulence,
-                        sampler=sampler)
+    s = uw.make_setting(a, b, n, sampler=sampler, **reading.builder_kwargs)
     thrust = s.sample_thrust(np.random.default_rng(10_000 + i))
     label = f"{a} vs {b}, {n}+{n}, {reading.name}, {sampler}"
     return s.simulate(thrust, seed=10_000 + i), s.groups, label

@@ -138,7 +138,7 @@ def _scenario_label(a, b):
 
 
 def _make(reading, a, b, n, **kwargs):
-    return make_setting(a, b, n, layout=reading.layout, turbulence=reading.turbulence, **kwargs)
+    return make_setting(a, b, n, **reading.builder_kwargs, **kwargs)
 
 
 def _exp1(reading):
@@ -158,7 +158,7 @@ def _sweep(builder, label_key):
         cases = []
         for k in (1, 2, 3, 4):
             a, b = PAPER_SCENARIOS[k]
-            for s in builder(a, b, layout=reading.layout, turbulence=reading.turbulence):
+            for s in builder(a, b, **reading.builder_kwargs):
                 cases.append(Case(s, {"scenario": _scenario_label(a, b), "scenario_id": k,
                                       label_key: s.n_env}))
         return cases
@@ -183,8 +183,7 @@ def _exp4(reading):
 
 
 def _direction(reading):
-    return direction_settings("light constant", "light shear", 10, layout=reading.layout,
-                              turbulence=reading.turbulence)
+    return direction_settings("light constant", "light shear", 10, **reading.builder_kwargs)
 
 
 def _exp5(reading):

@@ -93,27 +93,32 @@ def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "
     environment, every ``every``-th sample, cm resolution), ``"groups"``, ``"score"``,
     ``"correct"``}). Turbulence uses the loop's reading and ``seed``.
     """
-    from .scenarios import get_reading
-
     thrusts = explore_thrusts()
     loops = {}
-    for i, (a, b) in enumerate(pairs):
-        for n in n_per_group:
-            for j, (tname, thrust) in enumerate(thrusts.items()):
-                for layout in layouts:
-                    rd = get_reading(layout)
-                    s = make_setting(a, b, n, layout=rd.layout, turbulence=rd.turbulence)
-                    traj = s.simulate(thrust, seed=seed)
-                    res = score_loop(traj, s.groups, engine=engine)
-                    pts = np.round(traj[:, ::every], 2)
-                    loops[f"{i}|{n}|{j}|{layout}"] = {
-                        "x": pts[..., 0].tolist(), "y": pts[..., 1].tolist(),
-                        "z": pts[..., 2].tolist(), "groups": s.groups.tolist(),
-                        "score": round(res.score, 2), "correct": res.correct}
+    for key, s in _grid_settings(pairs, n_per_group, layouts):
+        for j, thrust in enumerate(thrusts.values()):
+            traj = s.simulate(thrust, seed=seed)
+            res = score_loop(traj, s.groups, engine=engine)
+            pts = np.round(traj[:, ::every], 2)
+            i, n, layout = key
+            loops[f"{i}|{n}|{j}|{layout}"] = {
+                "x": pts[..., 0].tolist(), "y": pts[..., 1].tolist(),
+                "z": pts[..., 2].tolist(), "groups": s.groups.tolist(),
+                "score": round(res.score, 2), "correct": res.correct}
     return {"controls": {"pair": [f"{a} vs {b}" for a, b in pairs],
                          "n": list(n_per_group), "thrust": list(thrusts),
                          "layout": list(layouts)},
             "loops": loops}
+
+
+def _grid_settings(pairs, n_per_group, layouts):
+    """``((pair index, n, reading name), Setting)`` for every setting of the grid."""
+    from .scenarios import get_reading
+
+    for i, (a, b) in enumerate(pairs):
+        for n in n_per_group:
+            for layout in layouts:
+                yield (i, n, layout), make_setting(a, b, n, **get_reading(layout).builder_kwargs)
 
 
 def cached_grid(folder=None, **kwargs):
@@ -126,14 +131,11 @@ def cached_grid(folder=None, **kwargs):
 
     from .cache import RESULTS_VERSION, results_dir
 
-    from .scenarios import get_reading
-
     folder = results_dir() if folder is None else folder
     args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),
                        explore_grid.__defaults__)), **kwargs}
-    settings = [make_setting(a, b, n, layout=get_reading(r).layout,
-                             turbulence=get_reading(r).turbulence).key()
-                for a, b in args["pairs"] for n in args["n_per_group"] for r in args["layouts"]]
+    settings = [s.key() for _, s in
+                _grid_settings(args["pairs"], args["n_per_group"], args["layouts"])]
     thrusts = {k: t.to_dict() for k, t in explore_thrusts().items()}
     blob = json.dumps({"args": args, "settings": settings, "thrusts": thrusts,
                        "version": RESULTS_VERSION}, sort_keys=True, default=str)

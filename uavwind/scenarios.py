@@ -542,6 +542,12 @@ class Reading:
             resolve_layout(self.layout, "light constant", "light constant")
         check_scalar(self.long_run_per_group, "long_run_per_group", low=1, integer=True)
 
+    @property
+    def builder_kwargs(self):
+        """What this reading tells every setting builder: ``{"layout", "turbulence"}``
+        (``make_setting(a, b, n, **reading.builder_kwargs)``)."""
+        return {"layout": self.layout, "turbulence": self.turbulence}
+
 
 READINGS = {
     "inferred": Reading(
