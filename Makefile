@@ -7,13 +7,14 @@ BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
 PROFILE ?= paper
 JOBS    ?= -1
+BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 BOOK    ?= book
 GEN     := $(BOOK)/generated
 NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count \
              exp4_thrust_changes exp5_wind_direction exp6_cem inference exp7_noise \
              exp8_observation exp9_baseline claims performance explore
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
-LIBRARY   := $(wildcard uavwind/*.py)
+LIBRARY   := $(wildcard uavwind/*.py uavwind/softdtw/*.py uavwind/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
 PLOTLYJS  := $(BOOK)/_vendor/plotly/plotly.min.js
 HTML      := $(BOOK)/_build/html/index.html
@@ -55,10 +56,15 @@ test: $(STAMP)  ## run the test suite
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section
 	$(BIN)/python benchmarks/bench.py
 
-results: $(STAMP)  ## run every experiment into data/results (PROFILE=paper|quick; cached, resumable)
-	$(BIN)/python -m uavwind run all --profile $(PROFILE) --jobs $(JOBS)
+# every result the book shows, both readings, in one pool of workers, longest task first;
+# the notebooks then read them from the cache (and compute only what is missing)
+results: $(STAMP)  ## run every experiment under every reading into data/results (PROFILE=paper|quick; cached, resumable)
+	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables
 
-book: $(HTML)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
+# the results first (one pool over every experiment), then the notebooks BOOK_JOBS at a
+# time (they read the cache, each output kept together), then the HTML
+book: $(STAMP)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
+	@$(MAKE) --no-print-directory -j$(BOOK_JOBS) --output-sync=target $(HTML)
 	@echo "book: $(HTML)"
 
 # the profile is a file, rewritten only when PROFILE changes, so notebooks rerun then
@@ -66,7 +72,7 @@ $(GEN)/.profile: FORCE
 	@mkdir -p $(GEN)
 	@echo "$(PROFILE)" | cmp -s - $@ || echo "$(PROFILE)" > $@
 
-$(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP)
+$(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
 	$(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \

@@ -167,7 +167,7 @@ def bench_paper_profile(report, engine):
     by_size = {}
     for exp in EXPERIMENTS.values():
         for c in exp.cases():
-            n = (prof["cem"]["n_samples"] * prof["cem"]["n_iter"] if exp.kind == "cem"
+            n = (prof["cem"]["n_samples"] * prof["cem"]["max_iter"] if exp.kind == "cem"
                  else prof["long_loops"] if c.long else prof["loops"])
             by_size[c.setting.n_env] = by_size.get(c.setting.n_env, 0) + n
     per_loop = {}
@@ -183,22 +183,28 @@ def bench_paper_profile(report, engine):
     print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
     print(f"  estimated: {one_core / 60:.1f} min on one core, {one_core / cores / 60:.1f} min on "
           f"{cores} cores (per-loop medians x loop counts by environment count)")
+    from uavwind.experiments import needed_entries
+    entries = needed_entries("all", "paper", readings="all", engine=engine)
+    unique_rows = sum(e.n_rows for e in entries)
+    print(f"  {len(entries)} cache entries, {unique_rows} loops or CEM samples once shared "
+          f"settings are counted once (both readings)")
     report["paper_profile"] = {"loops": n_loops_total("paper"), "engine": engine,
+                               "entries": len(entries), "unique_loops": unique_rows,
                                "estimated_seconds_one_core": one_core,
                                "estimated_seconds_all_cores": one_core / cores}
     if os.environ.get("FULL") == "1":
-        wall, peak = _measure_paper_book()
+        wall, peak, cpu = _measure_paper_book()
         print(f"  measured (FULL=1): make book PROFILE=paper from an empty result cache into a "
-              f"temporary folder: {wall / 60:.1f} min wall; peak memory {peak:.0f} MiB (sum of "
-              f"RSS over the process tree, sampled every 0.5 s)")
+              f"temporary folder: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
+              f"{peak:.0f} MiB (sum of RSS over the process tree, sampled every 0.5 s)")
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
-                                       measured_command="make book PROFILE=paper")
+                                       cpu_percent=cpu, measured_command="make book PROFILE=paper")
 
 
 def _measure_paper_book():
     """``make book PROFILE=paper`` into a temporary book folder with an empty result
     cache (the venv and the numba cache as they are); return (wall seconds, peak summed
-    RSS of the process tree in MiB)."""
+    RSS of the process tree in MiB, CPU time of the waited-for process tree as % of wall)."""
     import shutil
     import subprocess
     import tempfile
@@ -214,6 +220,8 @@ def _measure_paper_book():
                 shutil.copy(f, book / f.name)
         env = {**os.environ, "UAVWIND_RESULTS": str(Path(tmp) / "results")}
         env.pop("MPLBACKEND", None)
+        import resource
+        cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         proc = subprocess.Popen(["make", "-C", str(root_dir), "book", "PROFILE=paper",
                                  f"BOOK={book}"], env=env, stdout=subprocess.DEVNULL,
@@ -226,9 +234,54 @@ def _measure_paper_book():
             except psutil.Error:
                 pass
             time.sleep(0.5)
+        wall = time.perf_counter() - t0
+        cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
         if proc.returncode:
             raise RuntimeError(f"make book PROFILE=paper failed with exit code {proc.returncode}")
-        return time.perf_counter() - t0, peak
+        cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+        return wall, peak, 100 * cpu / wall
+
+
+_COLD = """
+import time
+t0 = time.perf_counter()
+import uavwind as uw
+from uavwind import softdtw
+t1 = time.perf_counter()
+softdtw.warmup()
+t2 = time.perf_counter()
+s = uw.table3_setting()
+uw.random_search(s, n_loops=1, seed=0, n_jobs=1, progress=False)
+t3 = time.perf_counter()
+softdtw.warmup(parallel=True)
+t4 = time.perf_counter()
+print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
+"""
+
+
+def bench_cold_compile(report):
+    """The numba compile a fresh clone pays once: each figure in a new process with an
+    empty numba cache (NUMBA_CACHE_DIR in a temporary folder)."""
+    import subprocess
+    import tempfile
+
+    print("\n== cold numba compile (empty numba cache) ==")
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {**os.environ, "NUMBA_CACHE_DIR": tmp}
+        t0 = time.perf_counter()
+        out = subprocess.run([sys.executable, "-c", _COLD], env=env, check=True,
+                             capture_output=True, text=True).stdout.split()
+        total = time.perf_counter() - t0
+    imp, serial, first_loop, threaded = map(float, out[-4:])
+    print(f"  import uavwind: {imp:.1f} s; soft-DTW kernels a loop uses (softdtw.warmup()): "
+          f"{serial:.1f} s; the rest of a first loop (simulation, scoring): {first_loop:.1f} s; "
+          f"threaded kernels (warmup(parallel=True)), compiled only when used: {threaded:.1f} s; "
+          f"whole process {total:.1f} s")
+    report["cold_compile"] = {"import": imp, "softdtw_serial": serial,
+                              "first_loop_rest": first_loop, "softdtw_threaded": threaded,
+                              "process": total,
+                              "command": "NUMBA_CACHE_DIR=<empty> python -c 'from uavwind "
+                                         "import softdtw; softdtw.warmup()'"}
 
 
 def bench_where_time_goes(report, n_loops=20):
@@ -348,7 +401,7 @@ def bench_spread(report, n_loops=None):
 
 SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
             "agreement": bench_agreement, "search": bench_search,
-            "profile": bench_where_time_goes}
+            "profile": bench_where_time_goes, "compile": bench_cold_compile}
 
 
 def main():

@@ -22,4 +22,4 @@ def compiled_kernels():
     compiling the same kernels at the same time."""
     from uavwind import softdtw
 
-    softdtw.warmup()
+    softdtw.warmup(parallel=True)

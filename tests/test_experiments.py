@@ -136,6 +136,66 @@ def test_cem_experiment_and_worker_independence(tmp_path):
     assert list(hist.index) == [1, 2] and np.all(np.diff(hist["best_so_far"]) >= 0)
 
 
+def _py(v):
+    v = v.tolist() if hasattr(v, "tolist") else v
+    return [_py(x) for x in v] if isinstance(v, (list, tuple)) else v
+
+
+def _exact(df):
+    """Every cell as the repr of its Python value (a list read back from Parquet is an
+    array): equal texts mean equal doubles."""
+    return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
+
+
+def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
+    from uavwind.scenarios import READINGS
+
+    ids = ["exp5", "exp6"]
+    done = ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+                         readings="all", progress=False)
+    assert done["entries"] > 0 and done["cached"] == 0 and done["computed"] == done["entries"]
+    assert ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+                         readings="all", progress=False) == {
+        "entries": done["entries"], "cached": done["entries"], "computed": 0,
+        "rows_computed": 0}
+    for reading in READINGS:
+        for eid in ids:
+            pooled = ex.run_experiment(eid, profile=TINY, results=tmp_path / "pool", n_jobs=1,
+                                       progress=False, reading=reading)
+            assert pooled.attrs["cached"] == pooled.attrs["chunks"]  # nothing left to compute
+            alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone", n_jobs=1,
+                                      progress=False, reading=reading)
+            assert _exact(pooled) == _exact(alone)
+
+
+def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
+    order = []
+
+    def record(entry, pin=True):
+        order.append(entry)
+        return entry.n_rows, False
+    monkeypatch.setattr(ex, "_fill_one", record)
+    done = ex.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
+                         progress=False)
+    n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
+    assert len(order) == done["entries"] == done["computed"] < n_cases  # shared settings once
+    assert len({e.path for e in order}) == len(order)
+    costs = [e.cost for e in order]
+    assert costs == sorted(costs, reverse=True) and order[0].kind == "cem"
+    assert done["rows_computed"] == sum(e.n_rows for e in order)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    ({"exp_ids": ["exp99"]}, "exp99"), ({"readings": "upside-down"}, "reading"),
+    ({"profile": "slow"}, "profile"), ({"n_jobs": 0}, "n_jobs"), ({"engine": "x"}, "engine"),
+])
+def test_fill_cache_refuses_bad_input_before_any_work(tmp_path, kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        ex.fill_cache(**{"exp_ids": ["exp5"], "profile": TINY, "results": tmp_path / "r",
+                         "progress": False, **kwargs})
+    assert not (tmp_path / "r").exists()
+
+
 def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
     t4 = load_paper_values("exp1").set_index("scenario")
     for reading in ("inferred", "halves"):

@@ -3,6 +3,10 @@
     python -m uavwind list
     python -m uavwind run exp1 exp2 --profile paper --jobs -1
     python -m uavwind run all --profile quick
+    python -m uavwind run all --profile paper --reading all --no-tables   (what make book runs)
+
+`run` first computes every missing result of the chosen experiments and readings in one
+pool of workers, longest task first, then prints each experiment's table from the cache.
 """
 
 from __future__ import annotations
@@ -14,7 +18,8 @@ import sys
 import time
 
 from .clustering import ENGINES
-from .experiments import EXPERIMENTS, PROFILES, get_experiment, run_experiment, summary_table
+from .experiments import (EXPERIMENTS, PROFILES, fill_cache, get_experiment, run_experiment,
+                          summary_table)
 from .scenarios import READINGS
 
 
@@ -65,9 +70,11 @@ def main(argv=None):
     run.add_argument("--seed", type=_seed, default=None, help="root seed, an integer >= 0")
     run.add_argument("--engine", default=None, choices=sorted(ENGINES),
                      help="clustering engine (default: fast)")
-    run.add_argument("--reading", default=None, choices=sorted(READINGS),
-                     help="reading of the paper (default: inferred)")
+    run.add_argument("--reading", default=None, choices=sorted(READINGS) + ["all"],
+                     help="reading of the paper (default: inferred; all: every reading)")
     run.add_argument("--no-progress", action="store_true")
+    run.add_argument("--no-tables", action="store_true",
+                     help="only fill the result cache; print no summary tables")
     args = parser.parse_args(argv)
 
     if args.command == "list":
@@ -83,21 +90,30 @@ def main(argv=None):
         parser.error(str(exc))
     if _in_main_thread():
         signal.signal(signal.SIGTERM, _terminate)
-    for i in ids:
-        t0 = time.perf_counter()
-        kw = {} if args.seed is None else {"seed": args.seed}
-        try:
+    kw = {} if args.seed is None else {"seed": args.seed}
+    readings = list(READINGS) if args.reading == "all" else [args.reading]
+    t0 = time.perf_counter()
+    try:
+        done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
+                          readings=[r for r in readings if r is not None] or None,
+                          progress=not args.no_progress, **kw)
+    except KeyboardInterrupt:
+        print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
+        return 130
+    except ValueError as exc:  # e.g. a results folder that cannot be written
+        print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
+          f"{done['computed']} computed ({done['rows_computed']} loops or CEM samples) in "
+          f"{time.perf_counter() - t0:.1f} s")
+    if args.no_tables:
+        return 0
+    for reading in readings:
+        for i in ids:
             df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
-                                progress=not args.no_progress, reading=args.reading, **kw)
-        except KeyboardInterrupt:
-            print(f"{i}: interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
-            return 130
-        except ValueError as exc:  # e.g. a results folder that cannot be written
-            print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
-            return 2
-        print(f"{i}: {len(df)} rows, {df.attrs['cached']}/{df.attrs['chunks']} chunks from the "
-              f"cache, {time.perf_counter() - t0:.1f} s")
-        print(summary_table(df).round(2).to_string(), "\n")
+                                progress=False, reading=reading, **kw)
+            print(f"{i} ({df.attrs['reading']} reading): {len(df)} rows")
+            print(summary_table(df).round(2).to_string(), "\n")
     return 0
 
 

@@ -34,11 +34,13 @@ damaged chunk is moved aside and recomputed) and locked while computed.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+import sys
 from pathlib import Path
 
 import pandas as pd
 
-from .cache import RESULTS_VERSION, Expected, cache_key, cached, check_writable, results_dir
+from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
+                    results_dir)
 from .clustering import ENGINES, default_engine
 from .config import check_scalar
 from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
@@ -49,7 +51,8 @@ from .search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
-           "FIT_RATIOS", "DEFAULT_READING", "provenance", "NOISE_LEVELS", "BIAS_LEVELS"]
+           "FIT_RATIOS", "DEFAULT_READING", "provenance", "NOISE_LEVELS", "BIAS_LEVELS",
+           "Entry", "fill_cache", "needed_entries"]
 
 #: The reading experiments run under unless told otherwise.
 DEFAULT_READING = "inferred"
@@ -415,14 +418,91 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     chosen = _check_cases(cases, len(all_cases))
     # before any work: a run must never compute what it cannot keep
     folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
-    from . import __version__
-    frames, n_cached, n_chunks = [], 0, 0
+    frames, n_cached = [], 0
+    entries = _entries(exp, prof, rd, seed, engine, folder, params, chosen)
+    for entry in entries:
+        df, hit = entry.fill(n_jobs=n_jobs, progress=progress)
+        n_cached += hit
+        frames.append(df.assign(**entry.labels))
+    out = pd.concat(frames, ignore_index=True)
+    first = ["experiment", "reading", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
+    out = out[first + [c for c in out.columns if c not in first]]
+    out.attrs.update(experiment=exp.id, profile=str(profile), seed=seed, cached=n_cached,
+                     chunks=len(entries), reading=rd.name, engine=engine)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Entry:
+    """One cache entry an experiment needs: a chunk of loops of one case (``kind="loops"``,
+    loops ``start .. stop-1``) or one whole CEM run (``kind="cem"``).
+
+    :func:`run_experiment` fills its entries one after the other, each over ``n_jobs``
+    workers; :func:`fill_cache` fills the missing entries of many experiments at once, one
+    entry per worker, longest first. Either way an entry is computed under its lock,
+    verified and written atomically by :func:`uavwind.cache.cached`, and its rows do not
+    depend on the number of workers.
+    """
+
+    path: Path
+    kind: str
+    setting: Setting
+    seed: int
+    engine: str
+    params: dict
+    start: int = 0
+    stop: int = 0
+    search: dict = field(default_factory=dict)  # CEM: n_samples, n_elite, max_iter, rank_by
+    labels: dict = field(default_factory=dict)
+
+    @property
+    def n_rows(self):
+        """Rows the entry holds: loops, or CEM samples."""
+        if self.kind == "cem":
+            return self.search["n_samples"] * self.search["max_iter"]
+        return self.stop - self.start
+
+    @property
+    def cost(self):
+        """A rough cost, for ordering only: rows x environments^2 x observed channels (a
+        soft-DTW k-means loop grows with the square of the number of series)."""
+        s = self.setting
+        channels = 6 if s.observation == "position+velocity" else 3
+        return self.n_rows * s.n_env ** 2 * channels
+
+    def compute(self, n_jobs=None, progress=False):
+        """The entry's rows, computed (no cache)."""
+        s = self.setting
+        if self.kind == "cem":
+            res = cem(s, seed=self.seed, n_jobs=n_jobs, engine=self.engine, progress=progress,
+                      **self.search, clustering=self.params)
+            return res.samples
+        return random_search(s, n_loops=self.stop - self.start, seed=self.seed,
+                             loop_offset=self.start, n_jobs=n_jobs, engine=self.engine,
+                             progress=progress, **self.params)
+
+    def fill(self, n_jobs=None, progress=False):
+        """``(rows, from_cache)``: the verified cached rows, or computed and stored."""
+        from . import __version__
+        meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
+                "uavwind_version": __version__, "results_version": RESULTS_VERSION}
+        expect = Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
+        return cached(self.path, lambda: self.compute(n_jobs, progress), meta, expect)
+
+    def present(self):
+        """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""
+        expect = Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
+        return read_verified(self.path, expect) is not None
+
+
+def _entries(exp, prof, rd, seed, engine, folder, params, chosen):
+    """The cache entries of ``exp``'s cases ``chosen`` under reading ``rd``, in case order."""
+    cases = exp.cases(rd)
+    out = []
     for ci in chosen:
-        case = all_cases[ci]
+        case = cases[ci]
         s = case.setting
         labels = {"experiment": exp.id, "reading": rd.name, "case": ci, **case.labels}
-        meta = {"setting_key": s.key(), "seed": seed, "engine": engine,
-                "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         if exp.kind == "cem":
             cfg = prof["cem"]
             # the key spells the cap "n_iter", its name when these results were first
@@ -430,17 +510,8 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
             extra = {"n_samples": cfg["n_samples"], "n_elite": cfg["n_elite"],
                      "n_iter": cfg["max_iter"], **exp.search}
             key = cache_key(s, seed, 0, cfg["max_iter"], engine, params, extra=extra)
-            path = folder / exp.id / f"cem-{key}.parquet"
-
-            def compute(s=s, cfg=cfg):
-                res = cem(s, seed=seed, n_jobs=n_jobs, engine=engine, progress=progress,
-                          **cfg, **exp.search, clustering=params)
-                return res.samples
-            expect = Expected(s.key(), seed, engine, cfg["n_samples"] * cfg["max_iter"])
-            df, hit = cached(path, compute, meta, expect)
-            n_cached += hit
-            n_chunks += 1
-            frames.append(df.assign(**labels))
+            out.append(Entry(folder / exp.id / f"cem-{key}.parquet", "cem", s, seed, engine,
+                             params, search={**cfg, **exp.search}, labels=labels))
             continue
         n_loops = _n_loops(prof, case)
         for start in range(0, n_loops, CHUNK):
@@ -449,19 +520,121 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
             # one folder for every experiment: a setting that two experiments share
             # (e.g. Exp 2, 3 and 4 at 20 environments) is computed once
             path = folder / "loops" / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
+            out.append(Entry(path, "loops", s, seed, engine, params, start, stop,
+                             labels=labels))
+    return out
 
-            def compute(s=s, start=start, stop=stop):
-                return random_search(s, n_loops=stop - start, seed=seed, loop_offset=start,
-                                     n_jobs=n_jobs, engine=engine, progress=progress, **params)
-            df, hit = cached(path, compute, meta, Expected(s.key(), seed, engine, stop - start))
-            n_cached += hit
-            n_chunks += 1
-            frames.append(df.assign(**labels))
-    out = pd.concat(frames, ignore_index=True)
-    first = ["experiment", "reading", "case", *[k for k in out.columns if k in _LABEL_KEYS]]
-    out = out[first + [c for c in out.columns if c not in first]]
-    out.attrs.update(experiment=exp.id, profile=str(profile), seed=seed, cached=n_cached,
-                     chunks=n_chunks, reading=rd.name, engine=engine)
+
+def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_SEED,
+                   engine=None, results=None, **params):
+    """The cache entries ``exp_ids`` need under ``readings`` (default
+    :data:`DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
+    experiments or two readings share is one entry. Computes nothing. The arguments are
+    :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
+    from .scenarios import READINGS
+
+    ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
+    exps = [get_experiment(i) for i in ids]
+    if readings is None:
+        readings = [DEFAULT_READING]
+    elif readings == "all":
+        readings = list(READINGS)
+    elif isinstance(readings, str):
+        readings = [readings]
+    rds = [get_reading(r) for r in readings]
+    prof = _check_profile(profile)
+    seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
+    engine = default_engine() if engine is None else engine
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
+    folder = Path(results).expanduser() if results is not None else results_dir()
+    unique = {}
+    for rd in rds:
+        for exp in exps:
+            cases = exp.cases(rd)
+            for e in _entries(exp, prof, rd, seed, engine, folder, params, range(len(cases))):
+                unique.setdefault(e.path, e)
+    return list(unique.values())
+
+
+def _fill_one(entry, pin=True):
+    """One entry of :func:`fill_cache`, serially, in this process (``pin``: a worker
+    process, limited to one thread)."""
+    if pin:
+        from .search import _pin_threads
+        _pin_threads()
+    df, hit = entry.fill(n_jobs=1, progress=False)
+    return len(df), hit
+
+
+def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
+               results=None, readings=None, progress=True, **params):
+    """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
+
+    :func:`run_experiment` runs one experiment's entries one after the other, each spread
+    over the workers, so a worker idles at the end of every chunk and every CEM iteration.
+    Here every missing entry (a chunk, or a whole CEM run) is one task, the tasks run
+    longest first (:attr:`Entry.cost`) with one worker per task, and a worker writes its
+    entry as soon as it is done: the cores stay busy until the last few chunks, an
+    interrupt keeps every finished entry, and the rows are the same doubles as
+    :func:`run_experiment`'s (which then reads them from the cache).
+
+    Parameters
+    ----------
+    exp_ids : "all" or list of str
+        Ids of :data:`EXPERIMENTS`.
+    profile, seed, engine, results, **params
+        As :func:`run_experiment`.
+    n_jobs : int, optional
+        Worker processes (-1/None = all cores).
+    readings : "all", str or list of str, optional
+        Readings (:data:`~uavwind.scenarios.READINGS`); default :data:`DEFAULT_READING`.
+    progress : bool
+        A progress bar over rows (stderr).
+
+    Returns
+    -------
+    dict
+        ``entries`` (needed, after removing duplicates), ``cached`` (already there),
+        ``computed``, ``rows_computed``.
+    """
+    from joblib import Parallel, delayed
+
+    from .search import _check_jobs, _stop_workers
+
+    n_jobs = _check_jobs(n_jobs)
+    unique = needed_entries(exp_ids, profile, readings, seed, engine, results, **params)
+    folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
+    missing = sorted((e for e in unique if not e.present()),
+                     key=lambda e: (-e.cost, str(e.path)))
+    out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
+           "rows_computed": 0}
+    if not missing:
+        return out
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
+                   file=sys.stderr)
+    try:
+        if n_jobs == 1 or len(missing) == 1:
+            done = (_fill_one(e, pin=False) for e in missing)
+        else:
+            # one task per entry, dispatched in cost order as workers free up
+            done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
+                            return_as="generator_unordered")(
+                delayed(_fill_one)(e) for e in missing)
+        for n_rows, hit in done:
+            out["computed"] += not hit
+            out["rows_computed"] += 0 if hit else n_rows
+            if bar is not None:
+                bar.update(n_rows)
+    except BaseException:  # interrupted or failed: finished entries are on disk
+        _stop_workers()
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
     return out
 
 

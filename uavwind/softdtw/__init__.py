@@ -37,11 +37,19 @@ def silhouette_score(X, labels, metric="dtw", gamma=None, parallel=None):
     return silhouette(X, labels, metric=metric, gamma=gamma, parallel=parallel)
 
 
-def warmup():
-    """Compile / load from cache every kernel (call once at start-up)."""
+def warmup(parallel=False):
+    """Compile (or load from numba's on-disk cache) the kernels, once per process.
+
+    Parameters
+    ----------
+    parallel : bool
+        Also the threaded (``prange``) variants. A loop of :func:`uavwind.score_loop`
+        uses only the serial ones, which is all the default compiles; the threaded ones
+        otherwise compile on their first use.
+    """
     rng = np.random.RandomState(0)
     X = rng.randn(4, 6, 3)
-    for par in (True, False):
+    for par in (False, True) if parallel else (False,):
         r = fit(X, n_clusters=2, gamma=0.5, max_iter=2, max_iter_barycenter=2,
                 parallel=par)
         silhouette(X, np.array([0, 0, 1, 1]), metric="dtw", parallel=par)
