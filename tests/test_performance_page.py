@@ -20,3 +20,16 @@ def test_spread_and_agreement_sentences_come_from_the_report():
 
 def test_an_empty_report_gives_no_sentences():
     assert summary_lines({}) == {} and report_tables({}) == {}
+
+
+def test_paper_and_compile_tables_show_the_new_figures():
+    report = {"paper_profile": {"loops": 12880, "engine": "fast", "entries": 346,
+                                "unique_loops": 17580, "measured_seconds": 1200.0,
+                                "cpu_percent": 196.4, "measured_command": "make book"},
+              "cold_compile": {"import": 0.8, "softdtw_serial": 17.4, "first_loop_rest": 3.0,
+                               "softdtw_threaded": 14.0, "process": 36.0}}
+    t = report_tables(report)
+    assert t["paper"].loc["CPU use over the run (% of one core)", "value"] == "196"
+    assert t["paper"].loc["cache entries (chunks of <= 50 loops, whole CEM runs)", "value"] == "346"
+    assert t["compile"].loc["soft-DTW kernels a loop uses (softdtw.warmup())",
+                            "wall time (s)"] == 17.4

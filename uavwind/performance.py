@@ -45,8 +45,8 @@ def report_tables(report):
     Returns
     -------
     dict of str -> pandas.DataFrame
-        ``"simulation"``, ``"loops"``, ``"workers"``, ``"time"``, ``"paper"``: only the sections
-        present in the report.
+        ``"simulation"``, ``"loops"``, ``"workers"``, ``"time"``, ``"spread"``, ``"paper"``,
+        ``"compile"``: only the sections present in the report.
 
     Examples
     --------
@@ -89,18 +89,33 @@ def report_tables(report):
     if "paper_profile" in report:
         p = report["paper_profile"]
         rows = {"loops (before cache sharing)": f"{p['loops']}"}
+        if "unique_loops" in p:
+            rows["loops and CEM samples computed, both readings (shared settings once)"] = \
+                f"{p['unique_loops']}"
+            rows["cache entries (chunks of <= 50 loops, whole CEM runs)"] = f"{p['entries']}"
         if "estimated_seconds_one_core" in p:
             rows["estimated, one core (min)"] = f"{p['estimated_seconds_one_core'] / 60:.1f}"
             rows["estimated, all cores (min)"] = f"{p['estimated_seconds_all_cores'] / 60:.1f}"
         if "measured_seconds" in p:
             rows[f"measured: {p.get('measured_command', 'paper run')} (min)"] = \
                 f"{p['measured_seconds'] / 60:.1f}"
+            if "cpu_percent" in p:
+                rows["CPU use over the run (% of one core)"] = f"{p['cpu_percent']:.0f}"
             if "peak_tree_rss_mib" in p:
                 rows["peak memory, whole process tree (MiB)"] = f"{p['peak_tree_rss_mib']:.0f}"
             if "peak_rss_largest_process_mib" in p:
                 rows["peak memory, largest single process (MiB)"] = \
                     f"{p['peak_rss_largest_process_mib']:.0f}"
         out["paper"] = pd.DataFrame({"value": rows})
+    if "cold_compile" in report:
+        c = report["cold_compile"]
+        out["compile"] = pd.DataFrame({"wall time (s)": {
+            "import uavwind": c["import"],
+            "soft-DTW kernels a loop uses (softdtw.warmup())": c["softdtw_serial"],
+            "the rest of the first loop (simulation, scoring)": c["first_loop_rest"],
+            "threaded kernels, compiled only when used (warmup(parallel=True))":
+                c["softdtw_threaded"],
+            "the whole process": c["process"]}})
     return out
 
 
