@@ -8,6 +8,7 @@ STAMP   := $(VENV)/.installed
 PROFILE ?= paper
 JOBS    ?= -1
 BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
+RUN_FLAGS ?=# extra flags for `make results`, e.g. RUN_FLAGS="--times times.json"
 BOOK    ?= book
 GEN     := $(BOOK)/generated
 NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count \
@@ -59,7 +60,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # every result the book shows, both readings, in one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under every reading into data/results (PROFILE=paper|quick; cached, resumable)
-	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables
+	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(RUN_FLAGS)
 
 # the results first (one pool over every experiment), then the notebooks BOOK_JOBS at a
 # time (they read the cache, each output kept together), then the HTML

@@ -193,18 +193,30 @@ def bench_paper_profile(report, engine):
                                "estimated_seconds_one_core": one_core,
                                "estimated_seconds_all_cores": one_core / cores}
     if os.environ.get("FULL") == "1":
-        wall, peak, cpu = _measure_paper_book()
+        wall, peak, cpu, times = _measure_paper_book()
         print(f"  measured (FULL=1): make book PROFILE=paper from an empty result cache into a "
               f"temporary folder: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
               f"{peak:.0f} MiB (sum of RSS over the process tree, sampled every 0.5 s)")
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
-                                       cpu_percent=cpu, measured_command="make book PROFILE=paper")
+                                       cpu_percent=cpu, measured_command="make book PROFILE=paper",
+                                       **where_the_fill_goes(times))
+
+
+def where_the_fill_goes(times):
+    """From the ``--times`` record of ``python -m uavwind run`` (a dict as written): the
+    fill's wall seconds and its CPU seconds per experiment and reading, as report fields."""
+    from uavwind.experiments import time_by_experiment
+
+    t = time_by_experiment(times["entries"]).reset_index()
+    return {"fill_seconds": times["wall_seconds"],
+            "by_experiment": t.round({"cpu_seconds": 1, "share": 1}).to_dict("records")}
 
 
 def _measure_paper_book():
     """``make book PROFILE=paper`` into a temporary book folder with an empty result
     cache (the venv and the numba cache as they are); return (wall seconds, peak summed
-    RSS of the process tree in MiB, CPU time of the waited-for process tree as % of wall)."""
+    RSS of the process tree in MiB, CPU time of the waited-for process tree as % of wall,
+    the fill's ``--times`` record)."""
     import shutil
     import subprocess
     import tempfile
@@ -223,8 +235,10 @@ def _measure_paper_book():
         import resource
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
+        times = Path(tmp) / "times.json"
         proc = subprocess.Popen(["make", "-C", str(root_dir), "book", "PROFILE=paper",
-                                 f"BOOK={book}"], env=env, stdout=subprocess.DEVNULL,
+                                 f"BOOK={book}", f"RUN_FLAGS=--times {times}"], env=env,
+                                stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
         root, peak = psutil.Process(proc.pid), 0.0
         while proc.poll() is None:
@@ -239,7 +253,7 @@ def _measure_paper_book():
         if proc.returncode:
             raise RuntimeError(f"make book PROFILE=paper failed with exit code {proc.returncode}")
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
-        return wall, peak, 100 * cpu / wall
+        return wall, peak, 100 * cpu / wall, json.loads(times.read_text())
 
 
 _COLD = """

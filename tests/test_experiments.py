@@ -154,10 +154,18 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
     done = ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                          readings="all", progress=False)
     assert done["entries"] > 0 and done["cached"] == 0 and done["computed"] == done["entries"]
+    # every computed entry is timed, by the worker that computed it
+    times = done["times"]
+    assert len(times) == done["computed"] and all(t["cpu_seconds"] > 0 for t in times)
+    assert sum(t["rows"] for t in times) == done["rows_computed"]
+    by_exp = ex.time_by_experiment(times)
+    assert set(by_exp.index.get_level_values("experiment")) <= set(ids)
+    assert by_exp["entries"].sum() == done["computed"]
+    assert by_exp["share"].sum() == pytest.approx(100.0)
     assert ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                          readings="all", progress=False) == {
         "entries": done["entries"], "cached": done["entries"], "computed": 0,
-        "rows_computed": 0}
+        "rows_computed": 0, "times": []}
     for reading in READINGS:
         for eid in ids:
             pooled = ex.run_experiment(eid, profile=TINY, results=tmp_path / "pool", n_jobs=1,
@@ -173,7 +181,7 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
 
     def record(entry, pin=True):
         order.append(entry)
-        return entry.n_rows, False
+        return entry.path, entry.n_rows, False, 0.5
     monkeypatch.setattr(ex, "_fill_one", record)
     done = ex.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
                          progress=False)
@@ -183,6 +191,21 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     costs = [e.cost for e in order]
     assert costs == sorted(costs, reverse=True) and order[0].kind == "cem"
     assert done["rows_computed"] == sum(e.n_rows for e in order)
+    assert [t["rows"] for t in done["times"]] == [e.n_rows for e in order]
+    assert [(t["experiment"], t["case"]) for t in done["times"]] == \
+        [(e.labels["experiment"], e.labels["case"]) for e in order]
+
+
+def test_time_by_experiment_sums_per_experiment_in_registry_order():
+    rec = [{"experiment": e, "reading": r, "case": 0, "kind": "loops", "n_env": 6, "rows": n,
+            "cpu_seconds": c}
+           for e, r, n, c in [("exp6", "inferred", 10, 6.0), ("exp1", "halves", 50, 1.0),
+                              ("exp1", "inferred", 50, 2.0), ("exp1", "inferred", 20, 1.0)]]
+    t = ex.time_by_experiment(rec)
+    assert list(t.index) == [("exp1", "halves"), ("exp1", "inferred"), ("exp6", "inferred")]
+    assert t["rows"].tolist() == [50, 70, 10] and t["entries"].tolist() == [1, 2, 1]
+    assert t["share"].tolist() == [10.0, 30.0, 60.0]
+    assert ex.time_by_experiment([]).empty
 
 
 @pytest.mark.parametrize("kwargs, word", [

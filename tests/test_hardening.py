@@ -1,4 +1,5 @@
 """Hostile inputs: nothing lost, nothing silently wrong (the cache, numerics, CLI)."""
+import json
 import os
 import threading
 import time
@@ -195,6 +196,26 @@ def test_cli_caps_jobs_and_reports_an_unwritable_folder(tmp_path, monkeypatch, c
     assert main(["run", "exp5", "--jobs", "999", "--no-progress"]) == 2
     err = capsys.readouterr().err
     assert "using" in err and "cannot be written" in err
+
+
+def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, capsys):
+    monkeypatch.setitem(ex.PROFILES, "tiny", TINY)
+    monkeypatch.setenv("UAVWIND_RESULTS", str(tmp_path / "r"))
+    out = tmp_path / "times.json"
+    assert main(["run", "exp5", "--profile", "tiny", "--jobs", "1", "--no-progress",
+                 "--no-tables", "--times", str(out)]) == 0
+    rec = json.loads(out.read_text())
+    assert rec["profile"] == "tiny"
+    assert len(rec["entries"]) == len(ex.needed_entries(["exp5"], "tiny")) > 0
+    assert {e["experiment"] for e in rec["entries"]} == {"exp5"}
+    assert "by experiment and reading" in capsys.readouterr().out
+    # a second run computes nothing and says so in the file
+    assert main(["run", "exp5", "--profile", "tiny", "--jobs", "1", "--no-progress",
+                 "--no-tables", "--times", str(out)]) == 0
+    assert json.loads(out.read_text())["entries"] == []
+    with pytest.raises(SystemExit) as stop:
+        main(["run", "exp5", "--profile", "tiny", "--times", str(tmp_path / "no" / "t.json")])
+    assert stop.value.code == 2 and "--times" in capsys.readouterr().err
 
 
 def test_n_jobs_is_capped_at_the_cores():

@@ -24,12 +24,25 @@ def test_an_empty_report_gives_no_sentences():
 
 def test_paper_and_compile_tables_show_the_new_figures():
     report = {"paper_profile": {"loops": 12880, "engine": "fast", "entries": 346,
-                                "unique_loops": 17580, "measured_seconds": 1200.0,
-                                "cpu_percent": 196.4, "measured_command": "make book"},
+                                "unique_loops": 17580, "measured_seconds": 1200.0, "fill_seconds": 1140.0,
+                                "cpu_percent": 196.4, "measured_command": "make book",
+                                "by_experiment": [
+                                    {"experiment": "exp1", "reading": "inferred", "entries": 4,
+                                     "rows": 200, "cpu_seconds": 60.0, "share": 75.0},
+                                    {"experiment": "exp6", "reading": "halves", "entries": 1,
+                                     "rows": 100, "cpu_seconds": 20.0, "share": 25.0}]},
               "cold_compile": {"import": 0.8, "softdtw_serial": 17.4, "first_loop_rest": 3.0,
                                "softdtw_threaded": 14.0, "process": 36.0}}
     t = report_tables(report)
     assert t["paper"].loc["CPU use over the run (% of one core)", "value"] == "196"
     assert t["paper"].loc["cache entries (chunks of <= 50 loops, whole CEM runs)", "value"] == "346"
+    assert t["paper"].loc["of which filling the result cache (min)", "value"] == "19.0"
+    assert t["fill"].loc[("exp1", "inferred"), "CPU (min)"] == 1.0
+    assert t["fill"].loc[("exp6", "halves"), "CPU per row (s)"] == 0.2
+    line = summary_lines({**report, "cores": 2, "machine": "x86_64", "python": "3.11",
+                          "numpy": "2"})["fill"]
+    assert "19.0 of the build's 20.0 min" in line and "300 loops and CEM samples" in line
+    assert "75% under the inferred reading" in line and line.count("exp1 (inferred) 75%") == 1
+    assert "would have 540 s on 2 cores: 0.1x" in line
     assert t["compile"].loc["soft-DTW kernels a loop uses (softdtw.warmup())",
                             "wall time (s)"] == 17.4

@@ -7,19 +7,23 @@
 
 `run` first computes every missing result of the chosen experiments and readings in one
 pool of workers, longest task first, then prints each experiment's table from the cache.
+``--times FILE`` keeps the CPU seconds of every entry it computed (JSON), for a profile of
+where a build's time goes.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import signal
 import sys
 import time
+from pathlib import Path
 
 from .clustering import ENGINES
 from .experiments import (EXPERIMENTS, PROFILES, fill_cache, get_experiment, run_experiment,
-                          summary_table)
+                          summary_table, time_by_experiment)
 from .scenarios import READINGS
 
 
@@ -75,6 +79,8 @@ def main(argv=None):
     run.add_argument("--no-progress", action="store_true")
     run.add_argument("--no-tables", action="store_true",
                      help="only fill the result cache; print no summary tables")
+    run.add_argument("--times", default=None, metavar="FILE",
+                     help="write the CPU seconds of every computed cache entry to FILE (JSON)")
     args = parser.parse_args(argv)
 
     if args.command == "list":
@@ -88,6 +94,11 @@ def main(argv=None):
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
+    times = None
+    if args.times is not None:
+        times = Path(args.times).expanduser()
+        if times.is_dir() or not times.parent.is_dir():
+            parser.error(f"--times must name a file in an existing folder, got {args.times!r}")
     if _in_main_thread():
         signal.signal(signal.SIGTERM, _terminate)
     kw = {} if args.seed is None else {"seed": args.seed}
@@ -106,6 +117,16 @@ def main(argv=None):
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
           f"{done['computed']} computed ({done['rows_computed']} loops or CEM samples) in "
           f"{time.perf_counter() - t0:.1f} s")
+    if done["times"]:
+        by_exp = time_by_experiment(done["times"])
+        print("CPU seconds of the computed entries, by experiment and reading:")
+        print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
+    if times is not None:
+        tmp = times.with_name(f".{times.name}.tmp{os.getpid()}")
+        tmp.write_text(json.dumps({"profile": args.profile, "jobs": args.jobs,
+                                   "wall_seconds": time.perf_counter() - t0,
+                                   "entries": done["times"]}, indent=1))
+        os.replace(tmp, times)
     if args.no_tables:
         return 0
     for reading in readings:

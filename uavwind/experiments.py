@@ -35,6 +35,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 import sys
+import time
 from pathlib import Path
 
 import pandas as pd
@@ -52,7 +53,7 @@ from .search import cem, random_search
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
            "FIT_RATIOS", "DEFAULT_READING", "provenance", "NOISE_LEVELS", "BIAS_LEVELS",
-           "Entry", "fill_cache", "needed_entries"]
+           "Entry", "fill_cache", "needed_entries", "time_by_experiment"]
 
 #: The reading experiments run under unless told otherwise.
 DEFAULT_READING = "inferred"
@@ -563,8 +564,9 @@ def _fill_one(entry, pin=True):
     if pin:
         from .search import _pin_threads
         _pin_threads()
+    cpu0 = time.process_time()
     df, hit = entry.fill(n_jobs=1, progress=False)
-    return len(df), hit
+    return entry.path, len(df), hit, time.process_time() - cpu0
 
 
 def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
@@ -596,7 +598,11 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     -------
     dict
         ``entries`` (needed, after removing duplicates), ``cached`` (already there),
-        ``computed``, ``rows_computed``.
+        ``computed``, ``rows_computed``, and ``times``: one record per computed entry
+        (``experiment``, ``reading``, ``case``, ``kind``, ``n_env``, ``rows``,
+        ``cpu_seconds`` of the process that computed it), in the order they finished;
+        :func:`time_by_experiment` sums them. An entry two experiments share is counted
+        under the first that needs it.
     """
     from joblib import Parallel, delayed
 
@@ -608,7 +614,8 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
-           "rows_computed": 0}
+           "rows_computed": 0, "times": []}
+    by_path = {e.path: e for e in missing}
     if not missing:
         return out
     bar = None
@@ -624,9 +631,15 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
             done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
                             return_as="generator_unordered")(
                 delayed(_fill_one)(e) for e in missing)
-        for n_rows, hit in done:
+        for path, n_rows, hit, cpu in done:
             out["computed"] += not hit
             out["rows_computed"] += 0 if hit else n_rows
+            if not hit:
+                e = by_path[path]
+                out["times"].append({**{k: e.labels[k] for k in ("experiment", "reading",
+                                                                   "case")},
+                                     "kind": e.kind, "n_env": e.setting.n_env,
+                                     "rows": n_rows, "cpu_seconds": cpu})
             if bar is not None:
                 bar.update(n_rows)
     except BaseException:  # interrupted or failed: finished entries are on disk
@@ -636,6 +649,38 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
         if bar is not None:
             bar.close()
     return out
+
+
+def time_by_experiment(times):
+    """Where the compute of a :func:`fill_cache` run went: its ``times`` records summed
+    per experiment and reading.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by (``experiment``, ``reading``), experiments in registry order, with
+        ``entries``, ``rows`` (loops or CEM samples), ``cpu_seconds`` and ``share`` (% of
+        the run's CPU seconds); empty if nothing was computed.
+
+    Examples
+    --------
+    >>> t = [{"experiment": "exp5", "reading": "inferred", "case": 0, "kind": "loops",
+    ...       "n_env": 6, "rows": 50, "cpu_seconds": 3.0},
+    ...      {"experiment": "exp1", "reading": "inferred", "case": 0, "kind": "loops",
+    ...       "n_env": 6, "rows": 50, "cpu_seconds": 1.0}]
+    >>> time_by_experiment(t)["share"].tolist()
+    [25.0, 75.0]
+    """
+    cols = ["entries", "rows", "cpu_seconds", "share"]
+    if not times:
+        return pd.DataFrame(columns=cols, index=pd.MultiIndex.from_tuples(
+            [], names=["experiment", "reading"]))
+    df = pd.DataFrame(list(times))
+    out = df.groupby(["experiment", "reading"]).agg(
+        entries=("rows", "size"), rows=("rows", "sum"), cpu_seconds=("cpu_seconds", "sum"))
+    out["share"] = 100 * out["cpu_seconds"] / out["cpu_seconds"].sum()
+    order = {k: i for i, k in enumerate(EXPERIMENTS)}
+    return out.sort_index(key=lambda ix: ix.map(order) if ix.name == "experiment" else ix)
 
 
 _LABEL_KEYS = ("scenario", "scenario_id", "long_run", "n_env", "thrust_changes", "direction",
