@@ -62,9 +62,11 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 results: $(STAMP)  ## run every experiment under every reading into data/results (PROFILE=paper|quick; cached, resumable)
 	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(RUN_FLAGS)
 
-# the results first (one pool over every experiment), then the notebooks BOOK_JOBS at a
-# time (they read the cache, each output kept together), then the HTML
+# the results first (one pool over every experiment, its progress shown as it goes), then
+# the notebooks BOOK_JOBS at a time (they read the cache, each output kept together; their
+# `| results` finds it complete), then the HTML
 book: $(STAMP)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
+	@$(MAKE) --no-print-directory results
 	@$(MAKE) --no-print-directory -j$(BOOK_JOBS) --output-sync=target $(HTML)
 	@echo "book: $(HTML)"
 

@@ -294,8 +294,9 @@ def bench_cold_compile(report):
     report["cold_compile"] = {"import": imp, "softdtw_serial": serial,
                               "first_loop_rest": first_loop, "softdtw_threaded": threaded,
                               "process": total,
-                              "command": "NUMBA_CACHE_DIR=<empty> python -c 'from uavwind "
-                                         "import softdtw; softdtw.warmup()'"}
+                              "command": "NUMBA_CACHE_DIR=<empty> python -c <import uavwind; "
+                                         "softdtw.warmup(); one loop; "
+                                         "softdtw.warmup(parallel=True)>, each step timed"}
 
 
 def bench_where_time_goes(report, n_loops=20):

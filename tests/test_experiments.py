@@ -176,10 +176,23 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
             assert _exact(pooled) == _exact(alone)
 
 
+def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
+    first = ex.run_experiment("exp4", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                              cases=[0])
+    again = ex.run_experiment("exp4", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                              cases=[0])
+    assert first.attrs["cached"] == 0 and again.attrs["cached"] == again.attrs["chunks"]
+    assert list(first.columns) == list(again.columns)
+    assert (first.dtypes == again.dtypes).all()
+    for col in first.columns:  # e.g. thrust sequences: arrays both times, not lists then arrays
+        assert [type(v) for v in first[col]] == [type(v) for v in again[col]], col
+    assert _exact(first) == _exact(again)
+
+
 def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     order = []
 
-    def record(entry, pin=True):
+    def record(entry, pin=True, n_jobs=1):
         order.append(entry)
         return entry.path, entry.n_rows, False, 0.5
     monkeypatch.setattr(ex, "_fill_one", record)
@@ -194,6 +207,41 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     assert [t["rows"] for t in done["times"]] == [e.n_rows for e in order]
     assert [(t["experiment"], t["case"]) for t in done["times"]] == \
         [(e.labels["experiment"], e.labels["case"]) for e in order]
+
+
+def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
+    order = []
+
+    def record(entry, pin=True, n_jobs=1):
+        order.append(entry)
+        return entry.path, entry.n_rows, False, 1.0
+    monkeypatch.setattr(ex, "_fill_one", record)
+    done = ex.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
+                         progress=False)
+    users = {e.path: pairs for e, pairs in
+             ex._needed("all", TINY, "all", ex.DEFAULT_SEED, None, tmp_path).items()}
+    assert len(done["times"]) == len(users) == len(order)
+    for t, e in zip(done["times"], order):
+        pairs = users[e.path]
+        assert t["experiment"] == pairs[0][0] and t["case"] == e.labels["case"]
+        assert (t["reading"] == "both") == (len({r for _, r in pairs}) == 2)
+        assert t["shared_with"] == sorted({x for x, _ in pairs} - {pairs[0][0]})
+    assert {"inferred", "halves", "both"} <= {t["reading"] for t in done["times"]}
+    # Exp 2, 3 and 4 share their 20-environment settings: one entry, counted under exp2
+    assert any(t["experiment"] == "exp2" and "exp3" in t["shared_with"] for t in done["times"])
+    # a single experiment id given as a string is that experiment, not its letters
+    assert [e.path for e in ex.needed_entries("exp5", TINY)] == \
+        [e.path for e in ex.needed_entries(["exp5"], TINY)]
+
+
+def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
+    done = ex.fill_cache(["exp6"], profile=TINY, results=tmp_path, n_jobs=2, progress=False)
+    assert done["computed"] == 1 and done["times"][0]["kind"] == "cem"
+    assert done["times"][0]["cpu_seconds"] > 0
+    alone = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=1,
+                              progress=False)
+    pooled = ex.run_experiment("exp6", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert _exact(pooled) == _exact(alone)
 
 
 def test_time_by_experiment_sums_per_experiment_in_registry_order():

@@ -218,6 +218,21 @@ def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, caps
     assert stop.value.code == 2 and "--times" in capsys.readouterr().err
 
 
+def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monkeypatch):
+    import uavwind.__main__ as cli
+
+    def interrupted(*args, times=None, **kwargs):
+        times.append({"experiment": "exp5", "reading": "inferred", "rows": 2,
+                      "cpu_seconds": 1.5})
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli, "fill_cache", interrupted)
+    out = tmp_path / "times.json"
+    assert main(["run", "exp5", "--no-progress", "--times", str(out)]) == 130
+    rec = json.loads(out.read_text())
+    assert rec["complete"] is False and rec["entries"][0]["cpu_seconds"] == 1.5
+    assert [p.name for p in tmp_path.iterdir()] == ["times.json"]  # no temporary file left
+
+
 def test_n_jobs_is_capped_at_the_cores():
     cores = os.cpu_count()
     with pytest.warns(UserWarning, match="cores"):

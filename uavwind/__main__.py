@@ -97,19 +97,23 @@ def main(argv=None):
     times = None
     if args.times is not None:
         times = Path(args.times).expanduser()
-        if times.is_dir() or not times.parent.is_dir():
-            parser.error(f"--times must name a file in an existing folder, got {args.times!r}")
+        if times.is_dir() or not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
+            parser.error(f"--times must name a file in an existing, writable folder, got "
+                         f"{args.times!r}")
     if _in_main_thread():
         signal.signal(signal.SIGTERM, _terminate)
     kw = {} if args.seed is None else {"seed": args.seed}
     readings = list(READINGS) if args.reading == "all" else [args.reading]
     t0 = time.perf_counter()
+    records = []
     try:
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                           readings=[r for r in readings if r is not None] or None,
-                          progress=not args.no_progress, **kw)
+                          progress=not args.no_progress, times=records, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
+        if times is not None:
+            _write_times(times, args, t0, records, complete=False)
         return 130
     except ValueError as exc:  # e.g. a results folder that cannot be written
         print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
@@ -122,11 +126,7 @@ def main(argv=None):
         print("CPU seconds of the computed entries, by experiment and reading:")
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
     if times is not None:
-        tmp = times.with_name(f".{times.name}.tmp{os.getpid()}")
-        tmp.write_text(json.dumps({"profile": args.profile, "jobs": args.jobs,
-                                   "wall_seconds": time.perf_counter() - t0,
-                                   "entries": done["times"]}, indent=1))
-        os.replace(tmp, times)
+        _write_times(times, args, t0, records, complete=True)
     if args.no_tables:
         return 0
     for reading in readings:
@@ -136,6 +136,22 @@ def main(argv=None):
             print(f"{i} ({df.attrs['reading']} reading): {len(df)} rows")
             print(summary_table(df).round(2).to_string(), "\n")
     return 0
+
+
+def _write_times(path, args, t0, records, complete):
+    """The ``--times`` file, written atomically: the run's wall seconds and one record per
+    computed entry (``complete`` is false after an interrupt)."""
+    text = json.dumps({"profile": args.profile, "jobs": args.jobs, "complete": complete,
+                       "wall_seconds": time.perf_counter() - t0, "entries": records},
+                      indent=1)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        print(f"python -m uavwind run: warning: --times {path} not written ({exc})",
+              file=sys.stderr)
 
 
 def _in_main_thread():

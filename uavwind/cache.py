@@ -186,7 +186,9 @@ def chunk_lock(path):
 
 def cached(path, compute, meta, expect):
     """``(df, from_cache)``: the verified chunk at ``path``, or ``compute()`` stamped with
-    ``meta`` and written atomically, all under the chunk's lock."""
+    ``meta`` and written atomically, all under the chunk's lock. Either way ``df`` is the
+    chunk as read from disk, so a first run and a cached run return the same values of the
+    same types (a list column comes back as arrays, as Parquet stores it)."""
     with chunk_lock(path):
         df = read_verified(path, expect)
         if df is not None:
@@ -198,4 +200,4 @@ def cached(path, compute, meta, expect):
         if why:  # never store what would not be trusted on reading
             raise RuntimeError(f"computed chunk {Path(path).name} is inconsistent: {why}")
         atomic_write(df, path)
-        return df, False
+        return pd.read_parquet(path), False

@@ -532,8 +532,16 @@ def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_S
     :data:`DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
     experiments or two readings share is one entry. Computes nothing. The arguments are
     :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
+    return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))
+
+
+def _needed(exp_ids, profile, readings, seed, engine, results, **params):
+    """:func:`needed_entries` as a dict: entry -> the (experiment, reading) pairs that need
+    it, in the order they ask (readings first, then experiments in registry order)."""
     from .scenarios import READINGS
 
+    if isinstance(exp_ids, str) and exp_ids != "all":
+        exp_ids = [exp_ids]
     ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
     exps = [get_experiment(i) for i in ids]
     if readings is None:
@@ -549,28 +557,49 @@ def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_S
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
     folder = Path(results).expanduser() if results is not None else results_dir()
-    unique = {}
+    first, users = {}, {}
     for rd in rds:
         for exp in exps:
             cases = exp.cases(rd)
             for e in _entries(exp, prof, rd, seed, engine, folder, params, range(len(cases))):
-                unique.setdefault(e.path, e)
-    return list(unique.values())
+                first.setdefault(e.path, e)
+                pair = (exp.id, rd.name)
+                if pair not in users.setdefault(e.path, []):
+                    users[e.path].append(pair)
+    return {e: users[path] for path, e in first.items()}
 
 
-def _fill_one(entry, pin=True):
-    """One entry of :func:`fill_cache`, serially, in this process (``pin``: a worker
-    process, limited to one thread)."""
+def _cpu_seconds():
+    """CPU seconds (user + system) of this process and of each of its live children, by
+    pid: a task's cost is the difference, workers it started included."""
+    import psutil
+
+    me = psutil.Process()
+    out = {0: time.process_time()}
+    for child in me.children(recursive=True):
+        try:
+            t = child.cpu_times()
+            out[child.pid] = t.user + t.system
+        except psutil.Error:
+            pass
+    return out
+
+
+def _fill_one(entry, pin=True, n_jobs=1):
+    """One entry of :func:`fill_cache` in this process (``pin``: a worker process, limited to
+    one thread); ``(path, rows, from_cache, CPU seconds)``. With ``n_jobs`` > 1 the entry is
+    spread over that many workers (its rows do not depend on it) and their CPU counts too."""
     if pin:
         from .search import _pin_threads
         _pin_threads()
-    cpu0 = time.process_time()
-    df, hit = entry.fill(n_jobs=1, progress=False)
-    return entry.path, len(df), hit, time.process_time() - cpu0
+    cpu0 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    df, hit = entry.fill(n_jobs=n_jobs, progress=False)
+    cpu1 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
 
 
 def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
-               results=None, readings=None, progress=True, **params):
+               results=None, readings=None, progress=True, times=None, **params):
     """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
 
     :func:`run_experiment` runs one experiment's entries one after the other, each spread
@@ -593,28 +622,35 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
         Readings (:data:`~uavwind.scenarios.READINGS`); default :data:`DEFAULT_READING`.
     progress : bool
         A progress bar over rows (stderr).
+    times : list, optional
+        Where to append the records of ``times`` (below) as entries finish, so that a caller
+        keeps them when the run is interrupted.
 
     Returns
     -------
     dict
-        ``entries`` (needed, after removing duplicates), ``cached`` (already there),
-        ``computed``, ``rows_computed``, and ``times``: one record per computed entry
-        (``experiment``, ``reading``, ``case``, ``kind``, ``n_env``, ``rows``,
-        ``cpu_seconds`` of the process that computed it), in the order they finished;
-        :func:`time_by_experiment` sums them. An entry two experiments share is counted
-        under the first that needs it.
+        ``entries`` (needed, after removing duplicates), ``cached`` (already there, or
+        filled meanwhile by another run on the same folder), ``computed``, ``rows_computed``,
+        and ``times``: one record per computed entry, in the order they finished --
+        ``experiment`` (the first that needs it), ``reading`` (``"both"`` if both readings
+        need it), ``shared_with`` (the other experiments that need it), ``case``, ``kind``,
+        ``n_env``, ``rows`` and ``cpu_seconds`` (of the processes that computed it).
+        :func:`time_by_experiment` sums them.
     """
     from joblib import Parallel, delayed
 
     from .search import _check_jobs, _stop_workers
 
+    from joblib import effective_n_jobs
+
     n_jobs = _check_jobs(n_jobs)
-    unique = needed_entries(exp_ids, profile, readings, seed, engine, results, **params)
+    users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
+    unique = list(users)
     folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
-           "rows_computed": 0, "times": []}
+           "rows_computed": 0, "times": [] if times is None else times}
     by_path = {e.path: e for e in missing}
     if not missing:
         return out
@@ -624,8 +660,9 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
         bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
                    file=sys.stderr)
     try:
-        if n_jobs == 1 or len(missing) == 1:
-            done = (_fill_one(e, pin=False) for e in missing)
+        if effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
+            # in this process; a lone entry still gets every worker
+            done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
         else:
             # one task per entry, dispatched in cost order as workers free up
             done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
@@ -633,13 +670,18 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
                 delayed(_fill_one)(e) for e in missing)
         for path, n_rows, hit, cpu in done:
             out["computed"] += not hit
+            out["cached"] += hit  # another run on the same folder got there first
             out["rows_computed"] += 0 if hit else n_rows
             if not hit:
                 e = by_path[path]
-                out["times"].append({**{k: e.labels[k] for k in ("experiment", "reading",
-                                                                   "case")},
-                                     "kind": e.kind, "n_env": e.setting.n_env,
-                                     "rows": n_rows, "cpu_seconds": cpu})
+                pairs = users[e]
+                rds = {r for _, r in pairs}
+                out["times"].append({
+                    "experiment": pairs[0][0],
+                    "reading": pairs[0][1] if len(rds) == 1 else "both",
+                    "shared_with": sorted({x for x, _ in pairs} - {pairs[0][0]}),
+                    "case": e.labels["case"], "kind": e.kind, "n_env": e.setting.n_env,
+                    "rows": n_rows, "cpu_seconds": cpu})
             if bar is not None:
                 bar.update(n_rows)
     except BaseException:  # interrupted or failed: finished entries are on disk
@@ -658,7 +700,9 @@ def time_by_experiment(times):
     Returns
     -------
     pandas.DataFrame
-        Indexed by (``experiment``, ``reading``), experiments in registry order, with
+        Indexed by (``experiment``, ``reading``), experiments in registry order (``reading``
+        is ``"both"`` for entries both readings share; an entry two experiments share is
+        counted under the first), with
         ``entries``, ``rows`` (loops or CEM samples), ``cpu_seconds`` and ``share`` (% of
         the run's CPU seconds); empty if nothing was computed.
 

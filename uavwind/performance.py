@@ -100,6 +100,8 @@ def report_tables(report):
         if "measured_seconds" in p:
             rows[f"measured: {p.get('measured_command', 'paper run')} (min)"] = \
                 f"{p['measured_seconds'] / 60:.1f}"
+            if "measured_commit" in p:
+                rows["measured at commit"] = p["measured_commit"]
             if "fill_seconds" in p:
                 rows["of which filling the result cache (min)"] = f"{p['fill_seconds'] / 60:.1f}"
             if "cpu_percent" in p:
@@ -177,16 +179,20 @@ def summary_lines(report):
             f"Filling the result cache took {p['fill_seconds'] / 60:.1f} of the build's "
             f"{p['measured_seconds'] / 60:.1f} min and {cpu / 60:.0f} CPU-minutes for "
             f"{t['rows'].sum()} loops and CEM samples ("
-            + ", ".join(f"{share:.0f}% under the {r} reading" for r, share in by_reading.items())
+            + ", ".join(f"{share:.0f}% for entries both readings share" if r == "both"
+                        else f"{share:.0f}% under the {r} reading only"
+                        for r, share in by_reading.items())
             + "). The largest: "
             + "; ".join(f"{r.experiment} ({r.reading}) {r.share:.0f}%"
                         for r in top.itertuples())
             + ".")
         budget = 600 - (p["measured_seconds"] - p["fill_seconds"])  # the rest unchanged
         cores = report.get("cores", 2)
-        if budget > 0:
+        if budget > 0 and cpu > budget * cores:
             out["fill"] += (
                 f" For the build to fit in 10 minutes with the rest of it unchanged, the fill "
                 f"would have {budget:.0f} s on {cores} cores: {cpu / (budget * cores):.1f}x "
                 "fewer CPU-seconds than it used.")
+        elif budget > 0:
+            out["fill"] += " The fill fits in a 10-minute build on these cores."
     return out
