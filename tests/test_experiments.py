@@ -189,13 +189,19 @@ def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
     assert _exact(first) == _exact(again)
 
 
-def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
+def _record_fills(monkeypatch):
+    """Replace the work of fill_cache by a record of the entries it hands out, in order."""
     order = []
 
     def record(entry, pin=True, n_jobs=1):
         order.append(entry)
         return entry.path, entry.n_rows, False, 0.5
     monkeypatch.setattr(ex, "_fill_one", record)
+    return order
+
+
+def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
+    order = _record_fills(monkeypatch)
     done = ex.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
                          progress=False)
     n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
@@ -210,12 +216,7 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
 
 
 def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
-    order = []
-
-    def record(entry, pin=True, n_jobs=1):
-        order.append(entry)
-        return entry.path, entry.n_rows, False, 1.0
-    monkeypatch.setattr(ex, "_fill_one", record)
+    order = _record_fills(monkeypatch)
     done = ex.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
                          progress=False)
     users = {e.path: pairs for e, pairs in
