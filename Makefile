@@ -64,10 +64,11 @@ results: $(STAMP)  ## run every experiment under every reading into data/results
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together; their
-# `| results` finds it complete), then the HTML
+# `| results` finds it complete, with RUN_FLAGS cleared so that check does not overwrite
+# the fill's --times record), then the HTML
 book: $(STAMP)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
 	@$(MAKE) --no-print-directory results
-	@$(MAKE) --no-print-directory -j$(BOOK_JOBS) --output-sync=target $(HTML)
+	@$(MAKE) --no-print-directory -j$(BOOK_JOBS) --output-sync=target $(HTML) RUN_FLAGS=
 	@echo "book: $(HTML)"
 
 # the profile is a file, rewritten only when PROFILE changes, so notebooks rerun then

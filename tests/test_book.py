@@ -26,9 +26,24 @@ def built_book(tmp_path_factory):
     env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
     env.pop("MPLBACKEND", None)
     proc = subprocess.run(["make", "-C", str(ROOT), "book", "PROFILE=quick", f"BOOK={book}",
-                           "JOBS=2"], env=env, capture_output=True, text=True)
+                           "JOBS=2", f"RUN_FLAGS=--times {tmp / 'times.json'}"],
+                          env=env, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
     return book
+
+
+def test_the_fills_times_record_survives_the_book(built_book):
+    """make book passes RUN_FLAGS to the fill only: the notebooks' own check that the
+    cache is complete must not overwrite the record of what the fill computed."""
+    import json
+
+    from uavwind.experiments import time_by_experiment
+    times = json.loads((built_book.parent / "times.json").read_text())
+    assert times["complete"] is True and times["profile"] == "quick"
+    assert len(times["entries"]) > 0  # the cache started empty: every entry was computed
+    by_exp = time_by_experiment(times["entries"])
+    assert by_exp["entries"].sum() == len(times["entries"])
+    assert (by_exp["cpu_seconds"] > 0).all()
 
 
 def _html(book, name):
