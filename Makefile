@@ -63,12 +63,12 @@ results: $(STAMP)  ## run every experiment under every reading into data/results
 	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
-# the notebooks BOOK_JOBS at a time (they read the cache, each output kept together; their
-# `| results` finds it complete, with RUN_FLAGS cleared so that check does not overwrite
-# the fill's --times record), then the HTML
+# the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then
+# the HTML. `-o results`: the notebooks' `| results` was just made, so it is not run again
+# (a second run would only re-check the cache, and overwrite the fill's --times record)
 book: $(STAMP)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
 	@$(MAKE) --no-print-directory results
-	@$(MAKE) --no-print-directory -j$(BOOK_JOBS) --output-sync=target $(HTML) RUN_FLAGS=
+	@$(MAKE) --no-print-directory -o results -j$(BOOK_JOBS) --output-sync=target $(HTML)
 	@echo "book: $(HTML)"
 
 # the profile is a file, rewritten only when PROFILE changes, so notebooks rerun then
