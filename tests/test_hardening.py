@@ -89,6 +89,7 @@ def test_user_paths_are_expanded(tmp_path, monkeypatch):
     monkeypatch.setenv("HOME", str(tmp_path))
     monkeypatch.setenv("UAVWIND_RESULTS", "~/uw-results")
     assert cache.results_dir() == tmp_path / "uw-results"
+    assert cache.results_dir("~/named") == tmp_path / "named"  # a named folder wins
     ex.run_experiment("exp5", **RUN)
     assert _chunks(tmp_path / "uw-results") and not (tmp_path / "~").exists()
 

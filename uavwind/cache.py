@@ -4,7 +4,8 @@ This module owns every rule that makes a cached result trustworthy:
 
 * :func:`cache_key` -- a digest of everything that determines a chunk of results
   (setting, seed, loop range, engine, clustering parameters, results version);
-* :func:`results_dir` -- ``$UAVWIND_RESULTS`` (``~`` expanded) or ``data/results``;
+* :func:`results_dir` -- the folder a caller names, else ``$UAVWIND_RESULTS``, else
+  ``data/results`` (``~`` expanded);
 * :func:`check_writable` -- before any work starts, so a run never computes what it
   cannot keep;
 * :func:`read_verified` -- a chunk is trusted only if it parses and its stored
@@ -42,8 +43,11 @@ class CorruptChunkWarning(UserWarning):
     """A cached chunk failed verification and was moved aside to be recomputed."""
 
 
-def results_dir():
-    """``$UAVWIND_RESULTS`` (with ``~`` expanded) or ``data/results`` next to the package."""
+def results_dir(folder=None):
+    """The results folder: ``folder`` if given, else ``$UAVWIND_RESULTS``, else
+    ``data/results`` next to the package (``~`` expanded)."""
+    if folder is not None:
+        return Path(folder).expanduser()
     env = os.environ.get("UAVWIND_RESULTS")
     if env:
         return Path(env).expanduser()

@@ -27,7 +27,7 @@ import numpy as np
 
 from .config import check_array, check_scalar
 
-__all__ = ["score_loop", "LoopResult", "ENGINES", "DEFAULT_PARAMS", "check_groups"]
+__all__ = ["score_loop", "LoopResult", "ENGINES", "DEFAULT_PARAMS", "check_groups", "check_engine"]
 
 #: Fewest trajectories a loop can score: two clusters, one of them with two members.
 MIN_TRAJECTORIES = 3
@@ -195,6 +195,14 @@ def default_engine():
     return "fast"
 
 
+def check_engine(engine):
+    """``engine``, or :func:`default_engine` for None; ``ValueError`` if not in :data:`ENGINES`."""
+    engine = default_engine() if engine is None else engine
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
+    return engine
+
+
 def score_loop(trajectories, groups, engine=None, **params):
     """Cluster one loop's trajectories into two clusters and score them.
 
@@ -232,9 +240,7 @@ def score_loop(trajectories, groups, engine=None, **params):
         raise ValueError(f"trajectories must stay within +-{MAX_COORDINATE:g} m (squared DTW "
                          f"costs overflow beyond), got {np.abs(X).max():g}")
     g = check_groups(groups, X.shape[0])
-    engine = default_engine() if engine is None else engine
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
+    engine = check_engine(engine)
     p = _check_params(params)
     X = np.ascontiguousarray(X, dtype=np.float64)
     labels, sil, n_iter = _cluster(X, p, engine)

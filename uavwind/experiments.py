@@ -42,7 +42,7 @@ import pandas as pd
 
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
                     results_dir)
-from .clustering import ENGINES, default_engine
+from .clustering import check_engine
 from .config import check_scalar
 from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
 from .scenarios import (PAPER_SCENARIOS, TURBULENCE_CANDIDATES, Layout, Setting, WindCondition,
@@ -371,6 +371,11 @@ def _check_profile(profile):
     return PROFILES[profile]
 
 
+def _check_seed_engine(seed, engine):
+    """``(seed, engine)`` checked, the engine defaulted."""
+    return check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True), check_engine(engine)
+
+
 # --------------------------------------------------------------------------- #
 # running
 # --------------------------------------------------------------------------- #
@@ -410,15 +415,12 @@ def run_experiment(exp_id, profile="quick", seed=DEFAULT_SEED, n_jobs=None, engi
     """
     exp = get_experiment(exp_id)
     prof = _check_profile(profile)
-    seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
-    engine = default_engine() if engine is None else engine
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
+    seed, engine = _check_seed_engine(seed, engine)
     rd = get_reading(DEFAULT_READING if reading is None else reading)
     all_cases = exp.cases(rd)
     chosen = _check_cases(cases, len(all_cases))
     # before any work: a run must never compute what it cannot keep
-    folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
+    folder = check_writable(results_dir(results))
     frames, n_cached = [], 0
     entries = _entries(exp, prof, rd, seed, engine, folder, params, chosen)
     for entry in entries:
@@ -487,13 +489,16 @@ class Entry:
         from . import __version__
         meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
-        expect = Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
-        return cached(self.path, lambda: self.compute(n_jobs, progress), meta, expect)
+        return cached(self.path, lambda: self.compute(n_jobs, progress), meta, self._expected)
 
     def present(self):
         """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""
-        expect = Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
-        return read_verified(self.path, expect) is not None
+        return read_verified(self.path, self._expected) is not None
+
+    @property
+    def _expected(self):
+        """What a cached copy must hold to be trusted."""
+        return Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
 
 
 def _entries(exp, prof, rd, seed, engine, folder, params, chosen):
@@ -552,11 +557,8 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
         readings = [readings]
     rds = [get_reading(r) for r in readings]
     prof = _check_profile(profile)
-    seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
-    engine = default_engine() if engine is None else engine
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
-    folder = Path(results).expanduser() if results is not None else results_dir()
+    seed, engine = _check_seed_engine(seed, engine)
+    folder = results_dir(results)
     first, users = {}, {}
     for rd in rds:
         for exp in exps:
@@ -637,16 +639,14 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
         ``n_env``, ``rows`` and ``cpu_seconds`` (of the processes that computed it).
         :func:`time_by_experiment` sums them.
     """
-    from joblib import Parallel, delayed
+    from joblib import Parallel, delayed, effective_n_jobs
 
     from .search import _check_jobs, _stop_workers
-
-    from joblib import effective_n_jobs
 
     n_jobs = _check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
-    folder = check_writable(Path(results).expanduser() if results is not None else results_dir())
+    folder = check_writable(results_dir(results))
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,

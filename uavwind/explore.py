@@ -131,7 +131,7 @@ def cached_grid(folder=None, **kwargs):
 
     from .cache import RESULTS_VERSION, results_dir
 
-    folder = results_dir() if folder is None else folder
+    folder = results_dir(folder)
     args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),
                        explore_grid.__defaults__)), **kwargs}
     settings = [s.key() for _, s in
