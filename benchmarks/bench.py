@@ -183,7 +183,7 @@ def bench_paper_profile(report, engine):
     print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
     print(f"  estimated: {one_core / 60:.1f} min on one core, {one_core / cores / 60:.1f} min on "
           f"{cores} cores (per-loop medians x loop counts by environment count)")
-    from uavwind.experiments import needed_entries
+    from uavwind.fill import needed_entries
     entries = needed_entries("all", "paper", readings="all", engine=engine)
     unique_rows = sum(e.n_rows for e in entries)
     print(f"  {len(entries)} cache entries, {unique_rows} loops or CEM samples once shared "
@@ -205,7 +205,7 @@ def bench_paper_profile(report, engine):
 def where_the_fill_goes(times):
     """From the ``--times`` record of ``python -m uavwind run`` (a dict as written): the
     fill's wall seconds and its CPU seconds per experiment and reading, as report fields."""
-    from uavwind.experiments import time_by_experiment
+    from uavwind.fill import time_by_experiment
 
     t = time_by_experiment(times["entries"]).reset_index()
     return {"fill_seconds": times["wall_seconds"],

@@ -5,6 +5,7 @@ import pytest
 
 import uavwind as uw
 from uavwind import experiments as ex
+from uavwind import fill
 from uavwind.claims import bootstrap_ci, evaluate_claims, paired_difference
 from uavwind.paper import PAPER_FILES, load_paper_values
 
@@ -151,18 +152,18 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
     from uavwind.scenarios import READINGS
 
     ids = ["exp5", "exp6"]
-    done = ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+    done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                          readings="all", progress=False)
     assert done["entries"] > 0 and done["cached"] == 0 and done["computed"] == done["entries"]
     # every computed entry is timed, by the worker that computed it
     times = done["times"]
     assert len(times) == done["computed"] and all(t["cpu_seconds"] > 0 for t in times)
     assert sum(t["rows"] for t in times) == done["rows_computed"]
-    by_exp = ex.time_by_experiment(times)
+    by_exp = fill.time_by_experiment(times)
     assert set(by_exp.index.get_level_values("experiment")) <= set(ids)
     assert by_exp["entries"].sum() == done["computed"]
     assert by_exp["share"].sum() == pytest.approx(100.0)
-    assert ex.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+    assert fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                          readings="all", progress=False) == {
         "entries": done["entries"], "cached": done["entries"], "computed": 0,
         "rows_computed": 0, "times": []}
@@ -196,13 +197,13 @@ def _record_fills(monkeypatch):
     def record(entry, pin=True, n_jobs=1):
         order.append(entry)
         return entry.path, entry.n_rows, False, 0.5
-    monkeypatch.setattr(ex, "_fill_one", record)
+    monkeypatch.setattr(fill, "_fill_one", record)
     return order
 
 
 def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     order = _record_fills(monkeypatch)
-    done = ex.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
+    done = fill.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
                          progress=False)
     n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
     assert len(order) == done["entries"] == done["computed"] < n_cases  # shared settings once
@@ -217,10 +218,10 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
 
 def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
     order = _record_fills(monkeypatch)
-    done = ex.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
+    done = fill.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
                          progress=False)
     users = {e.path: pairs for e, pairs in
-             ex._needed("all", TINY, "all", ex.DEFAULT_SEED, None, tmp_path).items()}
+             fill._needed("all", TINY, "all", ex.DEFAULT_SEED, None, tmp_path).items()}
     assert len(done["times"]) == len(users) == len(order)
     for t, e in zip(done["times"], order):
         pairs = users[e.path]
@@ -231,12 +232,12 @@ def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monke
     # Exp 2, 3 and 4 share their 20-environment settings: one entry, counted under exp2
     assert any(t["experiment"] == "exp2" and "exp3" in t["shared_with"] for t in done["times"])
     # a single experiment id given as a string is that experiment, not its letters
-    assert [e.path for e in ex.needed_entries("exp5", TINY)] == \
-        [e.path for e in ex.needed_entries(["exp5"], TINY)]
+    assert [e.path for e in fill.needed_entries("exp5", TINY)] == \
+        [e.path for e in fill.needed_entries(["exp5"], TINY)]
 
 
 def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
-    done = ex.fill_cache(["exp6"], profile=TINY, results=tmp_path, n_jobs=2, progress=False)
+    done = fill.fill_cache(["exp6"], profile=TINY, results=tmp_path, n_jobs=2, progress=False)
     assert done["computed"] == 1 and done["times"][0]["kind"] == "cem"
     assert done["times"][0]["cpu_seconds"] > 0
     alone = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=1,
@@ -250,11 +251,11 @@ def test_time_by_experiment_sums_per_experiment_in_registry_order():
             "cpu_seconds": c}
            for e, r, n, c in [("exp6", "inferred", 10, 6.0), ("exp1", "halves", 50, 1.0),
                               ("exp1", "inferred", 50, 2.0), ("exp1", "inferred", 20, 1.0)]]
-    t = ex.time_by_experiment(rec)
+    t = fill.time_by_experiment(rec)
     assert list(t.index) == [("exp1", "halves"), ("exp1", "inferred"), ("exp6", "inferred")]
     assert t["rows"].tolist() == [50, 70, 10] and t["entries"].tolist() == [1, 2, 1]
     assert t["share"].tolist() == [10.0, 30.0, 60.0]
-    assert ex.time_by_experiment([]).empty
+    assert fill.time_by_experiment([]).empty
 
 
 @pytest.mark.parametrize("kwargs, word", [
@@ -263,7 +264,7 @@ def test_time_by_experiment_sums_per_experiment_in_registry_order():
 ])
 def test_fill_cache_refuses_bad_input_before_any_work(tmp_path, kwargs, word):
     with pytest.raises(ValueError, match=word):
-        ex.fill_cache(**{"exp_ids": ["exp5"], "profile": TINY, "results": tmp_path / "r",
+        fill.fill_cache(**{"exp_ids": ["exp5"], "profile": TINY, "results": tmp_path / "r",
                          "progress": False, **kwargs})
     assert not (tmp_path / "r").exists()
 

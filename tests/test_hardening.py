@@ -12,6 +12,7 @@ import pytest
 import uavwind as uw
 from uavwind import cache
 from uavwind import experiments as ex
+from uavwind import fill
 from uavwind import search
 from uavwind.__main__ import main
 
@@ -207,7 +208,7 @@ def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, caps
                  "--no-tables", "--times", str(out)]) == 0
     rec = json.loads(out.read_text())
     assert rec["profile"] == "tiny"
-    assert len(rec["entries"]) == len(ex.needed_entries(["exp5"], "tiny")) > 0
+    assert len(rec["entries"]) == len(fill.needed_entries(["exp5"], "tiny")) > 0
     assert {e["experiment"] for e in rec["entries"]} == {"exp5"}
     assert "by experiment and reading" in capsys.readouterr().out
     # a second run computes nothing and says so in the file

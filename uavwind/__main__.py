@@ -22,8 +22,8 @@ import time
 from pathlib import Path
 
 from .clustering import ENGINES
-from .experiments import (EXPERIMENTS, PROFILES, fill_cache, get_experiment, run_experiment,
-                          summary_table, time_by_experiment)
+from .experiments import EXPERIMENTS, PROFILES, get_experiment, run_experiment, summary_table
+from .fill import fill_cache, time_by_experiment
 from .scenarios import READINGS
 
 

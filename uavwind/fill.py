@@ -1,0 +1,224 @@
+"""The fill: every missing result of many experiments, under both readings, in one pool.
+
+This module owns how the book's results are computed in one go (``make results``,
+``python -m uavwind run all``): :func:`needed_entries` lists the cache entries
+(:class:`~uavwind.experiments.Entry`) the experiments need, each once, however many
+experiments and readings share it; :func:`fill_cache` computes the missing ones as one task
+per entry, longest first, over a pool of workers, and records the CPU seconds of each;
+:func:`time_by_experiment` sums those records per experiment and reading.
+
+What an entry holds, where it is cached and how it is verified is
+:mod:`uavwind.experiments`' (and :mod:`uavwind.cache`'s): the rows a fill stores are the
+same doubles :func:`~uavwind.experiments.run_experiment` computes, whatever the number of
+workers, and it then reads them from the cache.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import pandas as pd
+
+from .cache import check_writable, results_dir
+from .experiments import (DEFAULT_READING, DEFAULT_SEED, EXPERIMENTS, _check_profile,
+                          _check_seed_engine, _entries, get_experiment)
+from .scenarios import get_reading
+
+__all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
+
+
+def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_SEED,
+                   engine=None, results=None, **params):
+    """The cache entries ``exp_ids`` need under ``readings`` (default
+    :data:`~uavwind.experiments.DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
+    experiments or two readings share is one entry. Computes nothing. The arguments are
+    :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
+    return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))
+
+
+def _needed(exp_ids, profile, readings, seed, engine, results, **params):
+    """:func:`needed_entries` as a dict: entry -> the (experiment, reading) pairs that need
+    it, in the order they ask (readings first, then experiments in registry order)."""
+    from .scenarios import READINGS
+
+    if isinstance(exp_ids, str) and exp_ids != "all":
+        exp_ids = [exp_ids]
+    ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
+    exps = [get_experiment(i) for i in ids]
+    if readings is None:
+        readings = [DEFAULT_READING]
+    elif readings == "all":
+        readings = list(READINGS)
+    elif isinstance(readings, str):
+        readings = [readings]
+    rds = [get_reading(r) for r in readings]
+    prof = _check_profile(profile)
+    seed, engine = _check_seed_engine(seed, engine)
+    folder = results_dir(results)
+    first, users = {}, {}
+    for rd in rds:
+        for exp in exps:
+            cases = exp.cases(rd)
+            for e in _entries(exp, prof, rd, seed, engine, folder, params, range(len(cases))):
+                first.setdefault(e.path, e)
+                pair = (exp.id, rd.name)
+                if pair not in users.setdefault(e.path, []):
+                    users[e.path].append(pair)
+    return {e: users[path] for path, e in first.items()}
+
+
+def _cpu_seconds():
+    """CPU seconds (user + system) of this process and of each of its live children, by
+    pid: a task's cost is the difference, workers it started included."""
+    import psutil
+
+    me = psutil.Process()
+    out = {0: time.process_time()}
+    for child in me.children(recursive=True):
+        try:
+            t = child.cpu_times()
+            out[child.pid] = t.user + t.system
+        except psutil.Error:
+            pass
+    return out
+
+
+def _fill_one(entry, pin=True, n_jobs=1):
+    """One entry of :func:`fill_cache` in this process (``pin``: a worker process, limited to
+    one thread); ``(path, rows, from_cache, CPU seconds)``. With ``n_jobs`` > 1 the entry is
+    spread over that many workers (its rows do not depend on it) and their CPU counts too."""
+    if pin:
+        from .search import _pin_threads
+        _pin_threads()
+    cpu0 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    df, hit = entry.fill(n_jobs=n_jobs, progress=False)
+    cpu1 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
+
+
+def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
+               results=None, readings=None, progress=True, times=None, **params):
+    """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
+
+    :func:`~uavwind.experiments.run_experiment` runs one experiment's entries one after the other, each spread
+    over the workers, so a worker idles at the end of every chunk and every CEM iteration.
+    Here every missing entry (a chunk, or a whole CEM run) is one task, the tasks run
+    longest first (:attr:`Entry.cost <uavwind.experiments.Entry.cost>`) with one worker per task, and a worker writes its
+    entry as soon as it is done: the cores stay busy until the last few chunks, an
+    interrupt keeps every finished entry, and the rows are the same doubles as
+    :func:`~uavwind.experiments.run_experiment`'s (which then reads them from the cache).
+
+    Parameters
+    ----------
+    exp_ids : "all" or list of str
+        Ids of :data:`~uavwind.experiments.EXPERIMENTS`.
+    profile, seed, engine, results, **params
+        As :func:`~uavwind.experiments.run_experiment`.
+    n_jobs : int, optional
+        Worker processes (-1/None = all cores).
+    readings : "all", str or list of str, optional
+        Readings (:data:`~uavwind.scenarios.READINGS`); default :data:`~uavwind.experiments.DEFAULT_READING`.
+    progress : bool
+        A progress bar over rows (stderr).
+    times : list, optional
+        Where to append the records of ``times`` (below) as entries finish, so that a caller
+        keeps them when the run is interrupted.
+
+    Returns
+    -------
+    dict
+        ``entries`` (needed, after removing duplicates), ``cached`` (already there, or
+        filled meanwhile by another run on the same folder), ``computed``, ``rows_computed``,
+        and ``times``: one record per computed entry, in the order they finished --
+        ``experiment`` (the first that needs it), ``reading`` (``"both"`` if both readings
+        need it), ``shared_with`` (the other experiments that need it), ``case``, ``kind``,
+        ``n_env``, ``rows`` and ``cpu_seconds`` (of the processes that computed it).
+        :func:`time_by_experiment` sums them.
+    """
+    from joblib import Parallel, delayed, effective_n_jobs
+
+    from .search import _check_jobs, _stop_workers
+
+    n_jobs = _check_jobs(n_jobs)
+    users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
+    unique = list(users)
+    folder = check_writable(results_dir(results))
+    missing = sorted((e for e in unique if not e.present()),
+                     key=lambda e: (-e.cost, str(e.path)))
+    out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
+           "rows_computed": 0, "times": [] if times is None else times}
+    by_path = {e.path: e for e in missing}
+    if not missing:
+        return out
+    bar = None
+    if progress:
+        from tqdm import tqdm
+        bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
+                   file=sys.stderr)
+    try:
+        if effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
+            # in this process; a lone entry still gets every worker
+            done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
+        else:
+            # one task per entry, dispatched in cost order as workers free up
+            done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
+                            return_as="generator_unordered")(
+                delayed(_fill_one)(e) for e in missing)
+        for path, n_rows, hit, cpu in done:
+            out["computed"] += not hit
+            out["cached"] += hit  # another run on the same folder got there first
+            out["rows_computed"] += 0 if hit else n_rows
+            if not hit:
+                e = by_path[path]
+                pairs = users[e]
+                rds = {r for _, r in pairs}
+                out["times"].append({
+                    "experiment": pairs[0][0],
+                    "reading": pairs[0][1] if len(rds) == 1 else "both",
+                    "shared_with": sorted({x for x, _ in pairs} - {pairs[0][0]}),
+                    "case": e.labels["case"], "kind": e.kind, "n_env": e.setting.n_env,
+                    "rows": n_rows, "cpu_seconds": cpu})
+            if bar is not None:
+                bar.update(n_rows)
+    except BaseException:  # interrupted or failed: finished entries are on disk
+        _stop_workers()
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+    return out
+
+
+def time_by_experiment(times):
+    """Where the compute of a :func:`fill_cache` run went: its ``times`` records summed
+    per experiment and reading.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by (``experiment``, ``reading``), experiments in registry order (``reading``
+        is ``"both"`` for entries both readings share; an entry two experiments share is
+        counted under the first), with
+        ``entries``, ``rows`` (loops or CEM samples), ``cpu_seconds`` and ``share`` (% of
+        the run's CPU seconds); empty if nothing was computed.
+
+    Examples
+    --------
+    >>> t = [{"experiment": "exp5", "reading": "inferred", "case": 0, "kind": "loops",
+    ...       "n_env": 6, "rows": 50, "cpu_seconds": 3.0},
+    ...      {"experiment": "exp1", "reading": "inferred", "case": 0, "kind": "loops",
+    ...       "n_env": 6, "rows": 50, "cpu_seconds": 1.0}]
+    >>> time_by_experiment(t)["share"].tolist()
+    [25.0, 75.0]
+    """
+    cols = ["entries", "rows", "cpu_seconds", "share"]
+    if not times:
+        return pd.DataFrame(columns=cols, index=pd.MultiIndex.from_tuples(
+            [], names=["experiment", "reading"]))
+    df = pd.DataFrame(list(times))
+    out = df.groupby(["experiment", "reading"]).agg(
+        entries=("rows", "size"), rows=("rows", "sum"), cpu_seconds=("cpu_seconds", "sum"))
+    out["share"] = 100 * out["cpu_seconds"] / out["cpu_seconds"].sum()
+    order = {k: i for i, k in enumerate(EXPERIMENTS)}
+    return out.sort_index(key=lambda ix: ix.map(order) if ix.name == "experiment" else ix)
