@@ -91,9 +91,10 @@ def _fill_one(entry, pin=True, n_jobs=1):
     if pin:
         from .search import _pin_threads
         _pin_threads()
-    cpu0 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    clock = _cpu_seconds if n_jobs != 1 else (lambda: {0: time.process_time()})
+    cpu0 = clock()
     df, hit = entry.fill(n_jobs=n_jobs, progress=False)
-    cpu1 = _cpu_seconds() if n_jobs != 1 else {0: time.process_time()}
+    cpu1 = clock()
     return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
 
 
@@ -143,7 +144,7 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     n_jobs = _check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
-    folder = check_writable(results_dir(results))
+    check_writable(results_dir(results))  # before any work: keep what is computed
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
