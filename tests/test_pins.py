@@ -1,0 +1,119 @@
+"""Behaviour pins: every cache key and a few result digests, as they were before the
+package was arranged into subpackages (commit f16d6b8). A move that changed a setting's
+key, an entry's path or a single double of a result row fails here.
+
+A deliberate change of results (a new reading, a bumped RESULTS_VERSION) updates these
+pins in the same commit, and says so.
+"""
+import hashlib
+import tempfile
+
+import numpy as np
+import pytest
+
+from uavwind.experiments import EXPERIMENTS, run_experiment
+from uavwind.fill import needed_entries
+
+#: profile/reading/experiment -> digest of the sorted relative paths of its cache entries
+ENTRY_PATHS = {
+    "quick/inferred/example": "3b124da9fed53415",
+    "quick/inferred/exp1": "5a20719469103ca9",
+    "quick/inferred/exp2": "6dc70ba49df881f8",
+    "quick/inferred/exp3": "33978c3a213bb384",
+    "quick/inferred/exp4": "6ca0ada1de09830c",
+    "quick/inferred/exp5": "bdc142320cf3951f",
+    "quick/inferred/exp6": "3890dd609dc3b6a2",
+    "quick/inferred/exp6_raw": "628e28b0dd489eab",
+    "quick/inferred/exp7": "a19c1ac22a1095f8",
+    "quick/inferred/exp8": "938fc569fdd8a7e5",
+    "quick/inferred/exp9": "a19c1ac22a1095f8",
+    "quick/inferred/fit_layout": "f3801fbc86dfb8b7",
+    "quick/inferred/fit_turbulence": "98462edb38442c3b",
+    "quick/halves/example": "3b124da9fed53415",
+    "quick/halves/exp1": "2a9e96ab0379510a",
+    "quick/halves/exp2": "e1dddfcb840afec2",
+    "quick/halves/exp3": "ff34a44e7376a8db",
+    "quick/halves/exp4": "903cdf6927a7102e",
+    "quick/halves/exp5": "dabb5c765497393b",
+    "quick/halves/exp6": "5748f9c690a8ec7a",
+    "quick/halves/exp6_raw": "f9af43541e09a495",
+    "quick/halves/exp7": "aa2022438305f0ae",
+    "quick/halves/exp8": "6ea199792bbc540e",
+    "quick/halves/exp9": "aa2022438305f0ae",
+    "quick/halves/fit_layout": "f3801fbc86dfb8b7",
+    "quick/halves/fit_turbulence": "98462edb38442c3b",
+    "paper/inferred/example": "6f3e053cab478488",
+    "paper/inferred/exp1": "f3fee0392a80ec0b",
+    "paper/inferred/exp2": "6ea79a89510bc7ac",
+    "paper/inferred/exp3": "c1fa52808f9759be",
+    "paper/inferred/exp4": "9f623c971d45be3f",
+    "paper/inferred/exp5": "22b4a412a7cdd06d",
+    "paper/inferred/exp6": "d00836cf68652e8a",
+    "paper/inferred/exp6_raw": "6f8435c7511136c3",
+    "paper/inferred/exp7": "f6a86d54c4959fcf",
+    "paper/inferred/exp8": "0df52e69bd1d0ff9",
+    "paper/inferred/exp9": "f6a86d54c4959fcf",
+    "paper/inferred/fit_layout": "98d979c639533209",
+    "paper/inferred/fit_turbulence": "9f34c77cc0c7cc0a",
+    "paper/halves/example": "6f3e053cab478488",
+    "paper/halves/exp1": "db5bd75a41bd09d5",
+    "paper/halves/exp2": "8ea77df8e95da57d",
+    "paper/halves/exp3": "bfbefbff0a3eab73",
+    "paper/halves/exp4": "8c36d94fcad7754f",
+    "paper/halves/exp5": "4f4fe9f0d256eacd",
+    "paper/halves/exp6": "af5b1e15b1664857",
+    "paper/halves/exp6_raw": "17fd33a9c6c8d000",
+    "paper/halves/exp7": "f265297e3dc4e61b",
+    "paper/halves/exp8": "899b6fde6de46a3b",
+    "paper/halves/exp9": "f265297e3dc4e61b",
+    "paper/halves/fit_layout": "98d979c639533209",
+    "paper/halves/fit_turbulence": "9f34c77cc0c7cc0a",
+}
+
+#: experiment/case/reading -> digest of the rows of that case (quick profile)
+RESULT_ROWS = {
+    "exp1/1/inferred": "28d1dcf5c6bb4c89",
+    "exp1/1/halves": "df423608cc0aa500",
+    "exp5/1/inferred": "2fdd3e359569e1ed",
+    "exp5/1/halves": "00bdb667423591e4",
+    "exp7/3/inferred": "03908d6073cde360",
+    "exp7/3/halves": "e60481958bd26a07",
+    "exp8/5/inferred": "343ac39c3e8121bb",
+    "exp8/5/halves": "c1c908f5829fefb3",
+    "exp6/0/inferred": "415b9481ce363421",
+    "exp6/0/halves": "d5524f2125fa0bd3",
+    "fit_turbulence/5/inferred": "1b04cf955c256275",
+    "fit_turbulence/5/halves": "76a637ef39abfec0",
+}
+
+#: columns that name the library version, not the result
+_VERSION_COLUMNS = {"uavwind_version", "results_version"}
+
+
+def _rows_digest(df):
+    parts = []
+    for c in sorted(set(df.columns) - _VERSION_COLUMNS):
+        cells = [repr(np.asarray(v).tolist()) if hasattr(v, "__len__") and not isinstance(v, str)
+                 else repr(v) for v in df[c]]
+        parts.append(c + "=" + repr(cells))
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:16]
+
+
+def test_every_cache_entry_path_is_pinned():
+    got = {}
+    for key in ENTRY_PATHS:
+        profile, reading, exp = key.split("/")
+        es = needed_entries([exp], profile=profile, readings=[reading], results="/pins")
+        names = sorted(str(e.path.relative_to("/pins")) for e in es)
+        got[key] = hashlib.sha256("\n".join(names).encode()).hexdigest()[:16]
+    assert set(EXPERIMENTS) == {k.split("/")[2] for k in ENTRY_PATHS}
+    assert got == ENTRY_PATHS
+
+
+@pytest.mark.parametrize("key", sorted(RESULT_ROWS))
+def test_result_rows_are_pinned(key):
+    exp, case, reading = key.split("/")
+    with tempfile.TemporaryDirectory() as d:
+        df = run_experiment(exp, profile="quick", cases=[int(case)], reading=reading,
+                            results=d, n_jobs=1, progress=False)
+    assert _rows_digest(df) == RESULT_ROWS[key]
