@@ -15,7 +15,7 @@ NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count 
              exp4_thrust_changes exp5_wind_direction exp6_cem inference exp7_noise \
              exp8_observation exp9_baseline claims performance explore
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
-LIBRARY   := $(wildcard uavwind/*.py uavwind/softdtw/*.py uavwind/paper_values/*)
+LIBRARY   := $(wildcard uavwind/*.py uavwind/*/*.py uavwind/*/*/*.py uavwind/study/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
 PLOTLYJS  := $(BOOK)/_vendor/plotly/plotly.min.js
 HTML      := $(BOOK)/_build/html/index.html

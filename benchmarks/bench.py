@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import uavwind as uw
-from uavwind.clustering import default_engine
+from uavwind.method.clustering import default_engine
 
 OUT = Path(__file__).resolve().parent / "benchmark.json"
 
@@ -65,7 +65,7 @@ def bench_simulation(report):
 
 def _loop_inputs(n_env, seed, dt=0.1, scenario=None):
     """Trajectories and groups of one random loop (scenario cycles through Table 2)."""
-    from uavwind.scenarios import PAPER_SCENARIOS
+    from uavwind.study.conditions import PAPER_SCENARIOS
 
     k = scenario or (seed % 7) + 1
     a, b = PAPER_SCENARIOS[k]
@@ -75,7 +75,7 @@ def _loop_inputs(n_env, seed, dt=0.1, scenario=None):
 
 
 def _engines():
-    from uavwind.clustering import ENGINES
+    from uavwind.method.clustering import ENGINES
     return [e for e in ("tslearn", "fast") if e in ENGINES]
 
 
@@ -160,7 +160,7 @@ def bench_search(report):
 
 
 def bench_paper_profile(report, engine):
-    from uavwind.experiments import EXPERIMENTS, PROFILES, n_loops_total
+    from uavwind.study.registry import EXPERIMENTS, PROFILES, n_loops_total
 
     print("\n== the paper profile ==")
     prof = PROFILES["paper"]
@@ -183,7 +183,7 @@ def bench_paper_profile(report, engine):
     print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
     print(f"  estimated: {one_core / 60:.1f} min on one core, {one_core / cores / 60:.1f} min on "
           f"{cores} cores (per-loop medians x loop counts by environment count)")
-    from uavwind.fill import needed_entries
+    from uavwind.study.fill import needed_entries
     entries = needed_entries("all", "paper", readings="all", engine=engine)
     unique_rows = sum(e.n_rows for e in entries)
     print(f"  {len(entries)} cache entries, {unique_rows} loops or CEM samples once shared "
@@ -205,7 +205,7 @@ def bench_paper_profile(report, engine):
 def where_the_fill_goes(times):
     """From the ``--times`` record of ``python -m uavwind run`` (a dict as written): the
     fill's wall seconds and its CPU seconds per experiment and reading, as report fields."""
-    from uavwind.fill import time_by_experiment
+    from uavwind.study.fill import time_by_experiment
 
     t = time_by_experiment(times["entries"]).reset_index()
     return {"fill_seconds": times["wall_seconds"],
@@ -260,7 +260,7 @@ _COLD = """
 import time
 t0 = time.perf_counter()
 import uavwind as uw
-from uavwind import softdtw
+from uavwind.method import softdtw
 t1 = time.perf_counter()
 softdtw.warmup()
 t2 = time.perf_counter()
@@ -328,7 +328,7 @@ def bench_where_time_goes(report, n_loops=20):
     for label, share in shares.items():
         print(f"  {100 * share:5.1f}%  {label}")
     # the cost per cell of the two kernels, on one loop's series against a centre-like series
-    from uavwind import softdtw as fk
+    from uavwind.method import softdtw as fk
 
     X = np.ascontiguousarray(inputs[3])
     centres = np.ascontiguousarray(np.stack([X[:10].mean(0), X[10:].mean(0)]))
@@ -348,7 +348,7 @@ def _varied_loop(i):
     """Loop ``i`` of the varied set: every Table 2 scenario and Exp 5's pair, both readings
     (so both layouts and both turbulence variants), 5-20 environments per group, the
     paper's and the continuous thrust sampler. Seeds 10_000 + i: no other section's loops."""
-    from uavwind.scenarios import PAPER_SCENARIOS
+    from uavwind.study.conditions import PAPER_SCENARIOS
 
     pairs = [(a.label, b.label) for a, b in PAPER_SCENARIOS.values()]
     pairs.append(("light constant", "light shear"))

@@ -20,6 +20,6 @@ def compiled_kernels():
     """Compile (or load) the fast engine's numba kernels once, in this process, before
     any test starts worker processes: they then load the on-disk cache instead of each
     compiling the same kernels at the same time."""
-    from uavwind import softdtw
+    from uavwind.method import softdtw
 
     softdtw.warmup(parallel=True)

@@ -6,10 +6,10 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind import beyond
-from uavwind import experiments as ex
-from uavwind.baseline import estimate_wind
-from uavwind.observation import CONSUMER_NOISE, Noise, gauss_markov, noise_seed, observe
+from uavwind.analysis import beyond
+from uavwind.study import registry as ex
+from uavwind.method.baseline import estimate_wind
+from uavwind.sim.observation import CONSUMER_NOISE, Noise, gauss_markov, noise_seed, observe
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
@@ -157,7 +157,7 @@ def test_consumer_noise_levels_are_the_cited_figures():
 def test_two_means_separates_two_clouds_and_matches_kmeans():
     from sklearn.cluster import KMeans
 
-    from uavwind.baseline import two_means
+    from uavwind.method.baseline import two_means
 
     rng = np.random.default_rng(4)
     for trial in range(20):

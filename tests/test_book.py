@@ -37,7 +37,7 @@ def test_the_fills_times_record_survives_the_book(built_book):
     cache is complete must not overwrite the record of what the fill computed."""
     import json
 
-    from uavwind.fill import time_by_experiment
+    from uavwind.study.fill import time_by_experiment
     times = json.loads((built_book.parent / "times.json").read_text())
     assert times["complete"] is True and times["profile"] == "quick"
     assert len(times["entries"]) > 0  # the cache started empty: every entry was computed

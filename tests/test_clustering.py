@@ -4,7 +4,7 @@ import pytest
 from tslearn.clustering import TimeSeriesKMeans, silhouette_score
 
 import uavwind as uw
-from uavwind.clustering import ENGINES, score_loop
+from uavwind.method.clustering import ENGINES, score_loop
 
 
 def _reference(X):

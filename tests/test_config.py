@@ -3,7 +3,7 @@ import math
 import pytest
 
 from uavwind import UAV, SimulationSettings
-from uavwind.config import check_scalar
+from uavwind.sim.vehicle import check_scalar
 
 
 def test_paper_defaults():

@@ -4,10 +4,10 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind import experiments as ex
-from uavwind import fill
-from uavwind.claims import bootstrap_ci, evaluate_claims, paired_difference
-from uavwind.paper import PAPER_FILES, load_paper_values
+from uavwind.study import registry as ex
+from uavwind.study import fill
+from uavwind.analysis.claims import bootstrap_ci, evaluate_claims, paired_difference
+from uavwind.study.paper import PAPER_FILES, load_paper_values
 
 TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
@@ -73,7 +73,7 @@ def test_cache_key_depends_on_what_matters():
 
 
 def test_run_resume_and_reuse(tmp_path, monkeypatch):
-    import uavwind.experiments as mod
+    import uavwind.study.registry as mod
 
     calls = []
     real = mod.random_search
@@ -149,7 +149,7 @@ def _exact(df):
 
 
 def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
-    from uavwind.scenarios import READINGS
+    from uavwind.study.conditions import READINGS
 
     ids = ["exp5", "exp6"]
     done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,

@@ -10,11 +10,11 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind import cache
-from uavwind import experiments as ex
-from uavwind import fill
-from uavwind import search
-from uavwind.__main__ import main
+from uavwind.study import cache
+from uavwind.study import registry as ex
+from uavwind.study import fill
+from uavwind.method import search
+from uavwind.cli import main
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
@@ -221,7 +221,7 @@ def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, caps
 
 
 def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monkeypatch):
-    import uavwind.__main__ as cli
+    import uavwind.cli as cli
 
     def interrupted(*args, times=None, **kwargs):
         times.append({"experiment": "exp5", "reading": "inferred", "rows": 2,
@@ -293,7 +293,7 @@ def test_a_correct_loop_with_a_negative_silhouette_is_cached(tmp_path):
     df, hit = cache.cached(path, lambda: rows.copy(), {"setting_key": "k", "seed": 1,
                                                        "engine": "fast"}, expect)
     assert not hit and cache.read_verified(path, expect) is not None
-    from uavwind.stats import correct_share
+    from uavwind.core.stats import correct_share
     assert correct_share(df) == 0.5  # the correct column, not score > 0
 
 
@@ -322,7 +322,8 @@ def test_inferred_layout_with_a_turbulent_group_a():
 
 
 def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
-    from uavwind import explore, scenarios
+    from uavwind.report import explore
+    from uavwind.study import conditions as scenarios
 
     calls = []
     monkeypatch.setattr(explore, "explore_grid", _stub_grid(calls))

@@ -5,10 +5,10 @@ import scipy.signal as sg
 from sklearn.metrics import silhouette_score
 
 import uavwind as uw
-from uavwind import experiments as ex
-from uavwind import inference as inf
-from uavwind.scenarios import Layout
-from uavwind.dryden import CitedDryden, cited_dryden_parameters, cited_transfer_functions
+from uavwind.study import registry as ex
+from uavwind.analysis import inference as inf
+from uavwind.study.conditions import Layout
+from uavwind.sim.dryden import CitedDryden, cited_dryden_parameters, cited_transfer_functions
 
 
 # --------------------------------------------------------------------------- #

@@ -13,7 +13,7 @@ import pandas as pd
 from sklearn.metrics import silhouette_score
 
 import uavwind as uw
-from uavwind.paper import PAPER_FILES, load_paper_values
+from uavwind.study.paper import PAPER_FILES, load_paper_values
 
 NOTES = Path(__file__).resolve().parents[1] / "book" / "replication_notes.md"
 

@@ -14,7 +14,7 @@ def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
                     "--no-build-isolation", "--disable-pip-version-check", "--target",
                     str(target), str(ROOT)], check=True, capture_output=True,
                    env={**os.environ, "PIP_NO_INDEX": "1"})
-    code = ("import sys, uavwind as uw; from uavwind.paper import load_paper_values\n"
+    code = ("import sys, uavwind as uw; from uavwind.study.paper import load_paper_values\n"
             "assert 'site' in uw.__file__, uw.__file__\n"
             "t4 = load_paper_values('exp1'); assert t4.loc[0, 'maximum'] == 85.86\n"
             "s = uw.table3_setting(); r = uw.score_loop(s.simulate(uw.PAPER_EXAMPLE), s.groups)\n"

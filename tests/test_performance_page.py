@@ -1,5 +1,5 @@
 """The performance page's presentation, from a report, without a browser."""
-from uavwind.performance import report_tables, summary_lines
+from uavwind.report.performance import report_tables, summary_lines
 
 REPORT = {"measured": "2026-11-22 12:00 UTC", "cores": 2, "machine": "x86_64", "python": "3.11.7",
           "numpy": "2.4.6",

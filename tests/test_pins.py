@@ -11,8 +11,8 @@ import tempfile
 import numpy as np
 import pytest
 
-from uavwind.experiments import EXPERIMENTS, run_experiment
-from uavwind.fill import needed_entries
+from uavwind.study.registry import EXPERIMENTS, run_experiment
+from uavwind.study.fill import needed_entries
 
 #: profile/reading/experiment -> digest of the sorted relative paths of its cache entries
 ENTRY_PATHS = {

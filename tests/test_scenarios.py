@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 import uavwind as uw
-from uavwind.scenarios import SPEED_RANGES
+from uavwind.study.conditions import SPEED_RANGES
 
 
 def test_table2():

@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.search import cem_step
+from uavwind.method.search import cem_step
 
 
 def small(a="light constant", b="strong shear", n=3):

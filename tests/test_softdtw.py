@@ -7,10 +7,10 @@ from tslearn.metrics import dtw as ts_dtw
 from tslearn.metrics import soft_dtw as ts_soft_dtw
 
 import uavwind as uw
-from uavwind import softdtw as fk
-from uavwind.softdtw._lbfgsb import _lbfgsb
-from uavwind.clustering import score_loop
-from uavwind.scenarios import PAPER_SCENARIOS
+from uavwind.method import softdtw as fk
+from uavwind.method.softdtw._lbfgsb import _lbfgsb
+from uavwind.method.clustering import score_loop
+from uavwind.study.conditions import PAPER_SCENARIOS
 
 
 def _pairs(seed):
@@ -120,7 +120,7 @@ def test_exact_with_the_libm_replica_forced_off():
     import sys
 
     code = ("import numpy as np, uavwind as uw\n"
-            "from uavwind.softdtw._libm import _libm_selfcheck\n"
+            "from uavwind.method.softdtw._libm import _libm_selfcheck\n"
             "assert _libm_selfcheck() is False\n"
             "s = uw.make_setting('light constant', 'light shear', 4)\n"
             "for seed in range(3):\n"
@@ -134,7 +134,7 @@ def test_exact_with_the_libm_replica_forced_off():
 
 
 def test_a_failed_selfcheck_warns_once_and_falls_back(monkeypatch):
-    from uavwind.softdtw import _libm
+    from uavwind.method.softdtw import _libm
 
     monkeypatch.setattr(_libm, "_FASTMATH_OK", None)
     monkeypatch.setattr(_libm, "_selfcheck_kernel", lambda xe, xl: 3)
@@ -147,7 +147,7 @@ def test_a_failed_selfcheck_warns_once_and_falls_back(monkeypatch):
 
 
 def test_an_untested_scipy_falls_back_to_minimize(monkeypatch):
-    from uavwind.softdtw import _lbfgsb as lb
+    from uavwind.method.softdtw import _lbfgsb as lb
 
     monkeypatch.setattr(lb, "_SCIPY_OK", None)
     monkeypatch.setattr(lb, "SCIPY_TESTED", ("0.1",))

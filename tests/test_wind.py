@@ -6,7 +6,7 @@ import pytest
 from scipy.signal import welch
 
 import uavwind as uw
-from uavwind.dryden import FEET, dryden_parameters, dryden_psd
+from uavwind.sim.dryden import FEET, dryden_parameters, dryden_psd
 
 
 def _models():
@@ -149,7 +149,7 @@ def test_dryden_u_autocorrelation_at_one_second(ensemble):
 
 def test_dryden_discrete_variance_is_sigma_squared():
     """White noise of std sqrt(pi/dt) makes the stationary output variance sigma^2."""
-    from uavwind.dryden import _stationary_covariance
+    from uavwind.sim.dryden import _stationary_covariance
 
     w = uw.DrydenWind([11.18, 12.5, 13.86], dt=0.1, seed=0)
     for j, ax in enumerate("uvw"):

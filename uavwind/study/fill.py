@@ -21,9 +21,9 @@ import time
 import pandas as pd
 
 from .cache import check_writable, results_dir
-from .experiments import (DEFAULT_READING, DEFAULT_SEED, EXPERIMENTS, _check_profile,
+from .registry import (DEFAULT_READING, DEFAULT_SEED, EXPERIMENTS, _check_profile,
                           _check_seed_engine, _entries, get_experiment)
-from .scenarios import get_reading
+from .conditions import get_reading
 
 __all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
 
@@ -40,7 +40,7 @@ def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_S
 def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     """:func:`needed_entries` as a dict: entry -> the (experiment, reading) pairs that need
     it, in the order they ask (readings first, then experiments in registry order)."""
-    from .scenarios import READINGS
+    from .conditions import READINGS
 
     if isinstance(exp_ids, str) and exp_ids != "all":
         exp_ids = [exp_ids]
@@ -89,7 +89,7 @@ def _fill_one(entry, pin=True, n_jobs=1):
     one thread); ``(path, rows, from_cache, CPU seconds)``. With ``n_jobs`` > 1 the entry is
     spread over that many workers (its rows do not depend on it) and their CPU counts too."""
     if pin:
-        from .search import _pin_threads
+        from ..method.search import _pin_threads
         _pin_threads()
     clock = _cpu_seconds if n_jobs != 1 else (lambda: {0: time.process_time()})
     cpu0 = clock()
@@ -139,7 +139,7 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     """
     from joblib import Parallel, delayed, effective_n_jobs
 
-    from .search import _check_jobs, _stop_workers
+    from ..method.search import _check_jobs, _stop_workers
 
     n_jobs = _check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)

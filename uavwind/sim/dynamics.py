@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actions import ThrustSequence
-from .config import UAV, check_array, check_scalar, n_steps as _n_steps
+from .vehicle import UAV, check_array, check_scalar, n_steps as _n_steps
 from .wind import WindModel
 
 __all__ = ["simulate", "simulate_flight", "Flight"]

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .stats import bootstrap_ci, correct_share, paired_difference
+from ..core.stats import bootstrap_ci, correct_share, paired_difference
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
            "LESSONS", "compare_readings"]

@@ -25,7 +25,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from .config import check_array, check_scalar
+from .vehicle import check_array, check_scalar
 
 
 __all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "MAX_WIND"]

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .clustering import score_loop
+from ..method.clustering import score_loop
 from .display import group_name
 from .plotting import fig3_loop
-from .scenarios import make_setting
+from ..study.conditions import make_setting
 
 __all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "explorer_html",
            "explore_thrusts",
@@ -74,7 +74,7 @@ EXPLORE_PAIRS = (("light constant", "light constant"), ("light constant", "stron
 
 def explore_thrusts():
     """The thrust sequences the static explorer offers: label -> ThrustSequence."""
-    from .actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
+    from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 
     return {"the paper's example (Table 3)": PAPER_EXAMPLE,
             "climb, then push along x": ThrustSequence([0, 6], [40, 20], [[0, 0, 1], [1, 0, 0]]),
@@ -113,7 +113,7 @@ def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "
 
 def _grid_settings(pairs, n_per_group, layouts):
     """``((pair index, n, reading name), Setting)`` for every setting of the grid."""
-    from .scenarios import get_reading
+    from ..study.conditions import get_reading
 
     for i, (a, b) in enumerate(pairs):
         for n in n_per_group:
@@ -129,7 +129,7 @@ def cached_grid(folder=None, **kwargs):
     import hashlib
     import json
 
-    from .cache import RESULTS_VERSION, results_dir
+    from ..study.cache import RESULTS_VERSION, results_dir
 
     folder = results_dir(folder)
     args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),

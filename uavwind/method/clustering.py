@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .config import check_array, check_scalar
+from ..sim.vehicle import check_array, check_scalar
 
 __all__ = ["score_loop", "LoopResult", "ENGINES", "DEFAULT_PARAMS", "check_groups", "check_engine"]
 

@@ -29,10 +29,10 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from .actions import MAX_THRUST, ThrustSequence
+from ..sim.actions import MAX_THRUST, ThrustSequence
 from .clustering import default_engine, score_loop
-from .config import check_scalar
-from .scenarios import Setting
+from ..sim.vehicle import check_scalar
+from ..study.conditions import Setting
 
 __all__ = ["evaluate", "random_search", "cem", "CEMResult", "child_seed", "summarise"]
 
@@ -192,7 +192,7 @@ def _rows(results, thrusts):
 def summarise(scores):
     """``{"max", "mean", "n", "correct_rate"}`` of a score column (or a result table, whose
     ``correct`` column then gives the share)."""
-    from .stats import correct_share
+    from ..core.stats import correct_share
 
     rate = correct_share(scores)
     if isinstance(scores, pd.DataFrame):

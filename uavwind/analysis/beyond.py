@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .stats import bootstrap_ci
+from ..core.stats import bootstrap_ci
 
 __all__ = ["noise_table", "breaking_level", "observation_table", "best_observation",
            "baseline_table"]

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import check_array, check_scalar
+from .vehicle import check_array, check_scalar
 
 __all__ = ["ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
            "MAX_THRUST", "PAPER_EXAMPLE"]

@@ -31,8 +31,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .stats import bootstrap_ci, correct_share
-from .scenarios import (INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
+from ..core.stats import bootstrap_ci, correct_share
+from ..study.conditions import (INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
                         TURBULENCE_CANDIDATES, Setting)
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "silhouette_curves",
@@ -45,7 +45,7 @@ SEED = 12345
 
 def _paper_table4():
     """Table 4's rows by scenario id (the 500-loop row left out)."""
-    from .paper import load_paper_values
+    from ..study.paper import load_paper_values
     t4 = load_paper_values("exp1")
     return t4[~t4["long_run"]].set_index("scenario_id")
 
@@ -180,7 +180,7 @@ def out_of_sample(results):
         (:func:`line_silhouette` x 100: the score the layout's speeds would get as
         points on a line).
     """
-    from .experiments import EXPERIMENTS, comparison_table
+    from ..study.registry import EXPERIMENTS, comparison_table
 
     tables = {"exp1": "Table 4 (500 loops)", "exp2": "Table 5", "exp3": "Table 6",
               "exp4": "Table 7"}
@@ -237,7 +237,7 @@ def scale_invariance(setting, factor=10.0, n_loops=20, seed=0, engine=None, n_jo
     Returns a DataFrame with one row per loop: ``silhouette``, ``scaled`` and their
     ``difference`` (raw silhouettes in [-1, 1], not floored by the grouping rule).
     """
-    from .search import random_search
+    from ..method.search import random_search
 
     kw = dict(n_loops=n_loops, seed=seed, engine=engine, n_jobs=n_jobs, progress=False)
     base = random_search(setting, **kw)

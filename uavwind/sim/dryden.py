@@ -23,7 +23,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from .config import check_array, check_scalar
+from .vehicle import check_array, check_scalar
 from .wind import WindModel
 
 FEET = 0.3048  # [m] per foot

@@ -36,7 +36,7 @@ def stamp(fig, results, note=""):
     """Write how ``fig`` was made under it: experiment, reading, profile, seed, engine,
     rows, library version and commit of ``results`` (an experiment's table), as
     :func:`uavwind.experiments.provenance` says it. Returns ``fig``."""
-    from .experiments import provenance
+    from ..study.registry import provenance
 
     text = provenance(results) + (f" {note}" if note else "")
     fig.text(0.005, -0.01, text, fontsize=6, color="0.35", ha="left", va="top", wrap=True)
@@ -255,7 +255,7 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     whose environments share one W20."""
     from scipy.signal import welch
 
-    from .dryden import dryden_psd
+    from ..sim.dryden import dryden_psd
 
     plt = _plt()
     g = wind.gusts(n_samples)

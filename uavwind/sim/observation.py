@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .config import check_scalar
+from .vehicle import check_scalar
 
 __all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
            "check_observation", "noise_seed"]

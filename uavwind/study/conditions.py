@@ -35,11 +35,11 @@ from dataclasses import asdict, dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from .actions import SAMPLERS
-from .config import UAV, check_scalar
-from .observation import Noise, check_observation
-from .dryden import VARIANTS, CitedDryden, DrydenWind
-from .wind import CombinedWind, ConstantWind, ShearWind
+from ..sim.actions import SAMPLERS
+from ..sim.vehicle import UAV, check_scalar
+from ..sim.observation import Noise, check_observation
+from ..sim.dryden import VARIANTS, CitedDryden, DrydenWind
+from ..sim.wind import CombinedWind, ConstantWind, ShearWind
 
 __all__ = [
     "SPEED_RANGES", "KINDS", "WindCondition", "EnvironmentGroup", "Setting",
@@ -307,7 +307,7 @@ class Setting:
 
     def simulate(self, thrust, seed=None):
         """Positions (n_env, n_steps, 3) [m] of all environments under ``thrust``."""
-        from .dynamics import simulate
+        from ..sim.dynamics import simulate
         return simulate(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                         duration=self.duration, start_altitude=self.start_altitude)
 
@@ -315,8 +315,8 @@ class Setting:
         """``(observations, flight, positions)`` of one loop: the observed channel with
         its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
         :class:`~uavwind.dynamics.Flight`, and the noisy positions (what the baseline sees)."""
-        from .dynamics import simulate_flight
-        from .observation import noise_seed, observe
+        from ..sim.dynamics import simulate_flight
+        from ..sim.observation import noise_seed, observe
 
         flight = simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                                  duration=self.duration, start_altitude=self.start_altitude)
@@ -347,7 +347,7 @@ class Setting:
     def to_frame(self):
         """Both groups side by side, as in the paper's Table 3."""
         a, b = self.group_a.to_frame(), self.group_b.to_frame()
-        from .display import group_name
+        from ..report.display import group_name
         return pd.concat({group_name(self, 0): a, group_name(self, 1): b},
                          axis=1)
 

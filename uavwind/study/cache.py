@@ -51,18 +51,18 @@ def results_dir(folder=None):
     env = os.environ.get("UAVWIND_RESULTS")
     if env:
         return Path(env).expanduser()
-    return Path(__file__).resolve().parents[1] / "data" / "results"
+    return Path(__file__).resolve().parents[2] / "data" / "results"
 
 
 def cache_key(setting, seed, start, stop, engine, params, extra=None):
     """Digest of everything that determines a chunk of results."""
-    from .clustering import DEFAULT_PARAMS
+    from ..method.clustering import DEFAULT_PARAMS
 
     fields = {"setting": setting.key(), "seed": seed, "loops": [start, stop], "engine": engine,
               "params": {**DEFAULT_PARAMS, **params}, "version": RESULTS_VERSION,
               "extra": extra}
     if getattr(setting, "baseline", False):  # loops that also run the physics baseline
-        from .baseline import BASELINE_VERSION
+        from ..method.baseline import BASELINE_VERSION
         fields["baseline"] = BASELINE_VERSION
     blob = json.dumps(fields, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]

@@ -42,13 +42,13 @@ import pandas as pd
 
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
                     results_dir)
-from .clustering import check_engine
-from .config import check_scalar
-from .observation import CONSUMER_NOISE, OBSERVATIONS, Noise
-from .scenarios import (PAPER_SCENARIOS, TURBULENCE_CANDIDATES, Layout, Setting, WindCondition,
+from ..method.clustering import check_engine
+from ..sim.vehicle import check_scalar
+from ..sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise
+from .conditions import (PAPER_SCENARIOS, TURBULENCE_CANDIDATES, Layout, Setting, WindCondition,
                         direction_settings, environment_count_settings, get_reading,
                         make_setting, range_similarity_settings, table3_setting)
-from .search import cem, random_search
+from ..method.search import cem, random_search
 
 __all__ = ["EXPERIMENTS", "PROFILES", "Case", "Experiment", "get_experiment", "run_experiment",
            "summary_table", "paper_table", "results_dir", "RESULTS_VERSION", "CHUNK",
@@ -273,7 +273,7 @@ def _exp8(reading):
 
 
 def _baseline_summary(df):
-    from .beyond import baseline_table
+    from ..analysis.beyond import baseline_table
     return baseline_table(df)
 
 
@@ -486,7 +486,7 @@ class Entry:
 
     def fill(self, n_jobs=None, progress=False):
         """``(rows, from_cache)``: the verified cached rows, or computed and stored."""
-        from . import __version__
+        from .. import __version__
         meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         return cached(self.path, lambda: self.compute(n_jobs, progress), meta, self._expected)
@@ -557,7 +557,7 @@ def _n_loops(prof, case):
 # summaries in the paper's layout
 # --------------------------------------------------------------------------- #
 def _maxmean(df, by):
-    from .stats import bootstrap_ci, correct_share
+    from ..core.stats import bootstrap_ci, correct_share
 
     rows = {}
     for key, sub in df.groupby(list(by), sort=False):
@@ -596,7 +596,7 @@ def paper_table(exp_id):
 def provenance(df):
     """One line saying how a result table was made: experiment, reading, profile, seed,
     engine, loops, library version and commit (for captions)."""
-    from . import __version__
+    from .. import __version__
     a = df.attrs
     return (f"Made by experiment {a.get('experiment', '?')} under the {a.get('reading', '?')!r} "
             f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
@@ -634,7 +634,7 @@ def comparison_table(df):
     paper's row labels. Reads the paper's values through :mod:`uavwind.paper`.
     """
     from .paper import load_paper_values
-    from .stats import bootstrap_ci, correct_share
+    from ..core.stats import bootstrap_ci, correct_share
 
     exp = _record(df)
     if not exp.paper_keys:

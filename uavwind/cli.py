@@ -1,0 +1,163 @@
+"""Command line: run experiments into the result cache.
+
+    python -m uavwind list
+    python -m uavwind run exp1 exp2 --profile paper --jobs -1
+    python -m uavwind run all --profile quick
+    python -m uavwind run all --profile paper --reading all --no-tables   (what make book runs)
+
+`run` first computes every missing result of the chosen experiments and readings in one
+pool of workers, longest task first, then prints each experiment's table from the cache.
+``--times FILE`` keeps the CPU seconds of every entry it computed (JSON), for a profile of
+where a build's time goes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+
+from .method.clustering import ENGINES
+from .study.registry import EXPERIMENTS, PROFILES, get_experiment, run_experiment, summary_table
+from .study.fill import fill_cache, time_by_experiment
+from .study.conditions import READINGS
+
+
+_CORES = os.cpu_count() or 1
+
+
+def _jobs(text):
+    """--jobs: an integer in [1, cores] or -1; more than the cores is capped with a warning."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+    if n == 0 or n < -1:
+        raise argparse.ArgumentTypeError(f"must be -1 (all cores) or in [1, {_CORES}], got {n}")
+    if n > _CORES:
+        print(f"warning: --jobs {n} is more than the {_CORES} cores: using {_CORES}",
+              file=sys.stderr)
+        n = _CORES
+    return n
+
+
+def _seed(text):
+    """--seed: an integer >= 0."""
+    try:
+        n = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {text!r}") from None
+    if n < 0:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 0, got {n}")
+    return n
+
+
+def _terminate(signum, frame):
+    """SIGTERM ends the run like Ctrl-C: workers are shut down on the way out."""
+    raise KeyboardInterrupt
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(prog="python -m uavwind", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="command", required=True)
+    sub.add_parser("list", help="list the experiments")
+    run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
+    run.add_argument("experiments", nargs="+", help=f"ids ({', '.join(EXPERIMENTS)}) or 'all'")
+    run.add_argument("--profile", default="quick", choices=sorted(PROFILES))
+    run.add_argument("--jobs", type=_jobs, default=-1,
+                     help=f"worker processes, 1-{_CORES} (-1 = all cores)")
+    run.add_argument("--seed", type=_seed, default=None, help="root seed, an integer >= 0")
+    run.add_argument("--engine", default=None, choices=sorted(ENGINES),
+                     help="clustering engine (default: fast)")
+    run.add_argument("--reading", default=None, choices=sorted(READINGS) + ["all"],
+                     help="reading of the paper (default: inferred; all: every reading)")
+    run.add_argument("--no-progress", action="store_true")
+    run.add_argument("--no-tables", action="store_true",
+                     help="only fill the result cache; print no summary tables")
+    run.add_argument("--times", default=None, metavar="FILE",
+                     help="write the CPU seconds of every computed cache entry to FILE (JSON)")
+    args = parser.parse_args(argv)
+
+    if args.command == "list":
+        for e in EXPERIMENTS.values():
+            print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
+                  f"{e.notebook}")
+        return 0
+    ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
+    try:
+        for i in ids:  # validate every name before any work starts
+            get_experiment(i)
+    except (ValueError, TypeError) as exc:
+        parser.error(str(exc))
+    times = None
+    if args.times is not None:
+        times = Path(args.times).expanduser()
+        if times.is_dir() or not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
+            parser.error(f"--times must name a file in an existing, writable folder, got "
+                         f"{args.times!r}")
+    if _in_main_thread():
+        signal.signal(signal.SIGTERM, _terminate)
+    kw = {} if args.seed is None else {"seed": args.seed}
+    readings = list(READINGS) if args.reading == "all" else [args.reading]
+    t0 = time.perf_counter()
+    records = []
+    try:
+        done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
+                          readings=[r for r in readings if r is not None] or None,
+                          progress=not args.no_progress, times=records, **kw)
+    except KeyboardInterrupt:
+        print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
+        if times is not None:
+            _write_times(times, args, t0, records, complete=False)
+        return 130
+    except ValueError as exc:  # e.g. a results folder that cannot be written
+        print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
+        return 2
+    print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
+          f"{done['computed']} computed ({done['rows_computed']} loops or CEM samples) in "
+          f"{time.perf_counter() - t0:.1f} s")
+    if done["times"]:
+        by_exp = time_by_experiment(done["times"])
+        print("CPU seconds of the computed entries, by experiment and reading:")
+        print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
+    if times is not None:
+        _write_times(times, args, t0, records, complete=True)
+    if args.no_tables:
+        return 0
+    for reading in readings:
+        for i in ids:
+            df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
+                                progress=False, reading=reading, **kw)
+            print(f"{i} ({df.attrs['reading']} reading): {len(df)} rows")
+            print(summary_table(df).round(2).to_string(), "\n")
+    return 0
+
+
+def _write_times(path, args, t0, records, complete):
+    """The ``--times`` file, written atomically: the run's wall seconds and one record per
+    computed entry (``complete`` is false after an interrupt)."""
+    text = json.dumps({"profile": args.profile, "jobs": args.jobs, "complete": complete,
+                       "wall_seconds": time.perf_counter() - t0, "entries": records},
+                      indent=1)
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        print(f"python -m uavwind run: warning: --times {path} not written ({exc})",
+              file=sys.stderr)
+
+
+def _in_main_thread():
+    import threading
+    return threading.current_thread() is threading.main_thread()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
