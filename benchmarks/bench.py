@@ -160,15 +160,16 @@ def bench_search(report):
 
 
 def bench_paper_profile(report, engine):
-    from uavwind.study.registry import EXPERIMENTS, PROFILES, n_loops_total
+    from uavwind.study import EXPERIMENTS, PROFILES, n_loops_total
+    from uavwind.study.runner import case_loops
 
     print("\n== the paper profile ==")
     prof = PROFILES["paper"]
     by_size = {}
     for exp in EXPERIMENTS.values():
         for c in exp.cases():
-            n = (prof["cem"]["n_samples"] * prof["cem"]["max_iter"] if exp.kind == "cem"
-                 else prof["long_loops"] if c.long else prof["loops"])
+            n = (prof.cem.n_samples * prof.cem.max_iter if exp.search == "cem"
+                 else case_loops(prof, c))
             by_size[c.setting.n_env] = by_size.get(c.setting.n_env, 0) + n
     per_loop = {}
     for n_env in sorted(by_size):

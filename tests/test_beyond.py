@@ -7,7 +7,8 @@ import pytest
 
 import uavwind as uw
 from uavwind.analysis import beyond
-from uavwind.study import registry as ex
+from uavwind import study as ex
+from uavwind.analysis import tables
 from uavwind.method.baseline import estimate_wind
 from uavwind.sim.observation import CONSUMER_NOISE, Noise, gauss_markov, noise_seed, observe
 
@@ -113,7 +114,7 @@ def test_estimate_wind_is_unbiased_under_white_noise():
 def test_baseline_summary_and_a_wrong_model(tmp_path):
     df = ex.run_experiment("exp9", profile=TINY, n_jobs=1, progress=False, results=tmp_path,
                            cases=[11, 12])  # light vs light: no noise, 0.02 m
-    t = ex.summary_table(df)
+    t = tables.summary_table(df)
     assert t["rmse"].iloc[0] < 1e-9 and t["baseline_correct_rate"].iloc[0] == 1.0
     assert (t["rmse_mass+20%"] > 1.0).all()
 

@@ -3,7 +3,7 @@ import math
 import pytest
 
 from uavwind import UAV, SimulationSettings
-from uavwind.sim.vehicle import check_scalar
+from uavwind.core.checks import check_scalar
 
 
 def test_paper_defaults():

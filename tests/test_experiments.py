@@ -1,10 +1,13 @@
 """Experiment registry, profiles, cache keys, resume, paper values, claims."""
+from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.study import registry as ex
+from uavwind import study as ex
+from uavwind.analysis import tables
+from uavwind.study import cache, registry
 from uavwind.study import fill
 from uavwind.analysis.claims import bootstrap_ci, evaluate_claims, paired_difference
 from uavwind.study.paper import PAPER_FILES, load_paper_values
@@ -18,7 +21,7 @@ def test_registry_matches_the_paper():
                                     "exp6_raw", "exp7", "exp8", "exp9", "fit_layout",
                                     "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
-    n_ratios = len(ex.FIT_RATIOS)
+    n_ratios = len(registry.FIT_RATIOS)
     assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
                      "exp6": 1, "exp6_raw": 1, "exp7": 3 * 11, "exp8": 3 * 4 * 2, "exp9": 3 * 11,
                      "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
@@ -40,12 +43,12 @@ def test_registry_matches_the_paper():
     # Exp 6 flies Exp 5's similar-direction environments
     assert ex.EXPERIMENTS["exp6"].cases()[0].setting.key() == ex.EXPERIMENTS["exp5"].cases()[0].setting.key()
     for e in ex.EXPERIMENTS.values():
-        assert (ex.Path(__file__).parents[1] / "notebooks" / e.notebook).exists()
+        assert (Path(__file__).parents[1] / "notebooks" / e.notebook).exists()
 
 
 def test_profiles_and_loop_counts():
-    assert ex.PROFILES["paper"]["loops"] == 50 and ex.PROFILES["paper"]["long_loops"] == 500
-    assert ex.PROFILES["paper"]["cem"] == {"n_samples": 30, "n_elite": 4, "max_iter": 20}
+    assert ex.PROFILES["paper"].loops == 50 and ex.PROFILES["paper"].long_loops == 500
+    assert ex.PROFILES["paper"].cem.to_dict() == {"n_samples": 30, "n_elite": 4, "max_iter": 20}
     # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
     # exp6 and exp6_raw 30x20 each, exp7/exp9 33x50 each, exp8 24x50,
     # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
@@ -61,19 +64,19 @@ def test_profiles_and_loop_counts():
 
 def test_cache_key_depends_on_what_matters():
     s = uw.make_setting("light constant", "strong shear")
-    base = ex.cache_key(s, 1, 0, 50, "fast", {})
-    assert base == ex.cache_key(s, 1, 0, 50, "fast", {})
-    assert base == ex.cache_key(s, 1, 0, 50, "fast", {"gamma": 0.5})  # the default, spelled out
-    assert base == ex.cache_key(uw.make_setting("light constant", "strong shear", name="x"),
+    base = cache.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == cache.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == cache.cache_key(s, 1, 0, 50, "fast", {"gamma": 0.5})  # the default, spelled out
+    assert base == cache.cache_key(uw.make_setting("light constant", "strong shear", name="x"),
                                 1, 0, 50, "fast", {})  # names do not change results
-    for other in (ex.cache_key(s, 2, 0, 50, "fast", {}), ex.cache_key(s, 1, 0, 49, "fast", {}),
-                  ex.cache_key(s, 1, 0, 50, "tslearn", {}), ex.cache_key(s, 1, 0, 50, "fast", {"gamma": 1.0}),
-                  ex.cache_key(uw.make_setting("light constant", "strong shear", n_changes=5), 1, 0, 50, "fast", {})):
+    for other in (cache.cache_key(s, 2, 0, 50, "fast", {}), cache.cache_key(s, 1, 0, 49, "fast", {}),
+                  cache.cache_key(s, 1, 0, 50, "tslearn", {}), cache.cache_key(s, 1, 0, 50, "fast", {"gamma": 1.0}),
+                  cache.cache_key(uw.make_setting("light constant", "strong shear", n_changes=5), 1, 0, 50, "fast", {})):
         assert other != base
 
 
 def test_run_resume_and_reuse(tmp_path, monkeypatch):
-    import uavwind.study.registry as mod
+    import uavwind.study.runner as mod
 
     calls = []
     real = mod.random_search
@@ -102,10 +105,10 @@ def test_run_resume_and_reuse(tmp_path, monkeypatch):
     pd.testing.assert_frame_equal(again, fresh)
     assert set(fresh["direction"]) == {"similar", "opposite"}
     assert {"setting_key", "seed", "engine", "uavwind_version", "results_version"} <= set(fresh.columns)
-    table = ex.summary_table(fresh)
+    table = tables.summary_table(fresh)
     assert list(table.columns) == ["max", "mean", "ci_low", "ci_high", "correct_rate",
                                    "n_loops"] and len(table) == 2
-    cmp = ex.comparison_table(fresh)
+    cmp = tables.comparison_table(fresh)
     assert cmp["paper_mean"].tolist() == [21.58, 90.33]
 
 
@@ -133,7 +136,7 @@ def test_cem_experiment_and_worker_independence(tmp_path):
     two = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=2, progress=False)
     pd.testing.assert_frame_equal(one, two)
     assert len(one) == 6 and one["iteration"].tolist() == [1, 1, 1, 2, 2, 2]
-    hist = ex.summary_table(one)
+    hist = tables.summary_table(one)
     assert list(hist.index) == [1, 2] and np.all(np.diff(hist["best_so_far"]) >= 0)
 
 
@@ -149,7 +152,7 @@ def _exact(df):
 
 
 def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
-    from uavwind.study.conditions import READINGS
+    from uavwind.study.readings import READINGS
 
     ids = ["exp5", "exp6"]
     done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
@@ -209,7 +212,7 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     assert len(order) == done["entries"] == done["computed"] < n_cases  # shared settings once
     assert len({e.path for e in order}) == len(order)
     costs = [e.cost for e in order]
-    assert costs == sorted(costs, reverse=True) and order[0].kind == "cem"
+    assert costs == sorted(costs, reverse=True) and order[0].search == "cem"
     assert done["rows_computed"] == sum(e.n_rows for e in order)
     assert [t["rows"] for t in done["times"]] == [e.n_rows for e in order]
     assert [(t["experiment"], t["case"]) for t in done["times"]] == \
@@ -238,7 +241,7 @@ def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monke
 
 def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
     done = fill.fill_cache(["exp6"], profile=TINY, results=tmp_path, n_jobs=2, progress=False)
-    assert done["computed"] == 1 and done["times"][0]["kind"] == "cem"
+    assert done["computed"] == 1 and done["times"][0]["search"] == "cem"
     assert done["times"][0]["cpu_seconds"] > 0
     alone = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=1,
                               progress=False)
@@ -247,7 +250,7 @@ def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
 
 
 def test_time_by_experiment_sums_per_experiment_in_registry_order():
-    rec = [{"experiment": e, "reading": r, "case": 0, "kind": "loops", "n_env": 6, "rows": n,
+    rec = [{"experiment": e, "reading": r, "case": 0, "search": "random", "n_env": 6, "rows": n,
             "cpu_seconds": c}
            for e, r, n, c in [("exp6", "inferred", 10, 6.0), ("exp1", "halves", 50, 1.0),
                               ("exp1", "inferred", 50, 2.0), ("exp1", "inferred", 20, 1.0)]]
@@ -275,13 +278,13 @@ def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
         df = ex.run_experiment("exp1", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
                                cases=[0, 2, 3], reading=reading)
         assert (df["reading"] == reading).all()
-        assert len(ex.summary_table(df)) == 3
-        cmp = ex.comparison_table(df)
+        assert len(tables.summary_table(df)) == 3
+        cmp = tables.comparison_table(df)
         assert list(cmp.index) == [t4.index[k] for k in (0, 2, 3)]
         assert cmp["paper_mean"].tolist() == [t4.iloc[k]["mean"] for k in (0, 2, 3)]
-        assert "'" + reading + "' reading" in ex.provenance(df)
+        assert "'" + reading + "' reading" in tables.provenance(df)
     with pytest.raises(ValueError, match="no paper table"):
-        ex.comparison_table(df.assign(experiment="exp6"))
+        tables.comparison_table(df.assign(experiment="exp6"))
 
 
 def test_paper_values_load_with_sources():

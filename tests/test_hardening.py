@@ -10,8 +10,9 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.study import cache
-from uavwind.study import registry as ex
+from uavwind.core.parallel import check_jobs
+from uavwind.study import cache, runner
+from uavwind import study as ex
 from uavwind.study import fill
 from uavwind.method import search
 from uavwind.cli import main
@@ -70,7 +71,7 @@ def test_an_unwritable_results_folder_fails_before_any_work(tmp_path, monkeypatc
         target = tmp_path / "ro"
         target.mkdir()
         target.chmod(0o500)
-    monkeypatch.setattr(ex, "random_search", lambda *a, **k: pytest.fail("computed anyway"))
+    monkeypatch.setattr(runner, "random_search", lambda *a, **k: pytest.fail("computed anyway"))
     with pytest.raises(ValueError, match="cannot be written"):
         ex.run_experiment("exp5", results=target, **RUN)
 
@@ -201,7 +202,7 @@ def test_cli_caps_jobs_and_reports_an_unwritable_folder(tmp_path, monkeypatch, c
 
 
 def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, capsys):
-    monkeypatch.setitem(ex.PROFILES, "tiny", TINY)
+    monkeypatch.setitem(ex.PROFILES, "tiny", ex.get_profile({**TINY, "name": "tiny"}))
     monkeypatch.setenv("UAVWIND_RESULTS", str(tmp_path / "r"))
     out = tmp_path / "times.json"
     assert main(["run", "exp5", "--profile", "tiny", "--jobs", "1", "--no-progress",
@@ -238,9 +239,9 @@ def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monk
 def test_n_jobs_is_capped_at_the_cores():
     cores = os.cpu_count()
     with pytest.warns(UserWarning, match="cores"):
-        assert search._check_jobs(cores + 1000) == cores
+        assert check_jobs(cores + 1000) == cores
     with pytest.raises(ValueError, match="n_jobs"):
-        search._check_jobs(-cores - 1)
+        check_jobs(-cores - 1)
 
 
 @pytest.mark.parametrize("cases, err, match", [
@@ -264,7 +265,7 @@ def test_run_experiment_validates_profiles(tmp_path, profile, match):
 
 def test_an_interrupt_shuts_the_workers_down(monkeypatch):
     stopped = []
-    monkeypatch.setattr(search, "_stop_workers", lambda: stopped.append(True))
+    monkeypatch.setattr(search, "stop_workers", lambda: stopped.append(True))
 
     class Interrupted:
         def __init__(self, *a, **k):
@@ -323,7 +324,7 @@ def test_inferred_layout_with_a_turbulent_group_a():
 
 def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
     from uavwind.report import explore
-    from uavwind.study import conditions as scenarios
+    from uavwind.study import layouts as scenarios
 
     calls = []
     monkeypatch.setattr(explore, "explore_grid", _stub_grid(calls))

@@ -5,9 +5,10 @@ import scipy.signal as sg
 from sklearn.metrics import silhouette_score
 
 import uavwind as uw
-from uavwind.study import registry as ex
+from uavwind import study as ex
+from uavwind.study import registry
 from uavwind.analysis import inference as inf
-from uavwind.study.conditions import Layout
+from uavwind.study.layouts import Layout
 from uavwind.sim.dryden import CitedDryden, cited_dryden_parameters, cited_transfer_functions
 
 
@@ -104,7 +105,7 @@ def _line_silhouette(rho, n=5):
 
 
 def test_fit_ratio_recovers_a_known_ratio_on_a_synthetic_curve(rng):
-    ratios = np.array(ex.FIT_RATIOS)
+    ratios = np.array(registry.FIT_RATIOS)
     truth = 9.0
     curve = np.array([_line_silhouette(r) for r in ratios])
     scores = curve[:, None] + rng.normal(0, 0.3, size=(ratios.size, 200))

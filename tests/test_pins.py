@@ -11,7 +11,7 @@ import tempfile
 import numpy as np
 import pytest
 
-from uavwind.study.registry import EXPERIMENTS, run_experiment
+from uavwind.study import EXPERIMENTS, run_experiment
 from uavwind.study.fill import needed_entries
 
 #: profile/reading/experiment -> digest of the sorted relative paths of its cache entries

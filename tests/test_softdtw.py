@@ -114,7 +114,7 @@ def test_parallel_kernels_give_the_same_answer():
 
 
 def test_exact_with_the_libm_replica_forced_off():
-    """FASTKMEANS_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal."""
+    """UAVWIND_SOFTDTW_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal."""
     import os
     import subprocess
     import sys
@@ -128,7 +128,7 @@ def test_exact_with_the_libm_replica_forced_off():
             "    a = uw.score_loop(X, s.groups, engine='fast')\n"
             "    b = uw.score_loop(X, s.groups, engine='tslearn')\n"
             "    assert (a.labels == b.labels).all() and a.score == b.score, seed\n")
-    env = {**os.environ, "FASTKMEANS_GLIBC_REPLICA": "0"}
+    env = {**os.environ, "UAVWIND_SOFTDTW_GLIBC_REPLICA": "0"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
 

@@ -4,6 +4,17 @@ A point-mass UAV flies one open-loop thrust sequence through two groups of wind
 environments; its position trajectories are clustered with soft-DTW k-means
 and the silhouette score rewards thrust sequences that separate the groups.
 
+The package is layered, data flowing one way (a layer imports only the layers below it):
+
+* :mod:`uavwind.core` -- input checks, seeding, workers, atomic writes, statistics;
+* :mod:`uavwind.sim` -- vehicles, actions, winds, Dryden turbulence, dynamics,
+  observations, and the :class:`~uavwind.sim.setting.Setting` one loop flies;
+* :mod:`uavwind.method` -- clustering (and its fast engine), search, the physics baseline;
+* :mod:`uavwind.study` -- the paper's conditions, layouts and readings, the experiments as
+  data, the runner, the cache and the fill;
+* :mod:`uavwind.analysis` -- summary tables, the inference, beyond the paper, the claims;
+* :mod:`uavwind.report` -- display names, figures, the explorer, the performance page.
+
 >>> import uavwind as uw
 >>> setting = uw.table3_setting()
 >>> traj = setting.simulate(uw.PAPER_EXAMPLE)
@@ -11,42 +22,57 @@ and the silhouette score rewards thrust sequences that separate the groups.
 (10, 120, 3)
 """
 
-import warnings as _warnings
-
-# tslearn warns at import that h5py (optional, unused here) is missing
-_warnings.filterwarnings("ignore", message="h5py not installed", category=UserWarning)
-
 from . import _compat
+from ._version import __version__
 
 _compat.install()  # the flat module paths of 0.1 keep working for one release
 
-from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence, sample_continuous,
-                      sample_paper)
-from .method.clustering import LoopResult, score_loop
-from .method.baseline import estimate_wind
-from .report.display import pretty
-from .sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise
-from .sim.vehicle import PAPER_SIMULATION, PAPER_UAV, UAV, SimulationSettings
-from .sim.dynamics import Flight, simulate, simulate_flight
-from .study.conditions import (INFERRED_GAP_RATIOS, LAYOUTS, PAPER_SCENARIOS, READINGS, SPEED_RANGES,
-                        EnvironmentGroup, Layout, Reading, Setting, WindCondition,
-                        direction_settings, environment_count_settings, get_reading, group_speeds,
-                        make_group, make_setting, range_similarity_settings, resolve_layout,
-                        scenario_table, table3_setting)
-from .method.search import CEMResult, cem, random_search, summarise
-from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters, cited_gusts,
-                     dryden_parameters, dryden_psd, dryden_transfer_functions)
-from .sim.wind import CombinedWind, ConstantWind, ShearWind, WindModel
+from .method.baseline import estimate_wind  # noqa: E402
+from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
+from .method.search import CEMResult, cem, random_search  # noqa: E402
+from .report.display import pretty  # noqa: E402
+from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence,  # noqa: E402
+                          sample_continuous, sample_paper)
+from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # noqa: E402
+                         cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .sim.dynamics import Flight, simulate, simulate_flight  # noqa: E402
+from .sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise  # noqa: E402
+from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
+from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402
+from .sim.wind import CombinedWind, ConstantWind, ShearWind, WindModel  # noqa: E402
+from .study.builders import (direction_settings, environment_count_settings,  # noqa: E402
+                             make_group, make_setting, range_similarity_settings)
+from .study.conditions import (PAPER_SCENARIOS, SPEED_RANGES, WindCondition,  # noqa: E402
+                               scenario_table, table3_setting)
+from .study.layouts import INFERRED_GAP_RATIOS, LAYOUTS, Layout, group_speeds, resolve_layout  # noqa: E402
+from .study.readings import READINGS, Reading, get_reading  # noqa: E402
 
-
-__version__ = "0.1.0"
+__all__ = [
+    # sim
+    "UAV", "PAPER_UAV", "ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
+    "MAX_THRUST", "PAPER_EXAMPLE", "WindModel", "ConstantWind", "ShearWind", "CombinedWind",
+    "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
+    "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
+    "Noise", "CONSUMER_NOISE", "OBSERVATIONS", "EnvironmentGroup", "Setting",
+    # method
+    "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
+    "estimate_wind",
+    # study
+    "SPEED_RANGES", "WindCondition", "PAPER_SCENARIOS", "scenario_table", "table3_setting",
+    "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds", "Reading",
+    "READINGS", "get_reading", "make_group", "make_setting", "range_similarity_settings",
+    "environment_count_settings", "direction_settings",
+    # report
+    "pretty",
+    "__version__",
+]
 
 
 def __getattr__(name):
-    """``uavwind.<old module>`` as an attribute (``uw.observation.Noise``): the flat module
-    paths of 0.1, through :mod:`uavwind._compat` (one ``DeprecationWarning``)."""
-    old = f"{__name__}.{name}"
-    if old in _compat.MOVED:
-        import importlib
-        return importlib.import_module(old)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    """Names of 0.1 that moved or went: ``uavwind.<old module>`` as an attribute
+    (``uw.observation.Noise``) and ``uw.SimulationSettings``, through
+    :mod:`uavwind._compat` (one ``DeprecationWarning``)."""
+    found = _compat.old_attribute(name)
+    if found is _compat.MISSING:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return found

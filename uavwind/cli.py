@@ -19,29 +19,39 @@ import os
 import signal
 import sys
 import time
-from pathlib import Path
+import warnings
 
+from .analysis.tables import summary_table
+from .core.io import atomic_write, check_target
+from .core.parallel import check_jobs, cores
 from .method.clustering import ENGINES
-from .study.registry import EXPERIMENTS, PROFILES, get_experiment, run_experiment, summary_table
 from .study.fill import fill_cache, time_by_experiment
-from .study.conditions import READINGS
+from .study.profiles import PROFILES
+from .study.readings import READINGS
+from .study.registry import EXPERIMENTS, get_experiment
+from .study.runner import run_experiment
 
 
-_CORES = os.cpu_count() or 1
+_CORES = cores()
 
 
 def _jobs(text):
-    """--jobs: an integer in [1, cores] or -1; more than the cores is capped with a warning."""
+    """--jobs: an integer in [1, cores] or -1 (:func:`~uavwind.core.parallel.check_jobs`);
+    more than the cores is capped with a warning."""
     try:
         n = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
-    if n == 0 or n < -1:
+    if n < -1:
         raise argparse.ArgumentTypeError(f"must be -1 (all cores) or in [1, {_CORES}], got {n}")
-    if n > _CORES:
-        print(f"warning: --jobs {n} is more than the {_CORES} cores: using {_CORES}",
-              file=sys.stderr)
-        n = _CORES
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            n = check_jobs(n, "--jobs")
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    for w in caught:
+        print(f"warning: {w.message}", file=sys.stderr)
     return n
 
 
@@ -96,8 +106,11 @@ def main(argv=None):
         parser.error(str(exc))
     times = None
     if args.times is not None:
-        times = Path(args.times).expanduser()
-        if times.is_dir() or not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
+        try:
+            times = check_target(args.times, "--times")
+        except ValueError as exc:
+            parser.error(str(exc))
+        if not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
             parser.error(f"--times must name a file in an existing, writable folder, got "
                          f"{args.times!r}")
     if _in_main_thread():
@@ -144,12 +157,9 @@ def _write_times(path, args, t0, records, complete):
     text = json.dumps({"profile": args.profile, "jobs": args.jobs, "complete": complete,
                        "wall_seconds": time.perf_counter() - t0, "entries": records},
                       indent=1)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        atomic_write(path, text, name="--times")
+    except (OSError, ValueError) as exc:
         print(f"python -m uavwind run: warning: --times {path} not written ({exc})",
               file=sys.stderr)
 

@@ -10,35 +10,30 @@ This module owns the summaries the "Beyond the paper" pages and claim C9 read:
 * :func:`baseline_table` -- the model-based wind estimate beside causal curiosity on
   the same loops, with a mis-specified UAV too (Exp 9).
 
-Every interval is :func:`uavwind.stats.bootstrap_ci` (95%, over loops), the one
-confidence-interval function of the project.
+Every summary row is :func:`uavwind.core.stats.summarise` (95% bootstrap intervals over
+loops), the one summary and confidence-interval function of the project.
 """
 
 from __future__ import annotations
 
-import numpy as np
 import pandas as pd
 
-from ..core.stats import bootstrap_ci
+from ..core.stats import bootstrap_ci, summarise
 
 __all__ = ["noise_table", "breaking_level", "observation_table", "best_observation",
            "baseline_table"]
 
 
-def _rate(values):
-    return bootstrap_ci(np.asarray(values, dtype=float))
+_COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
+            "n_loops")
 
 
 def _summary(df, by):
     rows = []
     for key, sub in df.groupby(list(by), sort=False):
         key = key if isinstance(key, tuple) else (key,)
-        s = sub.sort_values("loop")
-        mean, lo, hi = bootstrap_ci(s["score"].to_numpy())
-        rate, rlo, rhi = _rate(s["correct"].to_numpy())
-        rows.append({**dict(zip(by, key)), "mean": mean, "ci_low": lo, "ci_high": hi,
-                     "max": float(s["score"].max()), "correct_rate": rate,
-                     "correct_low": rlo, "correct_high": rhi, "n_loops": len(s)})
+        s = summarise(sub)
+        rows.append({**dict(zip(by, key)), **{k: s[k] for k in _COLUMNS}})
     return pd.DataFrame(rows)
 
 

@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.stats import bootstrap_ci, correct_share, paired_difference
+from .beyond import breaking_level, noise_table
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
            "LESSONS", "compare_readings"]
@@ -208,7 +209,6 @@ def claim_c8(r):
 
 
 def claim_c9(r):
-    from .beyond import breaking_level, noise_table  # beyond builds on stats, not on claims
 
     df = r["exp7"]
     t = noise_table(df)

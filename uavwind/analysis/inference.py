@@ -31,21 +31,24 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..core.stats import bootstrap_ci, correct_share
-from ..study.conditions import (INFERRED_GAP_RATIOS, INFERRED_TURBULENCE, PAPER_SCENARIOS,
-                        TURBULENCE_CANDIDATES, Setting)
+from ..core.checks import check_instance
+from ..core.stats import N_BOOT, SEED, correct_share, summarise
+from ..method.search import random_search
+from ..sim.setting import Setting
+from ..study.conditions import PAPER_SCENARIOS
+from ..study.layouts import INFERRED_GAP_RATIOS
+from ..study.paper import load_paper_values
+from ..study.readings import INFERRED_TURBULENCE, TURBULENCE_CANDIDATES
+from ..study.registry import EXPERIMENTS
+from .tables import comparison_table
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "silhouette_curves",
            "compare_turbulence", "out_of_sample", "scale_invariance", "scaled_setting",
            "line_silhouette"]
 
-N_BOOT = 1000
-SEED = 12345
-
 
 def _paper_table4():
     """Table 4's rows by scenario id (the 500-loop row left out)."""
-    from ..study.paper import load_paper_values
     t4 = load_paper_values("exp1")
     return t4[~t4["long_run"]].set_index("scenario_id")
 
@@ -151,14 +154,14 @@ def compare_turbulence(turb_results):
     paper = _paper_table4().loc[7]
     rows = []
     for name, sub in turb_results.groupby("candidate", sort=False):
-        s = sub.sort_values("loop")["score"].to_numpy()
-        est, lo, hi = bootstrap_ci(s)
-        rows.append({"candidate": name, "mean": est, "ci_low": lo, "ci_high": hi,
-                     "max": float(s.max()), "correct_rate": correct_share(sub),
+        s = summarise(sub)
+        rows.append({"candidate": name, "mean": s["mean"], "ci_low": s["ci_low"],
+                     "ci_high": s["ci_high"], "max": s["max"], "correct_rate": s["correct_rate"],
                      "paper_mean": float(paper["mean"]), "paper_max": float(paper["maximum"]),
-                     "distance": max(abs(est - paper["mean"]), abs(s.max() - paper["maximum"])),
+                     "distance": max(abs(s["mean"] - paper["mean"]),
+                                     abs(s["max"] - paper["maximum"])),
                      "in_use": TURBULENCE_CANDIDATES.get(name) == INFERRED_TURBULENCE,
-                     "n_loops": s.size})
+                     "n_loops": s["n_loops"]})
     return pd.DataFrame(rows).sort_values("distance").set_index("candidate")
 
 
@@ -180,8 +183,6 @@ def out_of_sample(results):
         (:func:`line_silhouette` x 100: the score the layout's speeds would get as
         points on a line).
     """
-    from ..study.registry import EXPERIMENTS, comparison_table
-
     tables = {"exp1": "Table 4 (500 loops)", "exp2": "Table 5", "exp3": "Table 6",
               "exp4": "Table 7"}
     frames = []
@@ -226,8 +227,7 @@ def scaled_setting(setting, factor):
         if g.kind == "turbulence":
             raise ValueError("scaled_setting scales constant and shear groups only")
         return replace(g, values=tuple(tuple(factor * x for x in v) for v in g.values))
-    if not isinstance(setting, Setting):
-        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    check_instance(setting, "setting", Setting)
     return replace(setting, group_a=scale(setting.group_a), group_b=scale(setting.group_b))
 
 
@@ -237,8 +237,6 @@ def scale_invariance(setting, factor=10.0, n_loops=20, seed=0, engine=None, n_jo
     Returns a DataFrame with one row per loop: ``silhouette``, ``scaled`` and their
     ``difference`` (raw silhouettes in [-1, 1], not floored by the grouping rule).
     """
-    from ..method.search import random_search
-
     kw = dict(n_loops=n_loops, seed=seed, engine=engine, n_jobs=n_jobs, progress=False)
     base = random_search(setting, **kw)
     big = random_search(scaled_setting(setting, factor), **kw)

@@ -1,4 +1,10 @@
-"""Foundations every layer may use: input checks, the one statistics module.
+"""Foundations every layer may use, knowing nothing of winds, UAVs or experiments:
 
-Nothing here knows about winds, UAVs or experiments; it imports nothing of uavwind.
+* :mod:`.checks` -- input checks that name the parameter and the allowed range;
+* :mod:`.seeding` -- seeding by SeedSequence address;
+* :mod:`.parallel` -- worker counts, one thread per worker, stopping workers;
+* :mod:`.io` -- atomic writes;
+* :mod:`.stats` -- the one summary and confidence interval.
+
+It imports nothing of uavwind.
 """

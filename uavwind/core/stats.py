@@ -1,24 +1,39 @@
-"""The project's statistics: one confidence-interval function for every table and figure.
+"""The project's statistics: one summary and one confidence interval for every table and figure.
 
-This module owns :func:`bootstrap_ci` (percentile bootstrap over loops) and
-:func:`paired_difference` (the same for loop-by-loop differences between settings that
-flew the same thrust sequences). Claims, summaries and figures all call these, so an
-interval means the same thing everywhere.
+This module owns :func:`bootstrap_ci` (percentile bootstrap over loops, :data:`N_BOOT`
+resamples, seed :data:`SEED`), :func:`paired_difference` (the same for loop-by-loop
+differences between settings that flew the same thrust sequences), :func:`correct_share`
+(the share of loops grouped correctly) and :func:`summarise` (max, mean with its interval,
+correct share with its interval, count: the row of every summary table). Claims, summaries
+and figures all call these, so an interval means the same thing everywhere.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["bootstrap_ci", "paired_difference", "correct_share", "N_BOOT", "SEED"]
+__all__ = ["bootstrap_ci", "paired_difference", "correct_share", "summarise", "N_BOOT",
+           "SEED", "LEVEL"]
 
+#: Bootstrap resamples of every interval.
 N_BOOT = 2000
+#: Seed of the bootstrap draws (intervals are reproducible).
 SEED = 12345
+#: Coverage of every interval.
+LEVEL = 0.95
 
 
-def bootstrap_ci(values, stat=np.mean, n_boot=N_BOOT, level=0.95, seed=SEED):
-    """Percentile bootstrap: ``(estimate, low, high)`` of ``stat`` over ``values``."""
+def bootstrap_ci(values, stat=np.mean, n_boot: int = N_BOOT, level: float = LEVEL,
+                 seed: int = SEED) -> tuple[float, float, float]:
+    """Percentile bootstrap: ``(estimate, low, high)`` of ``stat`` over ``values``.
+
+    >>> est, lo, hi = bootstrap_ci([1.0, 2.0, 3.0, 4.0])
+    >>> est, lo <= est <= hi
+    (2.5, True)
+    """
     v = np.asarray(values, dtype=float)
+    if v.ndim != 1 or v.size == 0:
+        raise ValueError(f"values must be a non-empty 1-D array, got shape {v.shape}")
     rng = np.random.default_rng(seed)
     idx = rng.integers(0, v.size, size=(n_boot, v.size))
     boots = stat(v[idx], axis=1)
@@ -41,3 +56,34 @@ def correct_share(rows):
         return float(np.asarray(rows["correct"], dtype=bool).mean())
     s = np.asarray(rows["score"] if hasattr(rows, "columns") else rows, dtype=float)
     return float((s > 0).mean())
+
+
+def summarise(rows) -> dict:
+    """The summary row of a group of loops: ``max``, ``mean`` with its bootstrap ``ci_low``
+    and ``ci_high``, ``correct_rate`` with ``correct_low`` and ``correct_high``, and
+    ``n_loops``.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame or array_like
+        A result table (``score`` and, if present, ``correct`` and ``loop`` columns; rows are
+        taken in loop order, so the interval does not depend on how the table was sorted),
+        or a bare array of scores.
+
+    >>> summarise([10.0, 0.0, 30.0])["max"]
+    30.0
+    """
+    if hasattr(rows, "columns"):
+        if "loop" in rows.columns:
+            rows = rows.sort_values("loop", kind="stable")
+        scores = np.asarray(rows["score"], dtype=float)
+        correct = (np.asarray(rows["correct"], dtype=float) if "correct" in rows.columns
+                   else (scores > 0).astype(float))
+    else:
+        scores = np.asarray(rows, dtype=float).ravel()
+        correct = (scores > 0).astype(float)
+    mean, lo, hi = bootstrap_ci(scores)
+    rate, rlo, rhi = bootstrap_ci(correct)
+    return {"max": float(scores.max()), "mean": mean, "ci_low": lo, "ci_high": hi,
+            "correct_rate": rate, "correct_low": rlo, "correct_high": rhi,
+            "n_loops": int(scores.size)}

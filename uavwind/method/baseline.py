@@ -25,7 +25,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..sim.actions import ThrustSequence
-from ..sim.vehicle import UAV, check_array, check_scalar
+from ..core.checks import check_array, check_scalar
+from ..sim.dynamics import simulate
+from ..sim.vehicle import UAV
+from ..sim.wind import ConstantWind
 
 __all__ = ["estimate_wind", "baseline_metrics", "two_means", "WIND_MODELS", "BASELINE_VERSION"]
 
@@ -36,8 +39,6 @@ BASELINE_VERSION = "2"
 
 
 def _still_air(thrust, uav, dt, n, start):
-    from ..sim.dynamics import simulate
-    from ..sim.wind import ConstantWind
 
     return simulate(thrust, ConstantWind([[0.0, 0.0, 0.0]]), uav=uav, dt=dt, duration=n * dt,
                     start_position=start)[0]

@@ -1,4 +1,4 @@
-"""Cluster the trajectories of one loop and score the separation (DESIGN decision 6).
+"""Cluster the trajectories of one loop and score the separation (replication notes, decision 6).
 
 This module owns :func:`score_loop` and its result :class:`LoopResult`: soft-DTW
 time-series k-means with two clusters on the raw positions, the silhouette of
@@ -21,29 +21,76 @@ Both are driven by one adapter: an estimator with tslearn's interface and a silh
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 
 import numpy as np
 
-from ..sim.vehicle import check_array, check_scalar
+from ..core.checks import check_array, check_choice, check_kwargs, check_scalar
 
-__all__ = ["score_loop", "LoopResult", "ENGINES", "DEFAULT_PARAMS", "check_groups", "check_engine"]
+__all__ = ["score_loop", "LoopResult", "ClusteringParams", "ENGINES", "DEFAULT_PARAMS",
+           "check_groups", "check_engine", "default_engine"]
 
 #: Fewest trajectories a loop can score: two clusters, one of them with two members.
 MIN_TRAJECTORIES = 3
 #: Largest position coordinate accepted [m].
 MAX_COORDINATE = 1e9
 
-#: Decision 6 defaults (every one can be overridden in :func:`score_loop`).
-DEFAULT_PARAMS = {
-    "gamma": 0.5,
-    "max_iter": 100,
-    "max_iter_barycenter": 5,
-    "tol": 1e-6,
-    "n_init": 1,
-    "random_state": 0,
-    "silhouette_metric": "dtw",
-}
+@dataclass(frozen=True, kw_only=True)
+class ClusteringParams:
+    """How one loop is clustered and scored (replication notes, decision 6).
+
+    Attributes
+    ----------
+    gamma : float
+        Soft-DTW smoothing, > 0. Default 0.5 (the Causal Curiosity code).
+    max_iter : int
+        Cap on the k-means iterations, >= 1. Default 100.
+    max_iter_barycenter : int
+        Cap on the L-BFGS-B iterations of each barycentre update, >= 1. Default 5.
+    tol : float
+        k-means stopping tolerance on the inertia, >= 0. Default 1e-6.
+    n_init : int
+        k-means restarts, >= 1. Default 1.
+    random_state : int
+        Seed of the k-means++ initialisation, >= 0. Default 0.
+    silhouette_metric : {"dtw", "softdtw"}
+        Metric of the silhouette. Default ``"dtw"``.
+
+    >>> ClusteringParams(gamma=1).gamma
+    1.0
+    """
+
+    gamma: float = 0.5
+    max_iter: int = 100
+    max_iter_barycenter: int = 5
+    tol: float = 1e-6
+    n_init: int = 1
+    random_state: int = 0
+    silhouette_metric: str = "dtw"
+
+    def __post_init__(self):
+        for name, kw in (("gamma", dict(low=0, low_inclusive=False, high=1e300)),
+                         ("max_iter", dict(low=1, high=10 ** 6, integer=True)),
+                         ("max_iter_barycenter", dict(low=1, high=10 ** 6, integer=True)),
+                         ("tol", dict(low=0)),
+                         ("n_init", dict(low=1, high=10 ** 4, integer=True)),
+                         ("random_state", dict(low=0, high=2 ** 32 - 1, integer=True))):
+            object.__setattr__(self, name, check_scalar(getattr(self, name), name, **kw))
+        check_choice(self.silhouette_metric, "silhouette_metric", ("dtw", "softdtw"))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_kwargs(cls, kwargs, where: str) -> "ClusteringParams":
+        """From the ``**params`` of a function called ``where``: an unknown keyword is a
+        ``TypeError`` that names it, the function and the allowed ones."""
+        check_kwargs(kwargs, [f.name for f in fields(cls)], where)
+        return cls(**kwargs)
+
+
+#: Decision 6 defaults, as a plain mapping (part of every cache key).
+DEFAULT_PARAMS = ClusteringParams().to_dict()
 
 
 @dataclass(frozen=True)
@@ -128,7 +175,9 @@ def check_groups(groups, n_env):
 
 
 def _tslearn_engine(p):
-    from tslearn.clustering import TimeSeriesKMeans, silhouette_score
+    with warnings.catch_warnings():  # tslearn warns at import that h5py (unused here) is missing
+        warnings.filterwarnings("ignore", message="h5py not installed")
+        from tslearn.clustering import TimeSeriesKMeans, silhouette_score
 
     km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": p["gamma"]},
                           max_iter=p["max_iter"], max_iter_barycenter=p["max_iter_barycenter"],
@@ -160,7 +209,8 @@ ENGINES = {"tslearn": _tslearn_engine, "fast": _fast_engine}
 
 
 def _cluster(X, p, engine):
-    """``(labels, silhouette, n_iter)`` of one loop with ``engine``: the one adapter."""
+    """``(labels, silhouette, n_iter)`` of one loop with ``engine``: the one adapter
+    (``p``: a :class:`ClusteringParams` as a dict)."""
     km, silhouette = ENGINES[engine](p)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -172,24 +222,6 @@ def _cluster(X, p, engine):
     return labels, float(sil), int(km.n_iter_)
 
 
-def _check_params(params):
-    unknown = set(params) - set(DEFAULT_PARAMS)
-    if unknown:
-        raise TypeError(f"unknown clustering parameter(s) {sorted(unknown)}; "
-                        f"allowed: {sorted(DEFAULT_PARAMS)}")
-    p = {**DEFAULT_PARAMS, **params}
-    p["gamma"] = check_scalar(p["gamma"], "gamma", low=0, low_inclusive=False)
-    p["max_iter"] = check_scalar(p["max_iter"], "max_iter", low=1, integer=True)
-    p["max_iter_barycenter"] = check_scalar(p["max_iter_barycenter"], "max_iter_barycenter",
-                                            low=1, integer=True)
-    p["tol"] = check_scalar(p["tol"], "tol", low=0)
-    p["n_init"] = check_scalar(p["n_init"], "n_init", low=1, integer=True)
-    p["random_state"] = check_scalar(p["random_state"], "random_state", low=0, integer=True)
-    if p["silhouette_metric"] not in ("dtw", "softdtw"):
-        raise ValueError(f"silhouette_metric must be 'dtw' or 'softdtw', got {p['silhouette_metric']!r}")
-    return p
-
-
 def default_engine():
     """The default engine: ``"fast"`` (equal to ``"tslearn"``, see the tests)."""
     return "fast"
@@ -198,9 +230,7 @@ def default_engine():
 def check_engine(engine):
     """``engine``, or :func:`default_engine` for None; ``ValueError`` if not in :data:`ENGINES`."""
     engine = default_engine() if engine is None else engine
-    if engine not in ENGINES:
-        raise ValueError(f"engine must be one of {sorted(ENGINES)}, got {engine!r}")
-    return engine
+    return check_choice(engine, "engine", sorted(ENGINES))
 
 
 def score_loop(trajectories, groups, engine=None, **params):
@@ -215,9 +245,10 @@ def score_loop(trajectories, groups, engine=None, **params):
     engine : {"tslearn", "fast"}, optional
         Implementation (same answers); default :func:`default_engine`.
     **params
-        ``gamma`` (soft-DTW smoothing, 0.5), ``max_iter`` (100),
-        ``max_iter_barycenter`` (5), ``tol`` (1e-6), ``n_init`` (1),
-        ``random_state`` (0), ``silhouette_metric`` (``"dtw"`` or ``"softdtw"``).
+        The fields of :class:`ClusteringParams`: ``gamma`` (soft-DTW smoothing, 0.5),
+        ``max_iter`` (100), ``max_iter_barycenter`` (5), ``tol`` (1e-6), ``n_init`` (1),
+        ``random_state`` (0), ``silhouette_metric`` (``"dtw"`` or ``"softdtw"``); an unknown
+        keyword is a ``TypeError``.
 
     Returns
     -------
@@ -241,7 +272,7 @@ def score_loop(trajectories, groups, engine=None, **params):
                          f"costs overflow beyond), got {np.abs(X).max():g}")
     g = check_groups(groups, X.shape[0])
     engine = check_engine(engine)
-    p = _check_params(params)
+    p = ClusteringParams.from_kwargs(params, "score_loop").to_dict()
     X = np.ascontiguousarray(X, dtype=np.float64)
     labels, sil, n_iter = _cluster(X, p, engine)
     two = len(np.unique(labels)) == 2

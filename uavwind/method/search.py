@@ -1,6 +1,6 @@
 """Searching for informative thrust sequences: random exploration and CEM.
 
-This module owns the loops of the paper (DESIGN decisions 7 and 8):
+This module owns the loops of the paper (replication notes, decisions 7 and 8):
 
 * :func:`evaluate` -- fly a batch of thrust sequences through a setting and score each;
 * :func:`random_search` -- ``n_loops`` fresh random thrust sequences, one row each;
@@ -21,103 +21,37 @@ works, including Dask through ``joblib.parallel_config(backend="dask")``.
 
 from __future__ import annotations
 
-import os
 import sys
-import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
 
+from ..core.checks import check_choice, check_instance, check_scalar
+from ..core.parallel import check_jobs, pin_threads, stop_workers
+from ..core.seeding import child_rng, child_seed, root_seed
+from ..core.stats import summarise
 from ..sim.actions import MAX_THRUST, ThrustSequence
-from .clustering import default_engine, score_loop
-from ..sim.vehicle import check_scalar
-from ..study.conditions import Setting
+from ..sim.setting import Setting
+from .baseline import baseline_metrics
+from .clustering import ClusteringParams, check_engine, score_loop
 
-__all__ = ["evaluate", "random_search", "cem", "CEMResult", "child_seed", "summarise"]
-
-
-def _root(seed):
-    if isinstance(seed, np.random.SeedSequence):
-        return seed
-    if seed is None or isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-        return np.random.SeedSequence(seed)
-    raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, "
-                    f"got {type(seed).__name__}")
-
-
-def child_seed(root, *key):
-    """The descendant of ``root`` with spawn key ``root.spawn_key + key`` (no state touched)."""
-    return np.random.SeedSequence(root.entropy, spawn_key=tuple(root.spawn_key) + tuple(key),
-                                  pool_size=root.pool_size)
-
-
-def _rng(root, *key):
-    return np.random.Generator(np.random.PCG64(child_seed(root, *key)))
-
-
-_PINNED = False
-
-
-def _pin_threads():
-    """Limit BLAS/OpenMP/numba to one thread in this process (once)."""
-    global _PINNED
-    if _PINNED:
-        return
-    _PINNED = True
-    try:
-        from threadpoolctl import threadpool_limits
-        threadpool_limits(1)
-    except Exception:  # pragma: no cover - threadpoolctl ships with scikit-learn
-        pass
-    try:
-        import numba
-        numba.set_num_threads(1)
-    except Exception:  # pragma: no cover
-        pass
+__all__ = ["evaluate", "random_search", "cem", "CEMResult", "cem_step"]
 
 
 def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     if pin:  # inside a worker process: do not oversubscribe the cores
-        _pin_threads()
+        pin_threads()
     if setting.plain:
         traj = setting.simulate(thrust, seed=wind_seed)
         return score_loop(traj, setting.groups, engine=engine, **params)
     obs, flight, positions = setting.observe(thrust, seed=wind_seed)
     res = score_loop(obs, setting.groups, engine=engine, **params)
     if setting.baseline:
-        from dataclasses import replace
-
-        from .baseline import baseline_metrics
         metrics = baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
                                    setting.groups, start_position=flight.start)
         res = replace(res, metrics=metrics)
     return res
-
-
-def _check_jobs(n_jobs):
-    """-1 for all cores, or a count capped (with a warning) at the number of cores."""
-    if n_jobs is None:
-        return -1
-    cores = os.cpu_count() or 1
-    n_jobs = check_scalar(n_jobs, "n_jobs", integer=True)
-    if n_jobs == 0 or n_jobs < -cores:
-        raise ValueError(f"n_jobs must be in [1, {cores}] or in [-{cores}, -1] (-1 = all "
-                         f"cores), got {n_jobs}")
-    if n_jobs > cores:
-        warnings.warn(f"n_jobs = {n_jobs} is more than the {cores} cores of this machine: "
-                      f"using {cores}", UserWarning, stacklevel=3)
-        n_jobs = cores
-    return n_jobs
-
-
-def _stop_workers():
-    """Shut the reusable worker pool down at once (after an interrupt or an error)."""
-    try:
-        from joblib.externals.loky import get_reusable_executor
-        get_reusable_executor().shutdown(wait=False, kill_workers=True)
-    except Exception:  # pragma: no cover - best effort on the way out
-        pass
 
 
 def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=True,
@@ -143,13 +77,13 @@ def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=Tr
     """
     from joblib import Parallel, delayed
 
-    if not isinstance(setting, Setting):
-        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    check_instance(setting, "setting", Setting)
     if len(thrusts) != len(wind_seeds):
         raise ValueError(f"thrusts and wind_seeds must have the same length, "
                          f"got {len(thrusts)} and {len(wind_seeds)}")
-    n_jobs = _check_jobs(n_jobs)
-    engine = default_engine() if engine is None else engine
+    n_jobs = check_jobs(n_jobs)
+    engine = check_engine(engine)
+    params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict()
     tasks = [delayed(_one_loop)(setting, th, ws, engine, params, pin=True)
              for th, ws in zip(thrusts, wind_seeds)]
     bar = None
@@ -171,7 +105,7 @@ def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=Tr
                 if bar is not None:
                     bar.update()
         except BaseException:  # interrupted or failed: leave no worker running
-            _stop_workers()
+            stop_workers()
             raise
     if bar is not None:
         bar.close()
@@ -187,19 +121,6 @@ def _rows(results, thrusts):
                      "magnitudes": th.magnitudes.tolist(),
                      "directions": th.directions.tolist(), **res.metrics})
     return rows
-
-
-def summarise(scores):
-    """``{"max", "mean", "n", "correct_rate"}`` of a score column (or a result table, whose
-    ``correct`` column then gives the share)."""
-    from ..core.stats import correct_share
-
-    rate = correct_share(scores)
-    if isinstance(scores, pd.DataFrame):
-        scores = scores["score"]
-    s = np.asarray(scores, dtype=float)
-    return {"max": float(s.max()), "mean": float(s.mean()), "n": int(s.size),
-            "correct_rate": rate}
 
 
 def random_search(setting, n_loops=50, seed=0, n_jobs=None, engine=None, progress=True,
@@ -239,13 +160,12 @@ def random_search(setting, n_loops=50, seed=0, n_jobs=None, engine=None, progres
     >>> list(df.columns[:4])
     ['loop', 'score', 'silhouette', 'correct']
     """
-    if not isinstance(setting, Setting):
-        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
-    n_loops = check_scalar(n_loops, "n_loops", low=1, integer=True)
-    loop_offset = check_scalar(loop_offset, "loop_offset", low=0, integer=True)
-    root = _root(seed)
+    check_instance(setting, "setting", Setting)
+    n_loops = check_scalar(n_loops, "n_loops", low=1, high=10 ** 7, integer=True)
+    loop_offset = check_scalar(loop_offset, "loop_offset", low=0, high=2 ** 62, integer=True)
+    root = root_seed(seed)
     idx = range(loop_offset, loop_offset + n_loops)
-    thrusts = [setting.sample_thrust(_rng(root, i, 0)) for i in idx]
+    thrusts = [setting.sample_thrust(child_rng(root, i, 0)) for i in idx]
     wind_seeds = [child_seed(root, i, 1) for i in idx]
     results = evaluate(setting, thrusts, wind_seeds, engine=engine, n_jobs=n_jobs,
                        progress=progress, desc=setting.name or "random search", **params)
@@ -340,8 +260,7 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
     -------
     CEMResult
     """
-    if not isinstance(setting, Setting):
-        raise TypeError(f"setting must be a Setting, got {type(setting).__name__}")
+    check_instance(setting, "setting", Setting)
     n_samples = check_scalar(n_samples, "n_samples", low=1, integer=True)
     n_elite = check_scalar(n_elite, "n_elite", low=1, high=n_samples, integer=True)
     max_iter = check_scalar(max_iter, "max_iter", low=1, integer=True)
@@ -352,13 +271,12 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
     magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
     direction_mean = check_scalar(direction_mean, "direction_mean")
     params = {**params, **(clustering or {})}
-    if rank_by not in ("score", "silhouette"):
-        raise ValueError(f"rank_by must be 'score' or 'silhouette', got {rank_by!r}")
+    check_choice(rank_by, "rank_by", ("score", "silhouette"))
     if rank_by == "silhouette" and objective is not None:
         raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
-    root = _root(seed)
+    root = root_seed(seed)
 
-    times = setting.sample_thrust(_rng(root, 0)).times
+    times = setting.sample_thrust(child_rng(root, 0)).times
     k = times.shape[0]
     mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
     sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
@@ -367,7 +285,7 @@ def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
     best_score, best_thrust, best_iter = -np.inf, None, -1
     stopped = False
     for it in range(max_iter):
-        draws = _rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
+        draws = child_rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
         thrusts = [ThrustSequence.from_vector(x, times, max_magnitude) for x in draws]
         if objective is None:
             seeds = [child_seed(root, it + 1, j + 1) for j in range(n_samples)]

@@ -1,5 +1,10 @@
 """Presentation: display names, figures, the static explorer and the performance page.
 
+* :mod:`.display` -- the project's vocabulary as display names;
+* :mod:`.plotting` -- every figure of the book;
+* :mod:`.explore` -- the Explore page, live and static;
+* :mod:`.performance` -- the performance page's tables from a benchmark report.
+
 The top library layer: it may import every layer below, and nothing imports it but the
 command line and the notebooks.
 """

@@ -51,11 +51,9 @@ def pretty(df, precision=2):
 
 
 def group_name(setting, group):
-    """Display name of group ``group`` (0 or 1) of ``setting``: its condition's label."""
-    if group not in (0, 1):
-        raise ValueError(f"group must be 0 or 1, got {group!r}")
-    g = setting.group_a if group == 0 else setting.group_b
-    return g.label or f"group {group}"
+    """Display name of group ``group`` (0 or 1) of ``setting``: its condition's label
+    (:meth:`~uavwind.sim.setting.Setting.group_label`)."""
+    return setting.group_label(group)
 
 
 def claims_markdown(verdicts, readings=("inferred", "halves")):

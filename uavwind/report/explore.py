@@ -9,12 +9,20 @@ its controls and :func:`explorer_html` draws them with plotly.js in the browser.
 
 from __future__ import annotations
 
+import hashlib
+import html
+import json
+
 import numpy as np
 
+from ..core.io import atomic_write
 from ..method.clustering import score_loop
+from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
+from ..study.builders import make_setting
+from ..study.cache import RESULTS_VERSION, results_dir
+from ..study.readings import get_reading
 from .display import group_name
 from .plotting import fig3_loop
-from ..study.conditions import make_setting
 
 __all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "explorer_html",
            "explore_thrusts",
@@ -74,7 +82,6 @@ EXPLORE_PAIRS = (("light constant", "light constant"), ("light constant", "stron
 
 def explore_thrusts():
     """The thrust sequences the static explorer offers: label -> ThrustSequence."""
-    from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 
     return {"the paper's example (Table 3)": PAPER_EXAMPLE,
             "climb, then push along x": ThrustSequence([0, 6], [40, 20], [[0, 0, 1], [1, 0, 0]]),
@@ -113,7 +120,6 @@ def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "
 
 def _grid_settings(pairs, n_per_group, layouts):
     """``((pair index, n, reading name), Setting)`` for every setting of the grid."""
-    from ..study.conditions import get_reading
 
     for i, (a, b) in enumerate(pairs):
         for n in n_per_group:
@@ -126,11 +132,6 @@ def cached_grid(folder=None, **kwargs):
     everything that determines it -- its arguments with their defaults, every setting's
     key (so a refitted layout changes it), the thrust sequences and the results version;
     a damaged file is recomputed."""
-    import hashlib
-    import json
-
-    from ..study.cache import RESULTS_VERSION, results_dir
-
     folder = results_dir(folder)
     args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),
                        explore_grid.__defaults__)), **kwargs}
@@ -144,10 +145,7 @@ def cached_grid(folder=None, **kwargs):
         return json.loads(path.read_text())
     except (OSError, ValueError):
         grid = explore_grid(**kwargs)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(path.name + ".tmp")
-        tmp.write_text(json.dumps(grid))
-        tmp.replace(path)
+        atomic_write(path, json.dumps(grid))
         return grid
 
 
@@ -158,8 +156,6 @@ def explorer_html(grid, plotly_src="../_static/plotly/plotly.min.js", element_id
     ``plotly_src`` is the plotly.js the page loads (the book serves its own copy: no CDN).
     The URL fragment can preset the controls, e.g. ``#pair=2&n=5&thrust=1&layout=halves``.
     """
-    import html
-    import json
 
     c = grid["controls"]
 

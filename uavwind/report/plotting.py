@@ -20,6 +20,10 @@ import math
 
 import numpy as np
 
+from ..analysis.tables import provenance
+from ..core.stats import summarise
+from ..sim.dryden import dryden_psd
+
 __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",
            "dryden_spectrum", "paper_vs_replication", "panel_grid"]
@@ -35,8 +39,7 @@ def _plt():
 def stamp(fig, results, note=""):
     """Write how ``fig`` was made under it: experiment, reading, profile, seed, engine,
     rows, library version and commit of ``results`` (an experiment's table), as
-    :func:`uavwind.experiments.provenance` says it. Returns ``fig``."""
-    from ..study.registry import provenance
+    :func:`uavwind.analysis.tables.provenance` says it. Returns ``fig``."""
 
     text = provenance(results) + (f" {note}" if note else "")
     fig.text(0.005, -0.01, text, fontsize=6, color="0.35", ha="left", va="top", wrap=True)
@@ -206,13 +209,15 @@ def score_vs_parameter(df, x, by="scenario", ncols=2, paper=None, xlabel=None):
     fig, axes = panel_grid(len(keys), ncols=ncols)
     for ax, key, letter in zip(axes, keys, "abcdefgh"):
         sub = df.loc[df[by] == key]
-        g = sub.groupby(x)["score"]
         xs = np.array(sorted(sub[x].unique()))
-        mx, mn = g.max().reindex(xs), g.mean().reindex(xs)
-        sem = g.std().reindex(xs) / np.sqrt(g.size().reindex(xs))
+        rows = [summarise(sub.loc[sub[x] == v]) for v in xs]
+        mx = np.array([r["max"] for r in rows])
+        mn = np.array([r["mean"] for r in rows])
+        ci = np.array([[r["mean"] - r["ci_low"] for r in rows],
+                       [r["ci_high"] - r["mean"] for r in rows]])
         ax.plot(xs, mx, marker="^", color="tab:red", label="maximum")
-        ax.errorbar(xs, mn, yerr=1.96 * sem.fillna(0), marker="o", color="tab:blue", capsize=2,
-                    label="mean (95% CI)")
+        ax.errorbar(xs, mn, yerr=ci, marker="o", color="tab:blue", capsize=2,
+                    label="mean (95% bootstrap CI)")
         if paper is not None:
             p = paper.loc[paper["scenario"] == key]
             ax.scatter(p[x], p["maximum"], marker="^", color="0.5", zorder=3, label="paper max")
@@ -254,8 +259,6 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.dryden.DrydenWind`
     whose environments share one W20."""
     from scipy.signal import welch
-
-    from ..sim.dryden import dryden_psd
 
     plt = _plt()
     g = wind.gusts(n_samples)

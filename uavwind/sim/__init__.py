@@ -1,4 +1,13 @@
-"""The simulation: vehicles, actions, winds, Dryden turbulence, dynamics, observations.
+"""The simulation (paper eqs 2-12): vehicles, actions, winds, Dryden turbulence, dynamics,
+observations, and the :class:`~uavwind.sim.setting.Setting` one loop flies.
 
-The lowest domain layer (paper eqs 2-12): it imports only :mod:`uavwind.core`.
+* :mod:`.vehicle` -- the point-mass UAV of the paper;
+* :mod:`.actions` -- open-loop thrust sequences and their samplers;
+* :mod:`.wind` -- the wind contract, constant and shear winds, several side by side;
+* :mod:`.dryden` -- Dryden turbulence, MIL-F-8785C and the implementation the paper cites;
+* :mod:`.dynamics` -- the integrator of eqs 2-8;
+* :mod:`.observation` -- what the UAV observes, and its noise;
+* :mod:`.setting` -- two groups of environments, the vehicle and the grid of one loop.
+
+The lowest domain layer: it imports only :mod:`uavwind.core`.
 """

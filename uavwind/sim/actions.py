@@ -1,7 +1,7 @@
 """Open-loop thrust sequences: the UAV's actions.
 
 This module owns :class:`ThrustSequence` (piecewise-constant thrust: change
-times [s], magnitudes [N], unit directions), the two samplers of DESIGN
+times [s], magnitudes [N], unit directions), the two samplers of the replication notes'
 decision 2 (:func:`sample_paper`, :func:`sample_continuous`), and the flat
 vector form the Cross-Entropy Method searches over (:meth:`ThrustSequence.to_vector`,
 :meth:`ThrustSequence.from_vector`). Every sampler takes an explicit
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .vehicle import check_array, check_scalar
+from ..core.checks import check_array, check_scalar
 
 __all__ = ["ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
            "MAX_THRUST", "PAPER_EXAMPLE"]
@@ -122,7 +122,7 @@ class ThrustSequence:
 
     @classmethod
     def from_vector(cls, vector, times, max_magnitude=MAX_THRUST):
-        """Thrust sequence from a CEM sample (DESIGN decision 7).
+        """Thrust sequence from a CEM sample (replication notes, decision 7).
 
         Magnitudes are clipped to ``[0, max_magnitude]`` [N] and direction
         components normalised to unit length; an all-zero direction (probability
@@ -187,7 +187,7 @@ def _change_times(rng, n_changes, duration, step):
 
 def sample_paper(rng, n_changes=6, duration=12.0, magnitude_step=5.0,
                  max_magnitude=MAX_THRUST, axes="positive", time_step=1.0):
-    """The paper's thrust sampler (DESIGN decision 2).
+    """The paper's thrust sampler (replication notes, decision 2).
 
     Change times are ``n_changes`` distinct whole multiples of ``time_step``
     inside (0, duration), sorted, after the first segment at t = 0; magnitudes

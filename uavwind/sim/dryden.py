@@ -3,7 +3,7 @@
 This module owns the turbulence models of :mod:`uavwind.wind`:
 
 * :func:`dryden_parameters`, :func:`dryden_transfer_functions`, :func:`dryden_psd` --
-  MIL-F-8785C low altitude, feet inside and m/s outside (DESIGN decision 4);
+  MIL-F-8785C low altitude, feet inside and m/s outside (replication notes, decision 4);
 * :class:`CitedDryden`, :func:`cited_dryden_parameters`, :func:`cited_transfer_functions`,
   :func:`cited_gusts` -- the implementation the paper cites (Abichandani et al.), quirk
   by quirk;
@@ -23,7 +23,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
-from .vehicle import check_array, check_scalar
+from ..core.checks import check_array, check_scalar
 from .wind import WindModel
 
 FEET = 0.3048  # [m] per foot
@@ -382,7 +382,7 @@ def _zoh_filters(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed, dt):
 class DrydenWind(WindModel):
     """Dryden turbulence, one gust history per environment.
 
-    ``variant="mil-f-8785c"`` (default, DESIGN decision 4): each axis is white
+    ``variant="mil-f-8785c"`` (default, replication notes, decision 4): each axis is white
     noise of standard deviation ``sqrt(pi/dt)`` shaped by the Dryden filter of
     eqs 10-12 (x = longitudinal u, y = lateral v, z = vertical w) with the
     MIL-F-8785C intensities and scale lengths of :func:`dryden_parameters`,

@@ -6,7 +6,7 @@ for figures). Both fly one open-loop :class:`~uavwind.actions.ThrustSequence`
 through every environment of a :class:`~uavwind.wind.WindModel` at once: the
 only Python loop is over time steps; environments are a NumPy axis.
 
-One step of length ``dt`` from time ``t_k = k dt`` (DESIGN decision 1)::
+One step of length ``dt`` from time ``t_k = k dt`` (replication notes, decision 1)::
 
     F      = F_thrust(t_k) - 1/2 rho C_D S |v_air| v_air + (0, 0, -m g)
     v_air += F / m * dt
@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .actions import ThrustSequence
-from .vehicle import UAV, check_array, check_scalar, n_steps as _n_steps
+from ..core.checks import check_array, check_scalar
+from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindModel
 
 __all__ = ["simulate", "simulate_flight", "Flight"]

@@ -34,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vehicle import check_scalar
+from ..core.checks import check_scalar
+from ..core.seeding import child_seed
 
 __all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
            "check_observation", "noise_seed"]
@@ -122,12 +123,9 @@ def gauss_markov(shape, dt, sigma, tau, rng):
     return out
 
 
-def noise_seed(loop_seed):
+def noise_seed(loop_seed) -> np.random.SeedSequence:
     """The noise's SeedSequence of a loop: spawn key ``(..., 2)`` of the loop's seed."""
-    ss = loop_seed if isinstance(loop_seed, np.random.SeedSequence) else \
-        np.random.SeedSequence(loop_seed)
-    return np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (2,),
-                                  pool_size=ss.pool_size)
+    return child_seed(loop_seed, 2)
 
 
 def specific_force(flight, gravity):

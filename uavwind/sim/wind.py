@@ -25,7 +25,7 @@ from abc import ABC, abstractmethod
 
 import numpy as np
 
-from .vehicle import check_array, check_scalar
+from ..core.checks import check_array, check_scalar
 
 
 __all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "MAX_WIND"]
@@ -125,7 +125,7 @@ class ShearWind(WindModel):
     reference_height : float
         Height z_r where the wind equals the reference [m], > 0. Default 10 m,
         the start altitude, so tabulated speeds are those where the flight
-        starts (the paper's ``z_r = 0`` is degenerate; DESIGN decision 3).
+        starts (the paper's ``z_r = 0`` is degenerate; replication notes, decision 3).
     alpha : float
         Power-law exponent [-], in [0, 1]. Default 0.143 (1/7, open terrain).
     floor : float

@@ -4,15 +4,18 @@ This module owns every rule that makes a cached result trustworthy:
 
 * :func:`cache_key` -- a digest of everything that determines a chunk of results
   (setting, seed, loop range, engine, clustering parameters, results version);
-* :func:`results_dir` -- the folder a caller names, else ``$UAVWIND_RESULTS``, else
-  ``data/results`` (``~`` expanded);
+* :func:`results_dir` -- the folder a caller names, else ``$UAVWIND_RESULTS``, else the
+  user's cache folder (``$XDG_CACHE_HOME/uavwind/results``, by default
+  ``~/.cache/uavwind/results``), never a folder inside the installed package (``~``
+  expanded; ``make`` names the checkout's ``data/results``);
 * :func:`check_writable` -- before any work starts, so a run never computes what it
   cannot keep;
 * :func:`read_verified` -- a chunk is trusted only if it parses and its stored
   setting key, seed, engine, row count and value ranges are what the caller expects;
   anything else is moved aside as ``*.corrupt`` with one warning line, and recomputed;
-* :func:`atomic_write` -- a temporary file in the same folder renamed over the target,
-  removed again if writing fails (a full disk leaves no orphan);
+* :func:`atomic_write` -- a chunk written through :func:`uavwind.core.io.atomic_write`: a
+  temporary file with a unique name in the same folder renamed over the target, removed
+  again if writing fails (a full disk leaves no orphan);
 * :func:`cached` -- all of the above around one chunk, under an exclusive per-chunk lock
   (``fcntl.flock``), so two processes on one results folder compute a chunk once: the
   second waits, then reads the first one's result.
@@ -31,6 +34,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..core.io import atomic_write as _write_atomically
+from ..method.baseline import BASELINE_VERSION
+from ..method.clustering import DEFAULT_PARAMS
+
 __all__ = ["RESULTS_VERSION", "cache_key", "results_dir", "check_writable", "Expected",
            "read_verified", "atomic_write", "chunk_lock", "cached", "CorruptChunkWarning"]
 
@@ -43,26 +50,31 @@ class CorruptChunkWarning(UserWarning):
     """A cached chunk failed verification and was moved aside to be recomputed."""
 
 
-def results_dir(folder=None):
-    """The results folder: ``folder`` if given, else ``$UAVWIND_RESULTS``, else
-    ``data/results`` next to the package (``~`` expanded)."""
+def results_dir(folder=None) -> Path:
+    """The results folder, by one rule: ``folder`` if given; else ``$UAVWIND_RESULTS`` if set
+    and not empty; else the user's cache folder, ``$XDG_CACHE_HOME/uavwind/results`` (by
+    default ``~/.cache/uavwind/results``). ``~`` is expanded; an empty ``folder`` is a
+    ``ValueError`` (name ``"."`` for the working folder)."""
     if folder is not None:
+        if not isinstance(folder, (str, os.PathLike)):
+            raise TypeError(f"results must be a path or None, got {type(folder).__name__}")
+        if str(folder) == "":
+            raise ValueError("results must name a folder, got an empty string (use '.' for "
+                             "the working folder, or None for the default)")
         return Path(folder).expanduser()
     env = os.environ.get("UAVWIND_RESULTS")
     if env:
         return Path(env).expanduser()
-    return Path(__file__).resolve().parents[2] / "data" / "results"
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join("~", ".cache")
+    return Path(base).expanduser() / "uavwind" / "results"
 
 
-def cache_key(setting, seed, start, stop, engine, params, extra=None):
+def cache_key(setting, seed, start, stop, engine, params, extra=None) -> str:
     """Digest of everything that determines a chunk of results."""
-    from ..method.clustering import DEFAULT_PARAMS
-
     fields = {"setting": setting.key(), "seed": seed, "loops": [start, stop], "engine": engine,
               "params": {**DEFAULT_PARAMS, **params}, "version": RESULTS_VERSION,
               "extra": extra}
     if getattr(setting, "baseline", False):  # loops that also run the physics baseline
-        from ..method.baseline import BASELINE_VERSION
         fields["baseline"] = BASELINE_VERSION
     blob = json.dumps(fields, sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
@@ -158,18 +170,9 @@ def read_verified(path, expect):
     return None
 
 
-def atomic_write(df, path):
+def atomic_write(df, path) -> Path:
     """Write ``df`` to ``path`` (Parquet) all at once, or not at all."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
-    try:
-        df.to_parquet(tmp, index=False)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
+    return _write_atomically(path, lambda tmp: df.to_parquet(tmp, index=False))
 
 
 @contextlib.contextmanager

@@ -2,14 +2,14 @@
 
 This module owns how the book's results are computed in one go (``make results``,
 ``python -m uavwind run all``): :func:`needed_entries` lists the cache entries
-(:class:`~uavwind.experiments.Entry`) the experiments need, each once, however many
+(:class:`~uavwind.study.runner.Entry`) the experiments need, each once, however many
 experiments and readings share it; :func:`fill_cache` computes the missing ones as one task
 per entry, longest first, over a pool of workers, and records the CPU seconds of each;
 :func:`time_by_experiment` sums those records per experiment and reading.
 
 What an entry holds, where it is cached and how it is verified is
-:mod:`uavwind.experiments`' (and :mod:`uavwind.cache`'s): the rows a fill stores are the
-same doubles :func:`~uavwind.experiments.run_experiment` computes, whatever the number of
+:mod:`uavwind.study.runner`' (and :mod:`uavwind.study.cache`'s): the rows a fill stores are the
+same doubles :func:`~uavwind.study.runner.run_experiment` computes, whatever the number of
 workers, and it then reads them from the cache.
 """
 
@@ -20,10 +20,13 @@ import time
 
 import pandas as pd
 
+from ..core.parallel import check_jobs, pin_threads, stop_workers
+from ..method.clustering import ClusteringParams
 from .cache import check_writable, results_dir
-from .registry import (DEFAULT_READING, DEFAULT_SEED, EXPERIMENTS, _check_profile,
-                          _check_seed_engine, _entries, get_experiment)
-from .conditions import get_reading
+from .profiles import DEFAULT_SEED, get_profile
+from .readings import DEFAULT_READING, READINGS, get_reading
+from .registry import EXPERIMENTS, get_experiment
+from .runner import check_seed_engine, experiment_entries
 
 __all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
 
@@ -31,7 +34,7 @@ __all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
 def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_SEED,
                    engine=None, results=None, **params):
     """The cache entries ``exp_ids`` need under ``readings`` (default
-    :data:`~uavwind.experiments.DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
+    :data:`~uavwind.study.readings.DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
     experiments or two readings share is one entry. Computes nothing. The arguments are
     :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
     return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))
@@ -40,8 +43,6 @@ def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_S
 def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     """:func:`needed_entries` as a dict: entry -> the (experiment, reading) pairs that need
     it, in the order they ask (readings first, then experiments in registry order)."""
-    from .conditions import READINGS
-
     if isinstance(exp_ids, str) and exp_ids != "all":
         exp_ids = [exp_ids]
     ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
@@ -53,14 +54,16 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     elif isinstance(readings, str):
         readings = [readings]
     rds = [get_reading(r) for r in readings]
-    prof = _check_profile(profile)
-    seed, engine = _check_seed_engine(seed, engine)
+    prof = get_profile(profile)
+    seed, engine = check_seed_engine(seed, engine)
+    params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict() if params else {}
     folder = results_dir(results)
     first, users = {}, {}
     for rd in rds:
         for exp in exps:
             cases = exp.cases(rd)
-            for e in _entries(exp, prof, rd, seed, engine, folder, params, range(len(cases))):
+            for e in experiment_entries(exp, prof, rd, seed, engine, folder, params,
+                                        range(len(cases))):
                 first.setdefault(e.path, e)
                 pair = (exp.id, rd.name)
                 if pair not in users.setdefault(e.path, []):
@@ -89,8 +92,7 @@ def _fill_one(entry, pin=True, n_jobs=1):
     one thread); ``(path, rows, from_cache, CPU seconds)``. With ``n_jobs`` > 1 the entry is
     spread over that many workers (its rows do not depend on it) and their CPU counts too."""
     if pin:
-        from ..method.search import _pin_threads
-        _pin_threads()
+        pin_threads()
     clock = _cpu_seconds if n_jobs != 1 else (lambda: {0: time.process_time()})
     cpu0 = clock()
     df, hit = entry.fill(n_jobs=n_jobs, progress=False)
@@ -102,24 +104,24 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
                results=None, readings=None, progress=True, times=None, **params):
     """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
 
-    :func:`~uavwind.experiments.run_experiment` runs one experiment's entries one after the other, each spread
+    :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
     over the workers, so a worker idles at the end of every chunk and every CEM iteration.
     Here every missing entry (a chunk, or a whole CEM run) is one task, the tasks run
-    longest first (:attr:`Entry.cost <uavwind.experiments.Entry.cost>`) with one worker per task, and a worker writes its
+    longest first (:attr:`Entry.cost <uavwind.study.runner.Entry.cost>`) with one worker per task, and a worker writes its
     entry as soon as it is done: the cores stay busy until the last few chunks, an
     interrupt keeps every finished entry, and the rows are the same doubles as
-    :func:`~uavwind.experiments.run_experiment`'s (which then reads them from the cache).
+    :func:`~uavwind.study.runner.run_experiment`'s (which then reads them from the cache).
 
     Parameters
     ----------
     exp_ids : "all" or list of str
-        Ids of :data:`~uavwind.experiments.EXPERIMENTS`.
+        Ids of :data:`~uavwind.study.registry.EXPERIMENTS`.
     profile, seed, engine, results, **params
-        As :func:`~uavwind.experiments.run_experiment`.
+        As :func:`~uavwind.study.runner.run_experiment`.
     n_jobs : int, optional
         Worker processes (-1/None = all cores).
     readings : "all", str or list of str, optional
-        Readings (:data:`~uavwind.scenarios.READINGS`); default :data:`~uavwind.experiments.DEFAULT_READING`.
+        Readings (:data:`~uavwind.study.readings.READINGS`); default :data:`~uavwind.study.readings.DEFAULT_READING`.
     progress : bool
         A progress bar over rows (stderr).
     times : list, optional
@@ -139,9 +141,7 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     """
     from joblib import Parallel, delayed, effective_n_jobs
 
-    from ..method.search import _check_jobs, _stop_workers
-
-    n_jobs = _check_jobs(n_jobs)
+    n_jobs = check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
     check_writable(results_dir(results))  # before any work: keep what is computed
@@ -178,12 +178,12 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
                     "experiment": pairs[0][0],
                     "reading": pairs[0][1] if len(rds) == 1 else "both",
                     "shared_with": sorted({x for x, _ in pairs} - {pairs[0][0]}),
-                    "case": e.labels["case"], "kind": e.kind, "n_env": e.setting.n_env,
+                    "case": e.labels["case"], "search": e.search, "n_env": e.setting.n_env,
                     "rows": n_rows, "cpu_seconds": cpu})
             if bar is not None:
                 bar.update(n_rows)
     except BaseException:  # interrupted or failed: finished entries are on disk
-        _stop_workers()
+        stop_workers()
         raise
     finally:
         if bar is not None:
@@ -206,9 +206,9 @@ def time_by_experiment(times):
 
     Examples
     --------
-    >>> t = [{"experiment": "exp5", "reading": "inferred", "case": 0, "kind": "loops",
+    >>> t = [{"experiment": "exp5", "reading": "inferred", "case": 0, "search": "random",
     ...       "n_env": 6, "rows": 50, "cpu_seconds": 3.0},
-    ...      {"experiment": "exp1", "reading": "inferred", "case": 0, "kind": "loops",
+    ...      {"experiment": "exp1", "reading": "inferred", "case": 0, "search": "random",
     ...       "n_env": 6, "rows": 50, "cpu_seconds": 1.0}]
     >>> time_by_experiment(t)["share"].tolist()
     [25.0, 75.0]

@@ -1,4 +1,4 @@
-"""The paper's reported numbers, read from ``uavwind/paper_values/`` (transcribed, with sources).
+"""The paper's reported numbers, read from ``uavwind/study/paper_values/`` (transcribed, with sources).
 
 The CSV files ship inside the package, so an installed ``uavwind`` (``pip install .``)
 finds them without a checkout.
@@ -15,7 +15,7 @@ import pandas as pd
 
 __all__ = ["PAPER_FILES", "paper_dir", "load_paper_values"]
 
-#: Experiment id (or ``"example"``) -> file under ``uavwind/paper_values``.
+#: Experiment id (or ``"example"``) -> file under ``uavwind/study/paper_values``.
 PAPER_FILES = {
     "example": "table3_worked_example.csv",
     "exp1": "table4_wind_speed.csv",

@@ -1,14 +1,35 @@
-"""Constants shared by the soft-DTW kernels."""
+"""Constants shared by the soft-DTW kernels, and the engine's environment switches.
+
+Switches (environment variables, read once at import): ``UAVWIND_SOFTDTW_PARALLEL=0`` runs the
+batched kernels serially, ``UAVWIND_SOFTDTW_GLIBC_REPLICA=0`` calls libm instead of the inlined
+exp/log replicas, ``UAVWIND_SOFTDTW_LIMIT_BLAS=0`` leaves scipy's BLAS threads alone. The names
+of 0.1 (``FASTKMEANS_PARALLEL``, ...) still work, with a ``DeprecationWarning``.
+"""
 
 import os
+import warnings
 
 import numpy as np
 
+
+def env_flag(name, default=True):
+    """The switch ``UAVWIND_SOFTDTW_<name>`` (or its 0.1 name ``FASTKMEANS_<name>``): False for
+    ``0``, ``false`` or an empty value, True otherwise; ``default`` when unset."""
+    value = os.environ.get(f"UAVWIND_SOFTDTW_{name}")
+    if value is None and f"FASTKMEANS_{name}" in os.environ:
+        warnings.warn(f"FASTKMEANS_{name} is deprecated: set UAVWIND_SOFTDTW_{name}",
+                      DeprecationWarning, stacklevel=2)
+        value = os.environ[f"FASTKMEANS_{name}"]
+    if value is None:
+        return default
+    return value not in ("0", "false", "False", "")
+
+
 # Run the batched kernels on all cores (numba prange).  Turn off with
-# FASTKMEANS_PARALLEL=0 (e.g. when fit() is itself called from several
+# UAVWIND_SOFTDTW_PARALLEL=0 (e.g. when fit() is itself called from several
 # Python threads: numba's default "workqueue" threading layer is not
 # thread-safe).
-PARALLEL = os.environ.get("FASTKMEANS_PARALLEL", "1") not in ("0", "false", "False", "")
+PARALLEL = env_flag("PARALLEL")
 
 _INF = np.inf
 # exp(x) == 0.0 exactly (round-to-nearest) for every x < -745.14; we use a

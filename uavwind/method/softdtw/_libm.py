@@ -6,10 +6,9 @@ here transcribe those routines instruction by instruction so the DP loops can in
 them. :func:`_libm_selfcheck` compares them with libm on about 1.2 million probe points
 at start-up and the kernels use them only if every result is bit-identical; otherwise
 (another platform) they call libm like tslearn, and :func:`_libm_selfcheck` warns once.
-``FASTKMEANS_GLIBC_REPLICA=0`` turns the replicas off.
+``UAVWIND_SOFTDTW_GLIBC_REPLICA=0`` turns the replicas off.
 """
 
-import os
 
 import numpy as np
 from numba import njit
@@ -18,7 +17,7 @@ from numba.core import cgutils as _cgutils
 from numba.core import types as _nbtypes
 from numba.core.extending import intrinsic
 
-from ._consts import _INF
+from ._consts import _INF, env_flag
 
 
 # ---------------------------------------------------------------------------
@@ -364,10 +363,10 @@ _FASTMATH_OK = None
 def _libm_selfcheck(n=200_000):
     """True iff the inlined exp/log replicas agree bit-for-bit with the libm
     exp/log that numba (hence tslearn) calls, on ~1.2M probe points covering
-    the ranges the kernels use.  Disable with FASTKMEANS_GLIBC_REPLICA=0."""
+    the ranges the kernels use.  Disable with UAVWIND_SOFTDTW_GLIBC_REPLICA=0."""
     global _FASTMATH_OK
     if _FASTMATH_OK is None:
-        if os.environ.get("FASTKMEANS_GLIBC_REPLICA", "1") in ("0", "false", "False"):
+        if not env_flag("GLIBC_REPLICA"):
             _FASTMATH_OK = False
         else:
             rng = np.random.RandomState(12345)

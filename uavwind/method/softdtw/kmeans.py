@@ -8,13 +8,14 @@ same ``RandomState`` stream, assignments by soft-DTW, centres as soft-DTW baryce
 """
 
 import numbers
-import os
 
 import numpy as np
 
+from ._consts import env_flag
 from ._lbfgsb import lbfgsb
 from ._libm import _libm_selfcheck
-from .metrics import _as_dataset, _check_gamma, _objgrad, _sdtw_cross, _use_parallel
+from ._checks import _as_dataset, _check_gamma, _use_parallel
+from ._dispatch import _objgrad, _sdtw_cross
 
 
 # ---------------------------------------------------------------------------
@@ -113,7 +114,7 @@ def _blas_single_thread():
     idle OpenBLAS pool costs ~0.5 ms per setulb call on a busy machine."""
     global _TP_CONTROLLER
     import contextlib
-    if os.environ.get("FASTKMEANS_LIMIT_BLAS", "1") in ("0", "false", "False"):
+    if not env_flag("LIMIT_BLAS"):
         return contextlib.nullcontext()
     if _TP_CONTROLLER is None:
         try:
@@ -253,7 +254,7 @@ class SoftDTWKMeans:
     random_state : None, int or numpy.random.RandomState
         Consumed exactly as tslearn consumes it.
     parallel : bool, optional
-        Run the batched kernels over numba threads (default: ``FASTKMEANS_PARALLEL``);
+        Run the batched kernels over numba threads (default: ``UAVWIND_SOFTDTW_PARALLEL``);
         the result does not depend on it.
 
     Attributes

@@ -4,49 +4,13 @@ Equal to tslearn's ``soft_dtw``, ``cdist_soft_dtw``, the barycentre objective an
 gradient, ``dtw`` and the DTW distance matrix, for equal-length series without NaN.
 """
 
-import math
-
 import numpy as np
 
-from ._kernels import _dtw_upper_par_inner, _dtw_upper_range, _dtw_value, _n_workers, _objgrad_batch_par, _objgrad_batch_serial, _objgrad_range, _sdtw_cross_par_inner, _sdtw_cross_serial, _sdtw_upper_par_inner, _sdtw_upper_range, _sdtw_value
+from ._checks import _as_dataset, _as_series, _check_gamma, _use_parallel
+from ._dispatch import _objgrad, _sdtw_cross
+from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _dtw_value, _n_workers,
+                       _objgrad_range, _sdtw_upper_par_inner, _sdtw_upper_range, _sdtw_value)
 from ._libm import _libm_selfcheck
-from ._consts import PARALLEL
-
-
-# ---------------------------------------------------------------------------
-# Public low-level helpers
-# ---------------------------------------------------------------------------
-def _as_dataset(X):
-    X = np.asarray(X, dtype=np.float64)
-    if X.ndim == 1:
-        X = X.reshape(1, -1, 1)
-    elif X.ndim == 2:
-        X = X.reshape(X.shape[0], X.shape[1], 1)
-    if X.ndim != 3:
-        raise ValueError("X must have shape (n_ts, sz, d)")
-    if not np.all(np.isfinite(X)):
-        raise ValueError("X contains NaN/inf (variable-length, NaN-padded "
-                         "datasets are not supported by uavwind.softdtw)")
-    return np.ascontiguousarray(X)
-
-
-def _as_series(x):
-    x = np.asarray(x, dtype=np.float64)
-    if x.ndim == 1:
-        x = x.reshape(-1, 1)
-    return np.ascontiguousarray(x)
-
-
-def _check_gamma(gamma):
-    gamma = float(gamma)
-    if math.isclose(gamma, 0.0):
-        raise ValueError("gamma ~ 0 (tslearn switches to hard DTW) is not "
-                         "supported by uavwind.softdtw")
-    return gamma
-
-
-def _use_parallel(parallel):
-    return PARALLEL if parallel is None else bool(parallel)
 
 
 def soft_dtw(x, y, gamma=1.0):
@@ -67,15 +31,6 @@ def soft_dtw_cross(A, B, gamma=1.0, parallel=None):
     return out
 
 
-def _sdtw_cross(A, B, gamma, out, par, fx):
-    npairs = A.shape[0] * B.shape[0]
-    nw = _n_workers(par, npairs)
-    if nw > 1:
-        _sdtw_cross_par_inner(A, B, gamma, fx, nw, out)
-    else:
-        _sdtw_cross_serial(A, B, gamma, fx, out)
-
-
 def soft_dtw_grad(Z, X, gamma=1.0):
     """(value, gradient w.r.t. Z) of soft_dtw(Z, X) computed exactly like
     tslearn.barycenters.softdtw._softdtw_func(Z, X, 1., gamma, 0, None, None)
@@ -87,13 +42,6 @@ def soft_dtw_grad(Z, X, gamma=1.0):
     Gs = np.empty((1,) + Z.shape)
     _objgrad_range(Z, X[None], gamma, _libm_selfcheck(), 0, 1, 1, vals, Gs)
     return float(vals[0]), Gs[0]
-
-
-def _objgrad(Z, Xs, gamma, par, fx):
-    nw = _n_workers(par, Xs.shape[0])
-    if nw > 1:
-        return _objgrad_batch_par(Z, Xs, gamma, fx, nw)
-    return _objgrad_batch_serial(Z, Xs, gamma, fx)
 
 
 def soft_dtw_objgrad(Z, Xs, gamma=1.0, parallel=None):

@@ -8,7 +8,8 @@ once with the DTW kernel and then does scikit-learn's arithmetic.
 
 import numpy as np
 
-from .metrics import _as_dataset, dtw_pdist, soft_dtw_normalized_pdist
+from ._checks import _as_dataset
+from .metrics import dtw_pdist, soft_dtw_normalized_pdist
 
 
 # ---------------------------------------------------------------------------

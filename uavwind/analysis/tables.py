@@ -1,0 +1,140 @@
+"""Summary tables of experiment results, in the paper's layout, and where they came from.
+
+This module owns :func:`summary_table` (the replication's version of the paper's table for
+an experiment, by the summary its :class:`~uavwind.study.registry.Experiment` names in
+:data:`SUMMARIES`), :func:`comparison_table` (paper beside replication, row by row, by the
+reference it names in :data:`REFERENCES`) and :func:`provenance` (the line every table and
+figure carries: experiment, reading, profile, seed, engine, rows, version and commit). Every
+max/mean row is :func:`uavwind.core.stats.summarise`, the project's one summary with its one
+confidence interval.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from .._version import __version__
+from ..core.stats import summarise
+from ..study.paper import load_paper_values
+from ..study.registry import EXPERIMENTS, get_experiment
+from .beyond import baseline_table
+
+__all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFERENCES",
+           "maxmean_table", "cem_table"]
+
+
+def maxmean_table(df: pd.DataFrame, by) -> pd.DataFrame:
+    """One row per ``by`` group: ``max``, ``mean`` with its 95% bootstrap ``ci_low`` and
+    ``ci_high``, ``correct_rate`` and ``n_loops`` (:func:`~uavwind.core.stats.summarise`)."""
+    by = list(by)
+    rows = {}
+    for key, sub in df.groupby(by, sort=False):
+        s = summarise(sub.sort_values("loop"))
+        rows[key] = {k: s[k] for k in ("max", "mean", "ci_low", "ci_high", "correct_rate",
+                                       "n_loops")}
+    out = pd.DataFrame.from_dict(rows, orient="index")
+    out.index = (pd.MultiIndex.from_tuples(out.index, names=by) if len(by) > 1
+                 else pd.Index([k[0] if isinstance(k, tuple) else k for k in out.index],
+                               name=by[0]))
+    return out
+
+
+def cem_table(df: pd.DataFrame) -> pd.DataFrame:
+    """CEM per iteration: ``max``, ``mean``, ``elite_mean`` and ``best_so_far`` of the scores."""
+    g = df.groupby("iteration")["score"]
+    elite = df[df["elite"]].groupby("iteration")["score"].mean()
+    return pd.DataFrame({"max": g.max(), "mean": g.mean(), "elite_mean": elite,
+                         "best_so_far": g.max().cummax()})
+
+
+#: Summary name (``Experiment.summary``) -> ``(experiment, df) -> table``.
+SUMMARIES = {
+    "maxmean": lambda exp, df: maxmean_table(df, exp.group_by),
+    "cem": lambda exp, df: cem_table(df),
+    "baseline": lambda exp, df: baseline_table(df),
+}
+
+
+def _paper_reference(exp, df):
+    return load_paper_values(exp.id)
+
+
+def _example_reference(exp, df):
+    ref = load_paper_values("example")
+    score = float(ref.loc[ref["quantity"] == "score", "value"].iloc[0])
+    return pd.DataFrame({"scenario": [df["scenario"].iloc[0]], "maximum": [score],
+                         "mean": [float("nan")]})
+
+
+#: Reference name (``Experiment.reference``) -> ``(experiment, df) -> the paper's rows``
+#: (``paper_keys``, ``scenario``, ``maximum``, ``mean``).
+REFERENCES = {"paper": _paper_reference, "example": _example_reference}
+
+
+def _record(df):
+    """The :class:`~uavwind.study.registry.Experiment` whose tables ``df`` is laid out as."""
+    exp = get_experiment(df["experiment"].iloc[0])
+    return EXPERIMENTS[exp.tables_as] if exp.tables_as else exp
+
+
+def summary_table(df: pd.DataFrame) -> pd.DataFrame:
+    """The replication's version of the paper's table for ``df`` (an experiment's results):
+    ``max``, ``mean`` (with its 95% bootstrap ``ci_low``/``ci_high``), ``correct_rate``
+    and ``n_loops`` per the experiment's ``group_by`` columns, or its own summary
+    (CEM: ``max``, ``mean``, ``elite_mean``, ``best_so_far`` per iteration)."""
+    exp = _record(df)
+    return SUMMARIES[exp.summary](exp, df)
+
+
+def comparison_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Paper vs replication, side by side, for the rows the paper reports.
+
+    Columns: ``paper_max, max, paper_mean, mean``, ``ci_low``, ``ci_high`` (95%
+    bootstrap interval of the mean over loops), ``correct_rate``, ``n_loops`` and the
+    ``case``; index: the
+    paper's row labels. Reads the paper's values through :mod:`uavwind.study.paper`.
+    """
+    exp = _record(df)
+    if not exp.paper_keys:
+        raise ValueError(f"no paper table to compare for {exp.id!r}")
+    ref = REFERENCES[exp.reference](exp, df)
+    keys = exp.paper_keys
+    rows = []
+    for _, p in ref.iterrows():
+        sub = df
+        for k in keys:
+            sub = sub.loc[sub[k] == p[k]]
+        if not len(sub):
+            continue
+        units = {"n_env": "environments", "thrust_changes": "thrust changes"}
+        label = p["scenario"] + "".join(f", {p[k]} {units[k]}" for k in keys if k in units)
+        s = summarise(sub)
+        rows.append({"row": label, "case": int(sub["case"].iloc[0]), "paper_max": p["maximum"],
+                     "max": s["max"], "paper_mean": p["mean"], "mean": s["mean"],
+                     "ci_low": s["ci_low"], "ci_high": s["ci_high"],
+                     "correct_rate": s["correct_rate"], "n_loops": s["n_loops"]})
+    return pd.DataFrame(rows).set_index("row")
+
+
+
+def provenance(df: pd.DataFrame) -> str:
+    """One line saying how a result table was made: experiment, reading, profile, seed,
+    engine, loops, library version and commit (for captions)."""
+    a = df.attrs
+    return (f"Made by experiment {a.get('experiment', '?')} under the {a.get('reading', '?')!r} "
+            f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
+            f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {_commit()}.")
+
+
+
+def _commit():
+    import subprocess
+    try:
+        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                             text=True, cwd=Path(__file__).resolve().parent, timeout=5)
+        return out.stdout.strip() or "unknown"
+    except (OSError, subprocess.SubprocessError):
+        return "unknown"
+

@@ -1,0 +1,110 @@
+"""Input checks every layer uses, so bad input always fails the same way.
+
+This module owns the small validators behind the project's promise: a bad argument gets a
+``ValueError`` or ``TypeError`` that names the parameter and the allowed range, before any
+work starts. :func:`check_scalar` and :func:`check_array` check numbers and arrays;
+:func:`check_choice` a name among allowed ones; :func:`check_instance` a type;
+:func:`check_kwargs` that a function taking ``**kwargs`` was given only keywords it knows.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+
+import numpy as np
+
+__all__ = ["check_scalar", "check_array", "check_choice", "check_instance", "check_kwargs"]
+
+
+def check_scalar(value, name, *, low=None, high=None, low_inclusive=True,
+                 high_inclusive=True, integer=False):
+    """Return ``value`` as a float (or int) after checking type, finiteness and range.
+
+    Raises
+    ------
+    TypeError
+        If ``value`` is not a real number (bools are rejected).
+    ValueError
+        If ``value`` is NaN/inf or outside ``[low, high]``; the message names
+        ``name`` and the allowed range.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+    if integer:
+        if not isinstance(value, (int, np.integer)):
+            if not math.isfinite(float(value)):
+                raise ValueError(f"{name} must be a finite integer, got {value}")
+            if float(value) != int(value):
+                raise TypeError(f"{name} must be an integer, got {value!r}")
+        value = int(value)
+    else:
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{name} must be finite, got {value}")
+    lo_ok = low is None or (value >= low if low_inclusive else value > low)
+    hi_ok = high is None or (value <= high if high_inclusive else value < high)
+    if not (lo_ok and hi_ok):
+        lb = "-inf" if low is None else f"{low}"
+        hb = "inf" if high is None else f"{high}"
+        rng = ("[" if low_inclusive and low is not None else "(") + f"{lb}, {hb}" + (
+            "]" if high_inclusive and high is not None else ")")
+        raise ValueError(f"{name} must be in {rng}, got {value}")
+    return value
+
+
+def check_array(value, name, *, shape=None, ndim=None, finite=True, dtype=float):
+    """Return ``value`` as a float ndarray after checking shape and finiteness.
+
+    ``shape`` may contain ``None`` for a free axis, e.g. ``(None, 3)``.
+    """
+    try:
+        arr = np.asarray(value, dtype=dtype)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be a numeric array: {exc}") from None
+    if ndim is not None and arr.ndim != ndim:
+        raise ValueError(f"{name} must have {ndim} dimension(s), got shape {arr.shape}")
+    if shape is not None:
+        if arr.ndim != len(shape) or any(
+                s is not None and s != a for s, a in zip(shape, arr.shape)):
+            want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ")"
+            raise ValueError(f"{name} must have shape {want}, got {arr.shape}")
+    if finite and arr.size and not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must contain only finite values (no NaN or inf)")
+    return arr
+
+
+def check_choice(value, name: str, choices: Iterable):
+    """``value`` if it is one of ``choices``, else ``ValueError`` naming ``name`` and the choices.
+
+    >>> check_choice("fast", "engine", ("fast", "tslearn"))
+    'fast'
+    """
+    choices = list(choices)
+    try:
+        ok = value in choices
+    except TypeError:  # an unhashable value against a dict or set
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def check_instance(value, name: str, types, what: str | None = None):
+    """``value`` if it is an instance of ``types``, else ``TypeError`` naming ``name``."""
+    if not isinstance(value, types):
+        if what is None:
+            ts = types if isinstance(types, tuple) else (types,)
+            what = " or ".join(t.__name__ for t in ts)
+        raise TypeError(f"{name} must be a {what}, got {type(value).__name__}")
+    return value
+
+
+def check_kwargs(kwargs: Mapping, allowed: Iterable, where: str) -> None:
+    """``TypeError`` if ``kwargs`` holds a keyword not in ``allowed`` (python-control's habit:
+    a misspelt keyword fails loudly instead of being ignored)."""
+    unknown = sorted(set(kwargs) - set(allowed))
+    if unknown:
+        raise TypeError(f"{where} got unexpected keyword argument(s) {unknown}; "
+                        f"allowed: {sorted(allowed)}")

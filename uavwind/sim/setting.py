@@ -1,0 +1,275 @@
+"""Everything one loop flies: two groups of wind environments, the vehicle, the time grid.
+
+This module owns :class:`EnvironmentGroup` (the environments of one wind condition: constant
+or shear velocities, or turbulence W20 speeds, and the wind model they make) and
+:class:`Setting` (two groups, the thrust sampler, the vehicle, the time grid, what is
+observed and how noisily). A setting is a frozen, hashable value with a stable
+:meth:`Setting.key`, the digest the result cache files its loops under.
+
+How the paper's words ("light constant vs strong shear, 5 environments each") become the
+groups of a setting is :mod:`uavwind.study`'s; this module only says what a setting is.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+
+from ..core.checks import check_scalar
+from .actions import SAMPLERS
+from .dryden import VARIANTS, CitedDryden, DrydenWind
+from .dynamics import simulate, simulate_flight
+from .observation import Noise, check_observation, noise_seed, observe
+from .vehicle import UAV
+from .wind import CombinedWind, ConstantWind, ShearWind
+
+__all__ = ["KINDS", "EnvironmentGroup", "Setting"]
+
+#: Wind models a condition can use.
+KINDS = ("constant", "shear", "turbulence")
+
+@dataclass(frozen=True)
+class EnvironmentGroup:
+    """The environments of one wind condition.
+
+    Parameters
+    ----------
+    kind : {"constant", "shear", "turbulence"}
+    values : tuple
+        ``constant``/``shear``: one velocity ``(x, y, z)`` [m/s] per environment
+        (for shear, at ``reference_height``); ``turbulence``: one W20 [m/s]
+        per environment.
+    label : str
+        Human-readable name, e.g. ``"light constant"``.
+    alpha, reference_height, floor : float
+        Shear profile (see :class:`~uavwind.wind.ShearWind`).
+    altitude : float
+        Altitude of the Dryden parameters [m] (see :class:`~uavwind.dryden.DrydenWind`).
+    variant : {"mil-f-8785c", "cited"}
+        Dryden variant of a turbulence group.
+    cited : CitedDryden, optional
+        Options of the cited variant (default: the code as published).
+    """
+
+    kind: str
+    values: tuple
+    label: str = ""
+    alpha: float = 0.143
+    reference_height: float = 10.0
+    floor: float = 0.5
+    altitude: float = 10.0
+    variant: str = "mil-f-8785c"
+    cited: CitedDryden | None = None
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {list(KINDS)}, got {self.kind!r}")
+        if self.variant not in VARIANTS:
+            raise ValueError(f"variant must be one of {list(VARIANTS)}, got {self.variant!r}")
+        if self.cited is not None and not isinstance(self.cited, CitedDryden):
+            raise TypeError(f"cited must be a CitedDryden or None, got {type(self.cited).__name__}")
+        if self.kind == "turbulence":
+            vals = tuple(float(v) for v in np.ravel(self.values))
+            if any(not (math.isfinite(v) and v > 0) for v in vals):
+                raise ValueError("values (W20 speeds) must be finite and > 0 m/s")
+        else:
+            arr = np.asarray(self.values, dtype=float)
+            if arr.ndim != 2 or arr.shape[1] != 3:
+                raise ValueError(f"values must have shape (n_env, 3) for {self.kind} wind, got {arr.shape}")
+            if not np.all(np.isfinite(arr)):
+                raise ValueError("values must contain only finite velocities (no NaN or inf)")
+            vals = tuple(tuple(float(x) for x in row) for row in arr)
+        if len(vals) == 0:
+            raise ValueError("values must describe at least one environment")
+        object.__setattr__(self, "values", vals)
+
+    @property
+    def n_env(self):
+        return len(self.values)
+
+    @property
+    def speeds(self):
+        """Wind speed of each environment [m/s]: |velocity| or W20."""
+        if self.kind == "turbulence":
+            return np.array(self.values)
+        return np.linalg.norm(np.array(self.values), axis=1)
+
+    def wind(self, seed=None):
+        """The :class:`~uavwind.wind.WindModel` of this group (``seed`` for turbulence)."""
+        if self.kind == "constant":
+            return ConstantWind(self.values)
+        if self.kind == "shear":
+            return ShearWind(self.values, reference_height=self.reference_height,
+                             alpha=self.alpha, floor=self.floor)
+        return DrydenWind(self.values, altitude=self.altitude, seed=seed, variant=self.variant,
+                          cited=self.cited)
+
+    def subset(self, keep):
+        """Group with only the environments at indices ``keep`` (order kept)."""
+        keep = sorted(int(i) for i in keep)
+        return replace(self, values=tuple(self.values[i] for i in keep))
+
+    def negated(self):
+        """Same group with every wind velocity reversed (Exp 5's opposite direction)."""
+        if self.kind == "turbulence":
+            raise ValueError("a turbulence group is zero-mean: it has no direction to negate")
+        return replace(self, values=tuple(tuple(-x for x in v) for v in self.values),
+                       label=f"{self.label} (reversed)".strip())
+
+    def to_frame(self):
+        """The group as the paper prints it (Table 3): one row per environment."""
+        if self.kind == "turbulence":
+            return pd.DataFrame({"W20 (m/s)": self.values})
+        return pd.DataFrame(np.array(self.values),
+                            columns=["x axis (m/s)", "y axis (m/s)", "z axis (m/s)"])
+
+    def __str__(self):
+        return f"{self.label or self.kind} ({self.n_env} environments)\n{self.to_frame().to_string(index=False)}"
+
+@dataclass(frozen=True)
+class Setting:
+    """Everything one simulation loop needs, apart from the thrust and the seed.
+
+    Parameters
+    ----------
+    group_a, group_b : EnvironmentGroup
+        The two wind conditions (groups 0 and 1).
+    n_changes : int
+        Thrust changes after t = 0 drawn by the sampler. Paper: 6.
+    sampler : {"paper", "continuous"}
+        Thrust sampler (see :mod:`uavwind.actions`).
+    uav : UAV
+    dt, duration, start_altitude : float
+        Time step [s], flight time [s], initial height [m].
+    name : str
+        Short label for tables.
+    observation : str
+        What the loop clusters (:data:`uavwind.observation.OBSERVATIONS`); the paper:
+        ``"position"``.
+    noise : Noise, optional
+        Observation noise (:class:`uavwind.observation.Noise`); the paper: none.
+    baseline : bool
+        Also run the physics baseline (:func:`uavwind.baseline.baseline_metrics`) on
+        the observed positions of every loop (Exp 9).
+    """
+
+    group_a: EnvironmentGroup
+    group_b: EnvironmentGroup
+    n_changes: int = 6
+    sampler: str = "paper"
+    uav: UAV = field(default_factory=UAV)
+    dt: float = 0.1
+    duration: float = 12.0
+    start_altitude: float = 10.0
+    name: str = ""
+    observation: str = "position"
+    noise: Noise | None = None
+    baseline: bool = False
+
+    def __post_init__(self):
+        check_observation(self.observation)
+        if self.noise is not None and not isinstance(self.noise, Noise):
+            raise TypeError(f"noise must be a Noise or None, got {type(self.noise).__name__}")
+        if not isinstance(self.baseline, bool):
+            raise TypeError(f"baseline must be a bool, got {type(self.baseline).__name__}")
+        for g in ("group_a", "group_b"):
+            if not isinstance(getattr(self, g), EnvironmentGroup):
+                raise TypeError(f"{g} must be an EnvironmentGroup, got {type(getattr(self, g)).__name__}")
+        if self.sampler not in SAMPLERS:
+            raise ValueError(f"sampler must be one of {sorted(SAMPLERS)}, got {self.sampler!r}")
+        object.__setattr__(self, "n_changes", check_scalar(self.n_changes, "n_changes", low=0,
+                                                           integer=True))
+        if not isinstance(self.uav, UAV):
+            raise TypeError(f"uav must be a UAV, got {type(self.uav).__name__}")
+        if self.n_env < 3:
+            raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
+                             f"with two members, for a silhouette), got {self.group_a.n_env} + "
+                             f"{self.group_b.n_env}")
+
+    @property
+    def n_env(self):
+        return self.group_a.n_env + self.group_b.n_env
+
+    @property
+    def groups(self):
+        """Group of each environment, shape (n_env,): 0 for ``group_a``, 1 for ``group_b``."""
+        return np.repeat([0, 1], [self.group_a.n_env, self.group_b.n_env])
+
+    @property
+    def plain(self):
+        """The paper's loop: positions, no noise, no baseline."""
+        return self.observation == "position" and self.noise is None and not self.baseline
+
+    @property
+    def has_turbulence(self):
+        return "turbulence" in (self.group_a.kind, self.group_b.kind)
+
+    def wind(self, seed=None):
+        """A :class:`~uavwind.wind.CombinedWind` of both groups.
+
+        ``seed`` (int or SeedSequence) seeds the turbulence; each group draws
+        from its own child, so the groups' gusts are independent.
+        """
+        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        sa, sb = ss.spawn(2)
+        return CombinedWind(self.group_a.wind(sa), self.group_b.wind(sb))
+
+    def sample_thrust(self, rng):
+        """Draw one thrust sequence with this setting's sampler."""
+        return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration)
+
+    def simulate(self, thrust, seed=None):
+        """Positions (n_env, n_steps, 3) [m] of all environments under ``thrust``."""
+        return simulate(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
+                        duration=self.duration, start_altitude=self.start_altitude)
+
+    def observe(self, thrust, seed=None):
+        """``(observations, flight, positions)`` of one loop: the observed channel with
+        its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
+        :class:`~uavwind.dynamics.Flight`, and the noisy positions (what the baseline sees)."""
+        flight = simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
+                                 duration=self.duration, start_altitude=self.start_altitude)
+        ns = noise_seed(seed)
+        obs = observe(flight, self.observation, self.noise, seed=ns, gravity=self.uav.gravity)
+        if not self.baseline:
+            return obs, flight, None
+        pos = obs if self.observation == "position" else observe(
+            flight, "position", self.noise, seed=noise_seed(seed), gravity=self.uav.gravity)
+        return obs, flight, pos
+
+    def to_dict(self):
+        return asdict(self)
+
+    def key(self):
+        """Stable 16-hex-digit digest of every field that changes results (all but ``name``)."""
+        fields = self.to_dict()
+        fields.pop("name")
+        for g in ("group_a", "group_b"):  # the standard variant keeps its earlier keys
+            if fields[g]["variant"] == "mil-f-8785c" and fields[g]["cited"] is None:
+                del fields[g]["variant"], fields[g]["cited"]
+        for k, default in (("observation", "position"), ("noise", None), ("baseline", False)):
+            if fields[k] == default:  # the paper's loop keeps its earlier keys
+                del fields[k]
+        blob = json.dumps(fields, sort_keys=True, default=str)
+        return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+    def group_label(self, group: int) -> str:
+        """Display name of group ``group`` (0 or 1): its condition's label, else "group 0"."""
+        if group not in (0, 1):
+            raise ValueError(f"group must be 0 or 1, got {group!r}")
+        g = self.group_a if group == 0 else self.group_b
+        return g.label or f"group {group}"
+
+    def to_frame(self):
+        """Both groups side by side, as in the paper's Table 3."""
+        return pd.concat({self.group_label(0): self.group_a.to_frame(),
+                          self.group_label(1): self.group_b.to_frame()}, axis=1)
+
+    def __str__(self):
+        return (f"Setting {self.name!r}: {self.group_a.label} ({self.group_a.n_env}) vs "
+                f"{self.group_b.label} ({self.group_b.n_env}), {self.n_changes} thrust changes")

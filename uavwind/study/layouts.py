@@ -1,0 +1,168 @@
+"""Layouts: where a pair of wind conditions puts its environments inside the class ranges.
+
+This module owns :class:`Layout` and the named layouts (replication notes, decision 5):
+``"halves"`` (our first guess: adjacent halves of the range), ``"gap"`` (the middle third
+empty) and ``"inferred"`` (the paper reading: the evenly spaced lattice of Table 3 with the
+gap between the groups fitted from Table 4, :data:`INFERRED_GAP_RATIOS`, resolved per pair by
+:func:`resolve_layout`), and :func:`group_speeds`, the speeds [m/s] a layout gives a pair.
+
+Under eqs 2-8 a constant (or shear) pair's silhouette depends on this geometry almost alone
+(see :mod:`uavwind.analysis.inference`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.checks import check_scalar
+from .conditions import HORIZONTAL, WindCondition
+
+__all__ = ["Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds"]
+
+@dataclass(frozen=True)
+class Layout:
+    """Where a pair of wind conditions puts its environments (replication notes, decision 5).
+
+    Groups of different strengths (light vs strong) always take the centres of
+    ``n`` equal cells of their own class range. Groups of the same strength share
+    the class range, group A below group B:
+
+    * ``gap_ratio=None``: a fraction ``gap`` of the range is left empty in the
+      middle and each group puts cell centres in its part (``"halves"``: gap 0,
+      two adjacent halves; ``"gap"``: the middle third empty);
+    * ``gap_ratio=rho``: an evenly spaced lattice, the family of the paper's
+      Table 3: neighbours inside a group are one *spacing* apart and the nearest
+      environments of the two groups ``rho`` spacings apart. The lattice spans the
+      class range (the outer environments at its ends) unless ``spacing`` [m/s] is
+      given; then group A starts at the lower end of the range.
+
+    Under eqs 2-8 a constant (or shear) pair's silhouette depends on this
+    geometry through ``rho`` almost alone (see :mod:`uavwind.inference`).
+
+    Parameters
+    ----------
+    name : str
+    gap : float
+        Empty middle fraction of the range, in [0, 1) (cell layouts only).
+    gap_ratio : float, optional
+        Gap between the groups in within-group spacings, in (0, 10000].
+    spacing : float, optional
+        Within-group spacing [m/s], in (0, 100] (lattice only).
+    direction : tuple of 3 floats
+        Direction of constant and shear winds (normalised); default x = y.
+
+    >>> Layout("x", gap_ratio=2.0).speeds((0.0, 1.0), 2, 2).round(2).tolist()
+    [[0.0, 0.25], [0.75, 1.0]]
+    """
+
+    name: str = ""
+    gap: float = 0.0
+    gap_ratio: float | None = None
+    spacing: float | None = None
+    direction: tuple = HORIZONTAL
+
+    def __post_init__(self):
+        if not isinstance(self.name, str):
+            raise TypeError(f"name must be a string, got {type(self.name).__name__}")
+        object.__setattr__(self, "gap", check_scalar(self.gap, "gap", low=0.0, high=1.0,
+                                                     high_inclusive=False))
+        if self.gap_ratio is not None:
+            object.__setattr__(self, "gap_ratio", check_scalar(
+                self.gap_ratio, "gap_ratio", low=0.0, low_inclusive=False, high=1e4))
+        if self.spacing is not None:
+            if self.gap_ratio is None:
+                raise ValueError("spacing applies to lattice layouts only: give gap_ratio too")
+            object.__setattr__(self, "spacing", check_scalar(
+                self.spacing, "spacing", low=0.0, low_inclusive=False, high=100.0))
+        d = np.asarray(self.direction, dtype=float)
+        if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
+            raise ValueError(f"direction must be a finite, non-zero 3-vector, got {self.direction!r}")
+        object.__setattr__(self, "direction", tuple(float(x) for x in d / np.linalg.norm(d)))
+
+    def speeds(self, speed_range, n_a, n_b):
+        """Speeds [m/s] of two same-strength groups sharing ``speed_range``: ``(2, n)``
+        when ``n_a == n_b``, else a pair of arrays."""
+        lo, hi = speed_range
+        if self.gap_ratio is None:
+            if self.gap == 0.0:  # decision 5: adjacent halves (this form keeps cached results valid)
+                a_hi = b_lo = 0.5 * (lo + hi)
+            else:
+                part = 0.5 * (1.0 - self.gap) * (hi - lo)
+                a_hi, b_lo = lo + part, hi - part
+            a, b = _cell_centres(lo, a_hi, n_a), _cell_centres(b_lo, hi, n_b)
+        else:
+            span = (n_a - 1) + self.gap_ratio + (n_b - 1)
+            step = self.spacing if self.spacing is not None else (hi - lo) / span
+            a = lo + step * np.arange(n_a)
+            b = lo + step * ((n_a - 1) + self.gap_ratio + np.arange(n_b))
+        return np.array([a, b]) if n_a == n_b else (a, b)
+
+
+#: The fixed named layouts (``"inferred"`` is resolved per pair by :func:`resolve_layout`).
+LAYOUTS = {"halves": Layout("halves"), "gap": Layout("gap", gap=1 / 3)}
+
+
+#: The paper reading of the same-strength pairs: the gap between the groups, in
+#: within-group spacings, fitted from Table 4 alone by
+#: :func:`uavwind.inference.fit_layouts` (paper profile; the book's "What the
+#: paper's numbers reveal" page refits them and fails if these values leave the
+#: fit's 95% interval). Keyed by group A's condition: a mixed same-strength pair
+#: (Exp 5's light constant vs light shear) takes group A's ratio, a turbulent group A
+#: group B's.
+INFERRED_GAP_RATIOS = {
+    "light constant": 11.2,
+    "strong constant": 64.0,
+    "light shear": 5.7,
+    "strong shear": 94.0,
+}
+
+
+def resolve_layout(layout, condition_a, condition_b):
+    """The :class:`Layout` that ``layout`` (a Layout or a name) means for this pair."""
+    if isinstance(layout, Layout):
+        return layout
+    if not isinstance(layout, str):
+        raise TypeError(f"layout must be a Layout or one of {[*LAYOUTS, 'inferred']}, "
+                        f"got {type(layout).__name__}")
+    if layout in LAYOUTS:
+        return LAYOUTS[layout]
+    if layout != "inferred":
+        raise ValueError(f"layout must be a Layout or one of {[*LAYOUTS, 'inferred']}, "
+                         f"got {layout!r}")
+    ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
+    if ca.strength != cb.strength:
+        return Layout("inferred")
+    # the ratio of group A's condition; a turbulent group A takes group B's (the paper
+    # fitted no turbulent same-strength pair)
+    for c in (ca, cb):
+        if c.label in INFERRED_GAP_RATIOS:
+            return Layout("inferred", gap_ratio=INFERRED_GAP_RATIOS[c.label])
+    raise ValueError(f"layout 'inferred' has no fitted gap for {ca.label} vs {cb.label}: "
+                     f"pass a Layout (e.g. Layout(gap_ratio=10.0)) or layout='halves'")
+
+
+def _cell_centres(lo, hi, n):
+    return lo + (np.arange(n) + 0.5) * (hi - lo) / n
+
+
+def group_speeds(condition_a, condition_b, n_a=5, n_b=None, layout="inferred"):
+    """Speeds [m/s] of the two groups under ``layout`` (see :class:`Layout`).
+
+    >>> a, b = group_speeds("light constant", "strong constant", 2)
+    >>> a.round(4).tolist(), b.round(3).tolist()
+    ([0.6725, 1.1175], [11.85, 13.19])
+    >>> a, b = group_speeds("light constant", "light constant", 2, layout="gap")
+    >>> a.round(4).tolist(), b.round(4).tolist()
+    ([0.5242, 0.6725], [1.1175, 1.2658])
+    """
+    ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
+    n_b = n_a if n_b is None else n_b
+    n_a = check_scalar(n_a, "n_a", low=1, high=10_000, integer=True)
+    n_b = check_scalar(n_b, "n_b", low=1, high=10_000, integer=True)
+    lay = resolve_layout(layout, ca, cb)
+    if ca.strength == cb.strength:
+        out = lay.speeds(ca.speed_range, n_a, n_b)
+        return out[0], out[1]
+    return _cell_centres(*ca.speed_range, n_a), _cell_centres(*cb.speed_range, n_b)

@@ -1,0 +1,112 @@
+"""Profiles: how much work an experiment does (loops per case, CEM sizes).
+
+This module owns :class:`Profile` and :data:`PROFILES`: ``"paper"`` (the paper's counts: 50
+loops per case, 500 for Exp 1's long run, CEM with N = 30, Ne = 4 for 20 iterations) and
+``"quick"`` (a few loops per case, for CI and first looks), with :func:`get_profile`, which
+also takes a custom profile as a :class:`Profile` or a dict of the same fields; and
+:data:`DEFAULT_SEED`, the root seed of every experiment, and :data:`CHUNK`, the loops per
+cache entry.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+
+from ..core.checks import check_instance, check_scalar
+
+__all__ = ["CEMSize", "Profile", "PROFILES", "get_profile", "DEFAULT_SEED", "CHUNK"]
+
+#: Default seed of every experiment (its SeedSequence root).
+DEFAULT_SEED = 20240101
+#: Loops per cached chunk.
+CHUNK = 50
+
+
+@dataclass(frozen=True, kw_only=True)
+class CEMSize:
+    """The size of a CEM run: ``n_samples`` (N) draws per iteration, the ``n_elite`` (N_e)
+    best refit the distribution, at most ``max_iter`` iterations."""
+
+    n_samples: int
+    n_elite: int
+    max_iter: int
+
+    def __post_init__(self):
+        n = check_scalar(self.n_samples, "profile['cem']['n_samples']", low=1, high=10 ** 5,
+                         integer=True)
+        object.__setattr__(self, "n_samples", n)
+        object.__setattr__(self, "n_elite", check_scalar(
+            self.n_elite, "profile['cem']['n_elite']", low=1, high=n, integer=True))
+        object.__setattr__(self, "max_iter", check_scalar(
+            self.max_iter, "profile['cem']['max_iter']", low=1, high=10 ** 4, integer=True))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Profile:
+    """Loop counts of a run.
+
+    Attributes
+    ----------
+    loops : int
+        Loops per case.
+    long_loops : int
+        Loops of a case marked ``long`` (Exp 1's 500-loop light-vs-light case).
+    fit_loops : int
+        Loops per case of the inference fits.
+    cem : CEMSize
+    name : str
+        ``"paper"``, ``"quick"``, or a name of your own (``"custom"`` by default).
+    """
+
+    loops: int
+    long_loops: int
+    fit_loops: int
+    cem: CEMSize
+    name: str = field(default="custom", compare=False)
+
+    def __post_init__(self):
+        for k in ("loops", "long_loops", "fit_loops"):
+            object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
+                                                     low=1, high=10 ** 6, integer=True))
+        cem = self.cem
+        if isinstance(cem, Mapping):
+            if set(cem) != {"n_samples", "n_elite", "max_iter"}:
+                raise ValueError("profile['cem'] must be a dict with n_samples, n_elite, "
+                                 f"max_iter, got keys {sorted(cem)}")
+            cem = CEMSize(**cem)
+        object.__setattr__(self, "cem", check_instance(cem, "profile['cem']", CEMSize))
+        check_instance(self.name, "profile name", str)
+
+    def __str__(self):
+        return self.name
+
+
+PROFILES = {
+    "paper": Profile(name="paper", loops=50, long_loops=500, fit_loops=20,
+                     cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
+    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2,
+                     cem=CEMSize(n_samples=6, n_elite=2, max_iter=3)),
+}
+
+
+def get_profile(profile) -> Profile:
+    """A :class:`Profile` by name (:data:`PROFILES`), itself, or from a dict with the keys
+    ``loops``, ``long_loops``, ``fit_loops`` and ``cem`` (``n_samples``, ``n_elite``,
+    ``max_iter``)."""
+    if isinstance(profile, Profile):
+        return profile
+    if isinstance(profile, Mapping):
+        need = {"loops", "long_loops", "fit_loops", "cem"}
+        missing, extra = need - set(profile), set(profile) - need - {"name"}
+        if missing or extra:
+            raise ValueError(f"profile dict must have exactly the keys {sorted(need)}; "
+                             f"missing {sorted(missing)}, unknown {sorted(extra)}")
+        return Profile(**profile)
+    if isinstance(profile, str) and profile in PROFILES:
+        return PROFILES[profile]
+    raise ValueError(f"profile must be one of {sorted(PROFILES)}, a Profile or a dict, "
+                     f"got {profile!r}")

@@ -1,0 +1,230 @@
+"""Running experiments: each one as cache entries, filled (or read) and put together.
+
+This module owns :func:`run_experiment` (one tidy ``pandas`` table per experiment: one row
+per loop, or per CEM sample, with the case labels and provenance in ``df.attrs``),
+:class:`Entry` (one cache entry: a chunk of at most :data:`~uavwind.study.profiles.CHUNK`
+random loops of one case, or one whole CEM run) and :func:`experiment_entries`, the entries
+an experiment needs under a profile and a reading. Filling the entries of many experiments
+at once in one pool is :mod:`uavwind.study.fill`'s; keys, verified reads and atomic writes
+are :mod:`uavwind.study.cache`'s.
+
+Caching: a chunk is filed under a digest of everything that determines it (setting, seed,
+loop range, engine, clustering parameters, results version). A finished chunk is never
+recomputed; an interrupted run resumes at the first missing chunk; changing a setting
+recomputes only that setting's chunks. A setting two experiments share (e.g. Exp 2, 3 and 4
+at 20 environments) is one entry, computed once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from .._version import __version__
+from ..core.checks import check_scalar
+from ..method.clustering import ClusteringParams, check_engine
+from ..method.search import cem, random_search
+from ..sim.setting import Setting
+from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
+                    results_dir)
+from .profiles import CHUNK, DEFAULT_SEED, get_profile
+from .readings import DEFAULT_READING, get_reading
+from .registry import EXPERIMENTS, get_experiment
+
+__all__ = ["run_experiment", "Entry", "experiment_entries", "check_cases", "case_loops",
+           "check_seed_engine", "n_loops_total"]
+
+
+def check_seed_engine(seed, engine):
+    """``(seed, engine)`` checked, the engine defaulted."""
+    return check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True), check_engine(engine)
+
+
+def run_experiment(exp_id: str, profile="quick", seed: int = DEFAULT_SEED, n_jobs: int | None = None,
+                   engine: str | None = None, results=None, progress: bool = True,
+                   cases=None, reading=None, **params) -> pd.DataFrame:
+    """Run (or load from the cache) one experiment.
+
+    Parameters
+    ----------
+    exp_id : str
+        An id of :data:`EXPERIMENTS`: ``"example"``, ``"exp1"`` ... ``"exp9"``,
+        ``"exp6_raw"``, ``"fit_layout"``, ``"fit_turbulence"``.
+    profile : {"quick", "paper"}, Profile or dict
+    seed : int
+        Root seed (one SeedSequence for the experiment).
+    n_jobs : int, optional
+        Worker processes (-1/None = all cores); results do not depend on it.
+    engine : str, optional
+        Clustering engine (default: fast when available).
+    results : path-like, optional
+        Cache folder (default :func:`~uavwind.study.cache.results_dir`).
+    cases : list of int, optional
+        Run only these case indices (for partial runs and tests).
+    reading : str or Reading, optional
+        The reading of the paper (default :data:`DEFAULT_READING`, ``"inferred"``).
+    **params
+        Clustering parameters (:class:`~uavwind.method.clustering.ClusteringParams`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Random experiments: one row per loop with the case labels (``case``,
+        ``scenario``, ...), ``loop``, ``score``, ``silhouette``, ``correct``, the
+        thrust sequence and provenance columns. CEM: one row per sample with
+        ``iteration`` and ``sample``. ``df.attrs["cached"]`` counts the chunks
+        loaded rather than computed.
+    """
+    exp = get_experiment(exp_id)
+    prof = get_profile(profile)
+    seed, engine = check_seed_engine(seed, engine)
+    params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict() if params else {}
+    rd = get_reading(DEFAULT_READING if reading is None else reading)
+    all_cases = exp.cases(rd)
+    chosen = check_cases(cases, len(all_cases))
+    folder = results_dir(results)
+    entries = experiment_entries(exp, prof, rd, seed, engine, folder, params, chosen)
+    if not all(e.present() for e in entries):
+        # before any work: a run must never compute what it cannot keep
+        check_writable(folder)
+    frames, n_cached = [], 0
+    for entry in entries:
+        df, hit = entry.fill(n_jobs=n_jobs, progress=progress)
+        n_cached += hit
+        frames.append(df.assign(**entry.labels))
+    out = pd.concat(frames, ignore_index=True)
+    labels = [k for k in entries[0].labels if k not in ("experiment", "reading", "case")]
+    first = ["experiment", "reading", "case", *labels]
+    out = out[first + [c for c in out.columns if c not in first]]
+    out.attrs.update(experiment=exp.id, profile=str(prof), seed=seed, cached=n_cached,
+                     chunks=len(entries), reading=rd.name, engine=engine)
+    return out
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class Entry:
+    """One cache entry an experiment needs: a chunk of random loops of one case
+    (``search="random"``, loops ``start .. stop-1``) or one whole CEM run (``search="cem"``).
+
+    :func:`run_experiment` fills its entries one after the other, each over ``n_jobs``
+    workers; :func:`uavwind.study.fill.fill_cache` fills the missing entries of many
+    experiments at once, one entry per worker, longest first. Either way an entry is
+    computed under its lock, verified and written atomically by
+    :func:`uavwind.study.cache.cached`, and its rows do not depend on the number of workers.
+    """
+
+    path: Path
+    search: str
+    setting: Setting
+    seed: int
+    engine: str
+    params: dict
+    start: int = 0
+    stop: int = 0
+    options: dict = field(default_factory=dict)  # CEM: n_samples, n_elite, max_iter, rank_by
+    labels: dict = field(default_factory=dict)
+
+    @property
+    def n_rows(self):
+        """Rows the entry holds: loops, or CEM samples."""
+        if self.search == "cem":
+            return self.options["n_samples"] * self.options["max_iter"]
+        return self.stop - self.start
+
+    @property
+    def cost(self):
+        """A rough cost, for ordering only: rows x environments^2 x observed channels (a
+        soft-DTW k-means loop grows with the square of the number of series)."""
+        s = self.setting
+        channels = 6 if s.observation == "position+velocity" else 3
+        return self.n_rows * s.n_env ** 2 * channels
+
+    def compute(self, n_jobs=None, progress=False):
+        """The entry's rows, computed (no cache)."""
+        s = self.setting
+        if self.search == "cem":
+            res = cem(s, seed=self.seed, n_jobs=n_jobs, engine=self.engine, progress=progress,
+                      **self.options, clustering=self.params)
+            return res.samples
+        return random_search(s, n_loops=self.stop - self.start, seed=self.seed,
+                             loop_offset=self.start, n_jobs=n_jobs, engine=self.engine,
+                             progress=progress, **self.params)
+
+    def fill(self, n_jobs=None, progress=False):
+        """``(rows, from_cache)``: the verified cached rows, or computed and stored."""
+        meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
+                "uavwind_version": __version__, "results_version": RESULTS_VERSION}
+        return cached(self.path, lambda: self.compute(n_jobs, progress), meta, self._expected)
+
+    def present(self):
+        """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""
+        return read_verified(self.path, self._expected) is not None
+
+    @property
+    def _expected(self):
+        """What a cached copy must hold to be trusted."""
+        return Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
+
+
+def experiment_entries(exp, prof, rd, seed, engine, folder, params, chosen) -> list[Entry]:
+    """The cache entries of ``exp``'s cases ``chosen`` under reading ``rd``, in case order."""
+    cases = exp.cases(rd)
+    out = []
+    for ci in chosen:
+        case = cases[ci]
+        s = case.setting
+        labels = {"experiment": exp.id, "reading": rd.name, "case": ci, **case.labels}
+        if exp.search == "cem":
+            cfg = prof.cem
+            # the key spells the cap "n_iter", its name when these results were first
+            # cached: the name changed, the results did not
+            extra = {"n_samples": cfg.n_samples, "n_elite": cfg.n_elite,
+                     "n_iter": cfg.max_iter, **exp.search_options}
+            key = cache_key(s, seed, 0, cfg.max_iter, engine, params, extra=extra)
+            out.append(Entry(path=folder / exp.id / f"cem-{key}.parquet", search="cem",
+                             setting=s, seed=seed, engine=engine, params=params,
+                             options={**cfg.to_dict(), **exp.search_options}, labels=labels))
+            continue
+        n_loops = case_loops(prof, case)
+        for start in range(0, n_loops, CHUNK):
+            stop = min(start + CHUNK, n_loops)
+            key = cache_key(s, seed, start, stop, engine, params)
+            # one folder for every experiment: a setting that two experiments share
+            # (e.g. Exp 2, 3 and 4 at 20 environments) is computed once
+            path = folder / "loops" / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
+            out.append(Entry(path=path, search="random", setting=s, seed=seed, engine=engine,
+                             params=params, start=start, stop=stop, labels=labels))
+    return out
+
+
+def check_cases(cases, n):
+    """Validated case indices (each in [0, n), no repeats, at least one)."""
+    if cases is None:
+        return list(range(n))
+    if isinstance(cases, (str, bytes)) or not hasattr(cases, "__iter__"):
+        raise TypeError(f"cases must be a list of case indices, got {type(cases).__name__}")
+    out = [check_scalar(c, "cases", low=0, high=n - 1, integer=True) for c in cases]
+    if not out:
+        raise ValueError(f"cases must name at least one case index in [0, {n - 1}], got none")
+    if len(set(out)) != len(out):
+        raise ValueError(f"cases must not repeat an index, got {list(cases)}")
+    return out
+
+
+def case_loops(prof, case) -> int:
+    """Loops ``case`` runs under profile ``prof`` (its fit, long or plain count)."""
+    return prof.fit_loops if case.fit else prof.long_loops if case.long else prof.loops
+
+
+def n_loops_total(profile):
+    """Total loops (or CEM samples) of every experiment in ``profile``."""
+    prof = get_profile(profile)
+    total = 0
+    for exp in EXPERIMENTS.values():
+        if exp.search == "cem":
+            total += prof.cem.n_samples * prof.cem.max_iter
+        else:
+            total += sum(case_loops(prof, c) for c in exp.cases())
+    return total
