@@ -22,6 +22,9 @@ HTML      := $(BOOK)/_build/html/index.html
 
 export PYTHONPATH := $(CURDIR)
 export PYTHONHASHSEED := 0
+# the checkout's result cache (the library's own default is the user cache folder)
+UAVWIND_RESULTS ?= $(CURDIR)/data/results
+export UAVWIND_RESULTS
 # papermill loses every figure under a non-interactive backend: never inherit one
 unexport MPLBACKEND
 
@@ -59,7 +62,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 
 # every result the book shows, both readings, in one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
-results: $(STAMP)  ## run every experiment under every reading into data/results (PROFILE=paper|quick; cached, resumable)
+results: $(STAMP)  ## run every experiment under every reading into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
@@ -106,7 +109,7 @@ clean:  ## remove caches and build products (never finished results)
 	rm -rf .pytest_cache .benchmarks $(BOOK)/_build $(GEN) $(BOOK)/_vendor
 	find . -name __pycache__ -not -path './$(VENV)/*' -prune -exec rm -rf {} +
 
-clean-results:  ## delete the cached experiment results in data/results
-	rm -rf data/results
+clean-results:  ## delete the cached experiment results in UAVWIND_RESULTS (default data/results)
+	rm -rf "$(UAVWIND_RESULTS)"
 
 FORCE:

@@ -181,7 +181,7 @@ def test_cited_fixed_seeds_give_every_environment_the_same_gusts():
     rate = w.cited.rate
     assert np.array_equal(w.velocity(5.0, np.zeros((3, 3))), w.velocity(0.0, np.zeros((3, 3))))
     assert np.array_equal(w.velocity(7.3, np.zeros((3, 3))),
-                          w._series[:, int(7.3 * rate) % 1000])
+                          w._gusts._series[:, int(7.3 * rate) % 1000])
 
 
 def test_cited_seed_per_environment_and_base_wind():

@@ -84,7 +84,7 @@ def test_constant_validation(bad, err, match):
     ({"w20": [12.0], "airspeed": -1.0}, ValueError, "airspeed"),
     ({"w20": [12.0, 11.0], "airspeed": [1.0, 2.0, 3.0]}, ValueError, "airspeed"),
     ({"w20": [12.0], "seed": "x"}, TypeError, "seed"),
-    ({"w20": [12.0], "discretisation": "tustin"}, ValueError, "discretisation"),
+    ({"w20": [12.0], "discretisation": "tustin"}, TypeError, "discretisation"),
 ])
 def test_dryden_validation(kwargs, err, match):
     with pytest.raises(err, match=match):
@@ -144,7 +144,7 @@ def test_dryden_u_autocorrelation_at_one_second(ensemble):
     w, g = ensemble
     p = w.parameters
     rho = np.corrcoef(g[:, 0, 0], g[:, 10, 0])[0, 1]
-    assert rho == pytest.approx(math.exp(-W20 * 1.0 / p["L_u"]), abs=0.03)
+    assert rho == pytest.approx(math.exp(-W20 * 1.0 / p["L_u"][0]), abs=0.03)
 
 
 def test_dryden_discrete_variance_is_sigma_squared():
@@ -167,7 +167,7 @@ def test_dryden_spectrum_matches_analytic():
     band = (f > 0.05) & (f < 1.0)
     p = w.parameters
     for j, ax in enumerate("uvw"):
-        analytic = dryden_psd(2 * np.pi * f[band], p[f"sigma_{ax}"][0], p[f"L_{ax}"], W20, ax)
+        analytic = dryden_psd(2 * np.pi * f[band], p[f"sigma_{ax}"][0], p[f"L_{ax}"][0], W20, ax)
         ratio = S[band, j] / (2 * np.pi) / analytic
         assert np.all(np.abs(ratio - 1) < 0.15), (ax, ratio)
         assert abs(ratio.mean() - 1) < 0.05
@@ -196,15 +196,57 @@ def test_dryden_seeds_repeat_and_differ():
     assert np.array_equal(w.gusts(400), uw.DrydenWind([12.0, 13.0], seed=5).gusts(400))
 
 
-def test_dryden_control_and_exact_discretisation_agree():
-    """The closed-form ZOH equals python-control's sample_system(..., 'zoh')."""
+# --------------------------------------------------------------------------- #
+# the closed-form zero-order hold: the oracle python-control's discretisation is held to
+# --------------------------------------------------------------------------- #
+def _zoh_first_order(T, dt):
+    """Exact zero-order-hold discretisation of ``1/(1 + T s)``, vectorised over T.
+
+    ``H(z) = (1 - a) / (z - a)`` with ``a = exp(-dt/T)``; returns
+    ``num (n, 1), den (n, 2)`` (descending powers of z, ``den[:, 0] = 1``).
+    """
+    a = np.exp(-dt / T)
+    return (1 - a)[:, None], np.stack([np.ones_like(a), -a], axis=1)
+
+
+def _zoh_second_order(T, dt):
+    """Exact ZOH of ``(1 + sqrt(3) T s)/(1 + T s)^2`` = ``sqrt3/(1+Ts) + (1-sqrt3)/(1+Ts)^2``.
+
+    With states x1 = w/(1+Ts), x2 = w/(1+Ts)^2 the sampled system is
+    ``A = a [[1, 0], [h/T, 1]]``, ``B = [1 - a, 1 - a (1 + h/T)]``,
+    ``C = [sqrt3, 1 - sqrt3]`` (a = exp(-h/T)), whose transfer function
+    ``C (zI - A)^-1 B`` is returned as ``num (n, 2), den (n, 3)``.
+    """
+    ph = dt / T
+    a = np.exp(-ph)
+    b1, b2 = 1 - a, 1 - a * (1 + ph)
+    c1, c2 = math.sqrt(3), 1 - math.sqrt(3)
+    num = np.stack([c1 * b1 + c2 * b2, a * (c2 * ph * b1 - c1 * b1 - c2 * b2)], axis=1)
+    den = np.stack([np.ones_like(a), -2 * a, a * a], axis=1)
+    return num, den
+
+
+def test_dryden_control_discretisation_equals_the_closed_form_zoh():
+    """python-control's sample_system(..., 'zoh') equals the closed-form ZOH of eqs 10-12
+    to 1e-12, and gusts from the closed form equal the wind's to 1e-8."""
+    from uavwind.sim.dryden import _canonical, dryden_gain
+
     w20 = np.linspace(11.18, 13.86, 7)
-    exact = uw.DrydenWind(w20, seed=9)
-    ctrl = uw.DrydenWind(w20, seed=9, discretisation="control")
+    w = uw.DrydenWind(w20, seed=9)
+    p, V, dt = w.parameters, w.airspeed, w.dt
+    T = {ax: p[f"L_{ax}"] / V for ax in "uvw"}
+    closed = {"u": _zoh_first_order(T["u"], dt), "v": _zoh_second_order(T["v"], dt),
+              "w": _zoh_second_order(T["w"], dt)}
     for ax in "uvw":
-        for a, b in zip(exact.transfer_functions[ax], ctrl.transfer_functions[ax]):
-            assert np.allclose(a, b, rtol=1e-12, atol=1e-14)
-    assert np.allclose(exact.gusts(200), ctrl.gusts(200), atol=1e-8)
+        gain = np.array([dryden_gain(p[f"sigma_{ax}"][i], p[f"L_{ax}"][i], V[i], ax)
+                         for i in range(len(w20))])
+        num, den = closed[ax]
+        num = num * gain[:, None]
+        got_num, got_den = w.transfer_functions[ax]
+        assert np.allclose(num, got_num, rtol=1e-12, atol=1e-14)
+        assert np.allclose(den, got_den, rtol=1e-12, atol=1e-14)
+        A, B, C = _canonical(num, den)
+        assert np.allclose(C, w.filters[ax][2], rtol=1e-12, atol=1e-14)
 
 
 def test_dryden_transfer_functions_are_eqs_10_12():

@@ -269,7 +269,7 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True, sharey=True)
     for j, (ax, axis) in enumerate(zip(axes, "uvw")):
         ax.loglog(omega, S[1:, j], color="tab:blue", label="simulated (Welch)")
-        ax.loglog(omega, dryden_psd(omega, p[f"sigma_{axis}"][0], p[f"L_{axis}"],
+        ax.loglog(omega, dryden_psd(omega, p[f"sigma_{axis}"][0], p[f"L_{axis}"][0],
                                     wind.airspeed[0], axis), color="k", ls="--",
                   label="MIL-F-8785C")
         ax.axvline(np.pi / wind.dt, color="0.6", lw=0.8)

@@ -1,18 +1,20 @@
-"""Dryden turbulence behind the wind contract (paper eqs 10-12).
+"""Dryden turbulence behind the wind contract (paper eqs 10-12): two models, one wind.
 
-This module owns the turbulence models of :mod:`uavwind.wind`:
+This module owns the turbulence of :mod:`uavwind.sim.wind`'s contract:
 
-* :func:`dryden_parameters`, :func:`dryden_transfer_functions`, :func:`dryden_psd` --
-  MIL-F-8785C low altitude, feet inside and m/s outside (replication notes, decision 4);
-* :class:`CitedDryden`, :func:`cited_dryden_parameters`, :func:`cited_transfer_functions`,
-  :func:`cited_gusts` -- the implementation the paper cites (Abichandani et al.), quirk
-  by quirk;
-* :class:`DrydenWind` -- either variant as a :class:`~uavwind.wind.WindModel`.
+* :class:`MilDryden` -- MIL-F-8785C low altitude, feet inside and m/s outside
+  (replication notes, decision 4), with :func:`dryden_parameters`,
+  :func:`dryden_transfer_functions` and the analytic spectrum :func:`dryden_psd`;
+* :class:`CitedDryden` -- the implementation the paper cites (Abichandani et al.), quirk by
+  quirk, with :func:`cited_dryden_parameters`, :func:`cited_transfer_functions` and
+  :func:`cited_gusts`;
+* :class:`DrydenWind` -- either model as a :class:`~uavwind.sim.wind.WindModel`.
 
-Every filter is built with ``control.tf``; the MIL-F-8785C filters are discretised with
-``control.sample_system`` (cached per parameter set) with the closed-form zero-order
-hold kept as the test oracle, and the cited series are simulated with
-``control.forced_response`` as the cited code's ``scipy.signal.lsim`` does.
+Both models shape noise with the same three Dryden filters, whose gains are
+:func:`dryden_gain` (written once), built with ``control.tf``. The MIL-F-8785C filters are
+discretised with ``control.sample_system(..., "zoh")`` (cached per parameter set; the
+closed-form zero-order hold is the tests' oracle); the cited series are simulated with
+``control.forced_response``, as the cited code's ``scipy.signal.lsim`` does.
 """
 
 from __future__ import annotations
@@ -20,23 +22,45 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 from functools import cached_property, lru_cache
+from typing import ClassVar
 
 import numpy as np
 
-from ..core.checks import check_array, check_scalar
+from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from .wind import WindModel
 
 FEET = 0.3048  # [m] per foot
+#: [ft] per metre as the cited code converts (``* 3.28084``).
+FEET_PER_METRE = 3.28084
 #: Dryden variants: the standard, and the implementation the paper cites.
 VARIANTS = ("mil-f-8785c", "cited")
+#: Largest W20 or airspeed accepted [m/s] (beyond any wind on Earth; keeps the filters finite).
+W20_MAX = 1000.0
+#: Smallest W20 accepted [m/s] (below it the filters' time constants overflow).
+W20_MIN = 1e-3
 
-__all__ = ["FEET", "VARIANTS", "CitedDryden", "DrydenWind", "dryden_parameters",
-           "dryden_transfer_functions", "dryden_psd", "cited_dryden_parameters",
-           "cited_transfer_functions", "cited_gusts"]
+__all__ = ["FEET", "VARIANTS", "MilDryden", "CitedDryden", "DrydenWind", "dryden_gain",
+           "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
+           "cited_dryden_parameters", "cited_transfer_functions", "cited_gusts"]
+
+
+def dryden_gain(sigma, L, V, axis):
+    """Gain of the Dryden filter of ``axis`` from unit white noise: ``sigma sqrt(2 L/(pi V))``
+    for ``"u"`` (first order), ``sigma sqrt(L/(pi V))`` for ``"v"`` and ``"w"`` (second
+    order); ``sigma`` [speed], ``L`` [length] and ``V`` [speed] in any one unit system.
+
+    >>> round(dryden_gain(2.0, 60.0, 12.0, "u"), 6)
+    3.568248
+    """
+    if axis == "u":
+        return sigma * math.sqrt(2 * L / (math.pi * V))
+    if axis in ("v", "w"):
+        return sigma * math.sqrt(L / (math.pi * V))
+    raise ValueError(f"axis must be 'u', 'v' or 'w', got {axis!r}")
 
 
 # --------------------------------------------------------------------------- #
-# Dryden turbulence
+# MIL-F-8785C
 # --------------------------------------------------------------------------- #
 def dryden_parameters(w20, altitude):
     """MIL-F-8785C low-altitude turbulence intensities and scale lengths.
@@ -90,14 +114,14 @@ def dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed
 
     V = float(airspeed)
     Tu = L_u / V
-    H_u = control.tf([sigma_u * math.sqrt(2 * L_u / (math.pi * V))], [Tu, 1.0])
+    H_u = control.tf([dryden_gain(sigma_u, L_u, V, "u")], [Tu, 1.0])
 
-    def second_order(sigma, L):
+    def second_order(sigma, L, axis):
         T = L / V
-        K = sigma * math.sqrt(L / (math.pi * V))
+        K = dryden_gain(sigma, L, V, axis)
         return control.tf([K * math.sqrt(3) * T, K], [T * T, 2 * T, 1.0])
 
-    return H_u, second_order(sigma_v, L_v), second_order(sigma_w, L_w)
+    return H_u, second_order(sigma_v, L_v, "v"), second_order(sigma_w, L_w, "w")
 
 
 def dryden_psd(omega, sigma, L, airspeed, axis):
@@ -114,33 +138,6 @@ def dryden_psd(omega, sigma, L, airspeed, axis):
         x2 = (LV * omega) ** 2
         return sigma ** 2 * LV / math.pi * (1 + 3 * x2) / (1 + x2) ** 2
     raise ValueError(f"axis must be 'u', 'v' or 'w', got {axis!r}")
-
-
-def _zoh_first_order(T, dt):
-    """Exact zero-order-hold discretisation of ``1/(1 + T s)``, vectorised over T.
-
-    ``H(z) = (1 - a) / (z - a)`` with ``a = exp(-dt/T)``; returns
-    ``num (n, 1), den (n, 2)`` (descending powers of z, ``den[:, 0] = 1``).
-    """
-    a = np.exp(-dt / T)
-    return (1 - a)[:, None], np.stack([np.ones_like(a), -a], axis=1)
-
-
-def _zoh_second_order(T, dt):
-    """Exact ZOH of ``(1 + sqrt(3) T s)/(1 + T s)^2`` = ``sqrt3/(1+Ts) + (1-sqrt3)/(1+Ts)^2``.
-
-    With states x1 = w/(1+Ts), x2 = w/(1+Ts)^2 the sampled system is
-    ``A = a [[1, 0], [h/T, 1]]``, ``B = [1 - a, 1 - a (1 + h/T)]``,
-    ``C = [sqrt3, 1 - sqrt3]`` (a = exp(-h/T)), whose transfer function
-    ``C (zI - A)^-1 B`` is returned as ``num (n, 2), den (n, 3)``.
-    """
-    ph = dt / T
-    a = np.exp(-ph)
-    b1, b2 = 1 - a, 1 - a * (1 + ph)
-    c1, c2 = math.sqrt(3), 1 - math.sqrt(3)
-    num = np.stack([c1 * b1 + c2 * b2, a * (c2 * ph * b1 - c1 * b1 - c2 * b2)], axis=1)
-    den = np.stack([np.ones_like(a), -2 * a, a * a], axis=1)
-    return num, den
 
 
 def _canonical(num, den):
@@ -172,13 +169,122 @@ def _stationary_covariance(A, B, q):
     return 0.5 * (P + P.transpose(0, 2, 1))
 
 
+@lru_cache(maxsize=4096)
+def _zoh_filters(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed, dt):
+    """ZOH filters ``((num, den) for u, v, w)`` built with ``control.tf`` and
+    ``control.sample_system``, normalised (``den[0] = 1``); cached per parameter set."""
+    import control
+
+    out = []
+    for H in dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed):
+        Hd = control.sample_system(H, dt, "zoh")
+        num, den = np.ravel(Hd.num[0][0]), np.ravel(Hd.den[0][0])
+        num, den = num / den[0], den / den[0]
+        k = len(den) - 1
+        num = np.concatenate([np.zeros(k - len(num)), num])[-k:]
+        num.setflags(write=False)
+        den.setflags(write=False)
+        out.append((num, den))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class MilDryden:
+    """MIL-F-8785C low-altitude turbulence (replication notes, decision 4), the default model.
+
+    Each axis is white noise of standard deviation ``sqrt(pi/dt)`` shaped by the Dryden
+    filter of eqs 10-12 (x = longitudinal u, y = lateral v, z = vertical w) with the
+    intensities and scale lengths of :func:`dryden_parameters`, discretised with a
+    zero-order hold at ``dt``; every filter starts in a state drawn from its stationary
+    distribution, so the gusts are stationary from t = 0 and have variance sigma^2.
+    """
+
+    name: ClassVar[str] = "mil-f-8785c"
+
+    def gusts(self, w20, altitude, airspeed, dt, children) -> "_FilteredGusts":
+        """The gust source of ``len(w20)`` environments (see :class:`DrydenWind`)."""
+        return _FilteredGusts(w20, altitude, airspeed, dt, children)
+
+
+class _FilteredGusts:
+    """MIL-F-8785C gusts of ``n_env`` environments, generated lazily in blocks, always the
+    same numbers for the same seeds (environment ``i`` draws from ``children[i]``)."""
+
+    _BLOCK = 128  # samples generated per extension
+
+    def __init__(self, w20, altitude, airspeed, dt, children):
+        self.n_env = w20.shape[0]
+        self.airspeed, self.dt = airspeed, dt
+        p = dryden_parameters(w20, altitude)
+        self.parameters = {k: np.broadcast_to(v, (self.n_env,)).copy() for k, v in p.items()}
+        self.sigmas = np.stack([p["sigma_u"], p["sigma_v"], p["sigma_w"]], axis=1)
+        self.noise_std = math.sqrt(math.pi / dt)
+        tfs = self._control_filters(p)
+        self.transfer_functions = tfs  # axis -> (num (n, k), den (n, k+1)), discrete, in z
+        self.filters = {ax: _canonical(num, den) for ax, (num, den) in tfs.items()}
+        self._rngs = [np.random.Generator(np.random.PCG64(c)) for c in children]
+        self._init_states()
+        self._history = np.empty((self.n_env, 0, 3))
+
+    def _control_filters(self, p):
+        out = {ax: ([], []) for ax in "uvw"}
+        for i in range(self.n_env):
+            filters = _zoh_filters(float(p["sigma_u"][i]), float(p["sigma_v"][i]),
+                                   float(p["sigma_w"][i]), float(p["L_u"]), float(p["L_v"]),
+                                   float(p["L_w"]), float(self.airspeed[i]), self.dt)
+            for ax, (num, den) in zip("uvw", filters):
+                out[ax][0].append(num)
+                out[ax][1].append(den)
+        return {ax: (np.array(nums), np.array(dens)) for ax, (nums, dens) in out.items()}
+
+    def _init_states(self):
+        q = self.noise_std ** 2
+        z = np.array([rng.standard_normal(5) for rng in self._rngs])  # (n_env, 5)
+        self._states = {}
+        col = 0
+        for ax in "uvw":
+            A, B, _ = self.filters[ax]
+            k = A.shape[1]
+            P = _stationary_covariance(A, B, q)
+            L = np.linalg.cholesky(P + 1e-300 * np.eye(k))
+            self._states[ax] = np.einsum("nij,nj->ni", L, z[:, col:col + k])
+            col += k
+
+    def _extend(self, n_needed):
+        """Generate gust samples until the history holds ``n_needed`` of them."""
+        blocks = []
+        have = self._history.shape[1]
+        while have < n_needed:
+            m = self._BLOCK
+            w = self.noise_std * np.array([rng.standard_normal((m, 3)) for rng in self._rngs])
+            out = np.empty((self.n_env, m, 3))
+            for j, ax in enumerate("uvw"):
+                A, B, C = self.filters[ax]
+                x = self._states[ax]
+                for k in range(m):
+                    out[:, k, j] = np.einsum("ni,ni->n", C, x)
+                    x = np.einsum("nij,nj->ni", A, x) + B * w[:, k, j:j + 1]
+                self._states[ax] = x
+            blocks.append(out)
+            have += m
+        if blocks:
+            self._history = np.concatenate([self._history, *blocks], axis=1)
+
+    def first(self, n_samples):
+        self._extend(n_samples)
+        return self._history[:, :n_samples]
+
+    def at(self, t):
+        """The sample of the step containing ``t`` (sample and hold)."""
+        k = int(math.floor(t / self.dt + 1e-9))
+        if k >= self._history.shape[1]:
+            self._extend(k + 1)
+        return self._history[:, k]
+
+
 # --------------------------------------------------------------------------- #
 # the cited implementation (Abichandani et al.)
 # --------------------------------------------------------------------------- #
-#: [ft] per metre as the cited code converts (``* 3.28084``).
-FEET_PER_METRE = 3.28084
-
-
 @dataclass(frozen=True)
 class CitedDryden:
     """How the Dryden implementation the paper cites computes gusts, quirk by quirk.
@@ -264,11 +370,15 @@ class CitedDryden:
         """Index rate of the gust series [samples/s] (``grid_samples / grid_duration``)."""
         return self.grid_samples / self.grid_duration
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         return asdict(self)
 
+    def gusts(self, w20, altitude, airspeed, dt, children) -> "_CitedGusts":
+        """The gust source of ``len(w20)`` environments (see :class:`DrydenWind`)."""
+        return _CitedGusts(self, w20, altitude, airspeed, children)
 
-def cited_dryden_parameters(level, altitude, airspeed, options=CitedDryden()):
+
+def cited_dryden_parameters(level, altitude, airspeed, options=None) -> dict:
     """Intensities and scale lengths exactly as the cited code computes them.
 
     Parameters
@@ -291,6 +401,7 @@ def cited_dryden_parameters(level, altitude, airspeed, options=CitedDryden()):
     >>> round(p["sigma_w"], 3), round(p["L_w"], 2)
     (1.5, 32.81)
     """
+    options = CitedDryden() if options is None else options
     h = float(altitude) * FEET_PER_METRE
     V = float(airspeed) * FEET_PER_METRE
     sigma_w = 0.1 * float(level)
@@ -300,7 +411,7 @@ def cited_dryden_parameters(level, altitude, airspeed, options=CitedDryden()):
             "L_u": L_u, "L_v": L_u, "L_w": h, "h": h, "V": V}
 
 
-def cited_transfer_functions(level, altitude, airspeed, options=CitedDryden()):
+def cited_transfer_functions(level, altitude, airspeed, options=None):
     """The cited code's three filters as ``control.TransferFunction`` (ft/s in and out).
 
     ``H_u = sigma_u sqrt(2 L_u/(pi V)) V / (L_u s + V)``;
@@ -311,15 +422,14 @@ def cited_transfer_functions(level, altitude, airspeed, options=CitedDryden()):
 
     p = cited_dryden_parameters(level, altitude, airspeed, options)
     V = p["V"]
-    H_u = control.tf([p["sigma_u"] * math.sqrt(2 * p["L_u"] / (math.pi * V)) * V],
-                     [p["L_u"], V])
+    H_u = control.tf([dryden_gain(p["sigma_u"], p["L_u"], V, "u") * V], [p["L_u"], V])
 
-    def second_order(sigma, L):
-        b = sigma * math.sqrt(L / (math.pi * V))
+    def second_order(sigma, L, axis):
+        b = dryden_gain(sigma, L, V, axis)
         T = L / V
         return control.tf([math.sqrt(3) * T * b, b], [T * T, 2 * T, 1.0])
 
-    return H_u, second_order(p["sigma_v"], p["L_v"]), second_order(p["sigma_w"], p["L_w"])
+    return H_u, second_order(p["sigma_v"], p["L_v"], "v"), second_order(p["sigma_w"], p["L_w"], "w")
 
 
 @lru_cache(maxsize=512)
@@ -341,61 +451,66 @@ def _cited_series(level, altitude, airspeed, options, seeds):
     return out
 
 
-def cited_gusts(level, altitude, airspeed, options=CitedDryden(), seeds=None):
+def cited_gusts(level, altitude, airspeed, options=None, seeds=None) -> np.ndarray:
     """One gust series of the cited code, shape (grid_samples, 3) [m/s] (u, v, w).
 
     Built with ``control.tf`` and simulated with ``control.forced_response`` on the
     code's time grid (the same as its ``scipy.signal.lsim`` call, tested); cached
     per parameter set, so a loop that asks again pays nothing.
     """
+    options = CitedDryden() if options is None else options
     seeds = options.seeds if seeds is None else tuple(int(s) for s in seeds)
     if seeds is None:
         raise ValueError("seeds must be given when options.seeds is None")
     return _cited_series(float(level), float(altitude), float(airspeed), options, seeds)
 
 
-#: Largest W20 or airspeed accepted [m/s] (beyond any wind on Earth; keeps the filters finite).
-W20_MAX = 1000.0
-#: Smallest W20 accepted [m/s] (below it the filters' time constants overflow).
-W20_MIN = 1e-3
+class _CitedGusts:
+    """The cited code's gust series of ``n_env`` environments, looked up as its packaged
+    derivative does (``int(t * rate) % grid_samples``), with its optional mean wind."""
+
+    def __init__(self, options, w20, altitude, airspeed, children):
+        o = self.options = options
+        n_env = w20.shape[0]
+        levels = w20 if o.turbulence_level is None else np.full(n_env, o.turbulence_level)
+        if o.seeds is None:  # the derivative: one seed s per environment, s, s+1, s+2 per axis
+            base = [int(c.generate_state(1)[0] % 10 ** 8) for c in children]
+            seeds = [(b, b + 1, b + 2) for b in base]
+        else:
+            seeds = [o.seeds] * n_env
+        self._series = np.stack([cited_gusts(lv, altitude, V, o, sd)
+                                 for lv, V, sd in zip(levels, airspeed, seeds)])
+        self._mean = (np.zeros((n_env, 3)) if o.base_direction is None else
+                      w20[:, None] * (np.array(o.base_direction)
+                                      / np.linalg.norm(o.base_direction)))
+        rows = [cited_dryden_parameters(lv, altitude, V, o) for lv, V in zip(levels, airspeed)]
+        self.parameters = {k: np.array([r[k] for r in rows]) for k in rows[0]}
+        # the filters' nominal output; the noise fed to them is not unit-variance (notes)
+        self.sigmas = np.stack([self.parameters[f"sigma_{ax}"] for ax in "uvw"],
+                               axis=1) * o.output_scale
+
+    def at(self, t):
+        o = self.options
+        return self._mean + self._series[:, int(t * o.rate + 1e-9) % o.grid_samples]
+
+    def first(self, n_samples, dt):
+        return np.stack([self.at(k * dt) for k in range(n_samples)], axis=1)
 
 
-@lru_cache(maxsize=4096)
-def _zoh_filters(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed, dt):
-    """ZOH filters ``((num, den) for u, v, w)`` built with ``control.tf`` and
-    ``control.sample_system``, normalised (``den[0] = 1``); cached per parameter set."""
-    import control
-
-    out = []
-    for H in dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed):
-        Hd = control.sample_system(H, dt, "zoh")
-        num, den = np.ravel(Hd.num[0][0]), np.ravel(Hd.den[0][0])
-        num, den = num / den[0], den / den[0]
-        k = len(den) - 1
-        num = np.concatenate([np.zeros(k - len(num)), num])[-k:]
-        num.setflags(write=False)
-        den.setflags(write=False)
-        out.append((num, den))
-    return tuple(out)
-
-
+# --------------------------------------------------------------------------- #
+# the wind
+# --------------------------------------------------------------------------- #
 class DrydenWind(WindModel):
     """Dryden turbulence, one gust history per environment.
 
-    ``variant="mil-f-8785c"`` (default, replication notes, decision 4): each axis is white
-    noise of standard deviation ``sqrt(pi/dt)`` shaped by the Dryden filter of
-    eqs 10-12 (x = longitudinal u, y = lateral v, z = vertical w) with the
-    MIL-F-8785C intensities and scale lengths of :func:`dryden_parameters`,
-    discretised with a zero-order hold at ``dt``. Every filter starts in a state
-    drawn from its stationary distribution, so the gusts are stationary from
-    t = 0. Intensities and scale lengths are frozen at ``altitude``; the gusts are
-    zero-mean and do not depend on the UAV position. The gust at time ``t`` is the
-    sample of the step containing ``t`` (sample and hold); the history is
-    generated lazily and extended as needed, always drawing the same numbers for
-    the same seed.
+    ``variant="mil-f-8785c"`` (default): :class:`MilDryden`. Intensities and scale lengths
+    are frozen at ``altitude``; the gusts are zero-mean and do not depend on the UAV
+    position. The gust at time ``t`` is the sample of the step containing ``t`` (sample
+    and hold); the history is generated lazily and extended as needed, always drawing the
+    same numbers for the same seed.
 
-    ``variant="cited"``: the implementation the paper cites, as it computes the
-    gusts (see :class:`CitedDryden` for each of its quirks and :func:`cited_gusts`).
+    ``variant="cited"``: the implementation the paper cites, as it computes the gusts
+    (:class:`CitedDryden` for each of its quirks, and :func:`cited_gusts`).
 
     Parameters
     ----------
@@ -405,7 +520,7 @@ class DrydenWind(WindModel):
         Height at which the turbulence parameters are evaluated [m], > 0.
         Default 10 m (the start altitude).
     airspeed : array_like, shape (n_env,) or float, optional
-        Airspeed V used by the filters [m/s], > 0. Default: ``w20``.
+        Airspeed V used by the filters [m/s], in [0.001, 1000]. Default: ``w20``.
     dt : float
         Sample time of the gust history [s], in [1e-4, 10]. Default 0.1 s
         (``"mil-f-8785c"`` only; the cited variant keeps its own grid).
@@ -413,15 +528,21 @@ class DrydenWind(WindModel):
         Root of the randomness; environment ``i`` draws from the ``i``-th child
         of ``SeedSequence(seed)``, so adding environments never changes the
         gusts of the existing ones. The cited variant with fixed ``seeds`` ignores it.
-    discretisation : {"control", "exact"}
-        ``"control"`` (default) builds every filter with ``control.tf`` and
-        discretises it with ``control.sample_system(..., "zoh")``, cached per
-        parameter set so a loop pays nothing; ``"exact"`` uses the closed-form
-        zero-order-hold matrices, vectorised over environments (the test oracle;
-        both agree to 1e-12).
     variant : {"mil-f-8785c", "cited"}
     cited : CitedDryden, optional
         The cited variant's options (default: the code as published).
+
+    Attributes
+    ----------
+    model : MilDryden or CitedDryden
+        The model the gusts come from.
+    parameters : dict of ndarray, shape (n_env,)
+        The model's intensities and scale lengths per environment: ``sigma_u``,
+        ``sigma_v``, ``sigma_w``, ``L_u``, ``L_v``, ``L_w`` [m/s, m] (the cited model: in
+        its own units, ft/s and ft, with ``h`` [ft] and ``V`` [ft/s] too).
+    sigmas : ndarray, shape (n_env, 3)
+        Filter intensities [m/s] (u, v, w): MIL-F-8785C, or for the cited variant its
+        sigmas times ``output_scale`` (its filters' nominal output).
 
     Examples
     --------
@@ -433,22 +554,20 @@ class DrydenWind(WindModel):
     True
     """
 
-    _BLOCK = 128  # samples generated per extension
-
     def __init__(self, w20, altitude=10.0, airspeed=None, dt=0.1, seed=None,
-                 discretisation="control", variant="mil-f-8785c", cited=None):
+                 variant="mil-f-8785c", cited=None):
         w20 = check_array(w20, "w20", ndim=1)
         if w20.size == 0:
             raise ValueError("w20 must describe at least one environment, got an empty array")
         if np.any(w20 < W20_MIN) or np.any(w20 > W20_MAX):
             raise ValueError(f"w20 must be in [{W20_MIN:g}, {W20_MAX:g}] m/s for every "
                              f"environment, got min {w20.min():g}, max {w20.max():g}")
-        if variant not in VARIANTS:
-            raise ValueError(f"variant must be one of {list(VARIANTS)}, got {variant!r}")
-        if cited is not None and not isinstance(cited, CitedDryden):
-            raise TypeError(f"cited must be a CitedDryden, got {type(cited).__name__}")
+        check_choice(variant, "variant", VARIANTS)
+        if cited is not None:
+            check_instance(cited, "cited", CitedDryden)
         self.variant = variant
-        self.cited = (cited or CitedDryden()) if variant == "cited" else None
+        self.model = MilDryden() if variant == "mil-f-8785c" else (cited or CitedDryden())
+        self.cited = self.model if variant == "cited" else None
         self.w20 = w20
         self.n_env = w20.shape[0]
         self.altitude = check_scalar(altitude, "altitude", low=0, low_inclusive=False)
@@ -466,133 +585,47 @@ class DrydenWind(WindModel):
                                  f"got min {V.min():g}, max {V.max():g}")
         self.airspeed = V
         self.dt = check_scalar(dt, "dt", low=1e-4, high=10.0)
-        if discretisation not in ("exact", "control"):
-            raise ValueError(f"discretisation must be 'exact' or 'control', got {discretisation!r}")
-        self.discretisation = discretisation
         if seed is not None and not isinstance(seed, (int, np.integer, np.random.SeedSequence)):
             raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, "
                             f"got {type(seed).__name__}")
         self.seed = seed
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        children = ss.spawn(self.n_env)
-        if variant == "cited":
-            self._init_cited(children)
-            return
-        self.parameters = dryden_parameters(w20, self.altitude)
-        self._build_filters()
-        self._rngs = [np.random.Generator(np.random.PCG64(c)) for c in children]
-        self._init_states()
-        self._history = np.empty((self.n_env, 0, 3))
+        self._gusts = self.model.gusts(w20, self.altitude, V, self.dt, ss.spawn(self.n_env))
 
-    def _init_cited(self, children):
-        o = self.cited
-        levels = self.w20 if o.turbulence_level is None else np.full(self.n_env, o.turbulence_level)
-        if o.seeds is None:  # the derivative: one seed s per environment, s, s+1, s+2 per axis
-            base = [int(c.generate_state(1)[0] % 10 ** 8) for c in children]
-            seeds = [(b, b + 1, b + 2) for b in base]
-        else:
-            seeds = [o.seeds] * self.n_env
-        self._series = np.stack([cited_gusts(lv, self.altitude, V, o, sd)
-                                 for lv, V, sd in zip(levels, self.airspeed, seeds)])
-        self._mean = (np.zeros((self.n_env, 3)) if o.base_direction is None else
-                      self.w20[:, None] * (np.array(o.base_direction)
-                                           / np.linalg.norm(o.base_direction)))
-        self.parameters = [cited_dryden_parameters(lv, self.altitude, V, o)
-                           for lv, V in zip(levels, self.airspeed)]
+    @property
+    def parameters(self) -> dict:
+        return self._gusts.parameters
 
-    # -- filters ------------------------------------------------------------ #
-    def _build_filters(self):
-        p, V, dt = self.parameters, self.airspeed, self.dt
-        self.noise_std = math.sqrt(math.pi / dt)
-        T = {ax: p[f"L_{ax}"] / V for ax in "uvw"}
-        gain = {
-            "u": p["sigma_u"] * np.sqrt(2 * p["L_u"] / (math.pi * V)),
-            "v": p["sigma_v"] * np.sqrt(p["L_v"] / (math.pi * V)),
-            "w": p["sigma_w"] * np.sqrt(p["L_w"] / (math.pi * V)),
-        }
-        if self.discretisation == "exact":
-            tfs = {"u": _zoh_first_order(T["u"], dt), "v": _zoh_second_order(T["v"], dt),
-                   "w": _zoh_second_order(T["w"], dt)}
-            tfs = {ax: (num * gain[ax][:, None], den) for ax, (num, den) in tfs.items()}
-        else:
-            tfs = self._control_filters()
-        filters = {ax: _canonical(num, den) for ax, (num, den) in tfs.items()}
-        self.transfer_functions = tfs  # axis -> (num (n, k), den (n, k+1)), discrete, in z
-        self.filters = filters  # axis -> (A (n,k,k), B (n,k), C (n,k))
+    @cached_property
+    def sigmas(self) -> np.ndarray:
+        return self._gusts.sigmas
 
-    def _control_filters(self):
-        p = self.parameters
-        out = {ax: ([], []) for ax in "uvw"}
-        for i in range(self.n_env):
-            filters = _zoh_filters(float(p["sigma_u"][i]), float(p["sigma_v"][i]),
-                                   float(p["sigma_w"][i]), float(p["L_u"]), float(p["L_v"]),
-                                   float(p["L_w"]), float(self.airspeed[i]), self.dt)
-            for ax, (num, den) in zip("uvw", filters):
-                out[ax][0].append(num)
-                out[ax][1].append(den)
-        return {ax: (np.array(nums), np.array(dens)) for ax, (nums, dens) in out.items()}
+    @property
+    def filters(self) -> dict:
+        """MIL-F-8785C: axis -> ``(A (n,k,k), B (n,k), C (n,k))``, the discrete filters."""
+        return self._mil("filters")
 
-    def _init_states(self):
-        q = self.noise_std ** 2
-        z = np.array([rng.standard_normal(5) for rng in self._rngs])  # (n_env, 5)
-        self._states = {}
-        col = 0
-        for ax in "uvw":
-            A, B, _ = self.filters[ax]
-            k = A.shape[1]
-            P = _stationary_covariance(A, B, q)
-            L = np.linalg.cholesky(P + 1e-300 * np.eye(k))
-            self._states[ax] = np.einsum("nij,nj->ni", L, z[:, col:col + k])
-            col += k
+    @property
+    def transfer_functions(self) -> dict:
+        """MIL-F-8785C: axis -> ``(num (n, k), den (n, k+1))``, discrete, in z."""
+        return self._mil("transfer_functions")
 
-    def _extend(self, n_needed):
-        """Generate gust samples until the history holds ``n_needed`` of them."""
-        blocks = []
-        have = self._history.shape[1]
-        while have < n_needed:
-            m = self._BLOCK
-            w = self.noise_std * np.array([rng.standard_normal((m, 3)) for rng in self._rngs])
-            out = np.empty((self.n_env, m, 3))
-            for j, ax in enumerate("uvw"):
-                A, B, C = self.filters[ax]
-                x = self._states[ax]
-                for k in range(m):
-                    out[:, k, j] = np.einsum("ni,ni->n", C, x)
-                    x = np.einsum("nij,nj->ni", A, x) + B * w[:, k, j:j + 1]
-                self._states[ax] = x
-            blocks.append(out)
-            have += m
-        if blocks:
-            self._history = np.concatenate([self._history, *blocks], axis=1)
+    def _mil(self, name):
+        if self.variant != "mil-f-8785c":
+            raise AttributeError(f"{name} belong to the 'mil-f-8785c' variant; this wind is "
+                                 f"{self.variant!r}")
+        return getattr(self._gusts, name)
 
-    def gusts(self, n_samples):
+    def gusts(self, n_samples) -> np.ndarray:
         """The first ``n_samples`` gust samples, shape (n_env, n_samples, 3) [m/s]
         (for the cited variant: its mean wind included, at times ``k * dt``)."""
         n_samples = check_scalar(n_samples, "n_samples", low=0, high=10 ** 8, integer=True)
         if self.variant == "cited":
-            return np.stack([self._velocity(k * self.dt, None) for k in range(n_samples)], axis=1)
-        self._extend(n_samples)
-        return self._history[:, :n_samples]
+            return self._gusts.first(n_samples, self.dt)
+        return self._gusts.first(n_samples)
 
     def _velocity(self, t, positions):
-        if self.variant == "cited":
-            o = self.cited
-            return self._mean + self._series[:, int(t * o.rate + 1e-9) % o.grid_samples]
-        k = int(math.floor(t / self.dt + 1e-9))
-        if k >= self._history.shape[1]:
-            self._extend(k + 1)
-        return self._history[:, k]
-
-    @cached_property
-    def sigmas(self):
-        """Filter intensities, shape (n_env, 3) [m/s] (u, v, w): MIL-F-8785C, or for the
-        cited variant its sigmas times ``output_scale`` (its filters' nominal
-        output; the noise it feeds them is not unit-variance, see the replication notes)."""
-        p = self.parameters
-        if self.variant == "cited":
-            return np.array([[q["sigma_u"], q["sigma_v"], q["sigma_w"]] for q in p]) \
-                * self.cited.output_scale
-        return np.stack([p["sigma_u"], p["sigma_v"], p["sigma_w"]], axis=1)
+        return self._gusts.at(t)
 
     def __repr__(self):
         return (f"DrydenWind(n_env={self.n_env}, variant={self.variant!r}, "
