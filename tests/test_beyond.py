@@ -132,6 +132,22 @@ def test_breaking_level_reads_the_first_level_below_one_half():
     assert lv["correct_rate_at_first_broken"] == pytest.approx(0.2)
 
 
+def test_breaking_sentences_and_rows_at_a_noise_level():
+    rows = [{"scenario": s, "noise_sigma": sig, "noise_bias": 0.0, "loop": i,
+             "score": 80.0 if ok else 0.0, "correct": ok}
+            for s, rates in (("s", ((0.0, 1.0), (1.0, 0.6), (2.0, 0.2))),
+                             ("t", ((0.0, 1.0), (1.0, 0.9), (2.0, 0.8))))
+            for sig, rate in rates for i, ok in enumerate(np.arange(10) < 10 * rate)]
+    df = pd.DataFrame(rows)
+    text = beyond.breaking_sentences(beyond.breaking_level(df))
+    assert text["s"] == "drops below half between 1 m (60% correct) and 2 m (20%)"
+    assert text["t"].startswith("still groups 80%") and "2 m, the largest" in text["t"]
+    table = beyond.noise_table(df)
+    assert list(beyond.at_noise(table, sigma=1.0).index) == ["s", "t"]
+    with pytest.raises(ValueError, match="noise_sigma = 3"):
+        beyond.at_noise(table, sigma=3.0)
+
+
 @pytest.mark.parametrize("call, match", [
     (lambda: Noise(position=-0.1), "position"),
     (lambda: Noise(bias_time=0.0), "bias_time"),

@@ -1,5 +1,6 @@
 """Layouts, readings, the cited Dryden variant and the inference of the paper's setup."""
 import numpy as np
+import pandas as pd
 import pytest
 import scipy.signal as sg
 from sklearn.metrics import silhouette_score
@@ -128,6 +129,47 @@ def test_fit_layouts_recovers_a_ratio_from_simulated_loops(tmp_path, monkeypatch
     fit = inf.fit_layouts(df, n_boot=50)
     assert fit.loc[1, "ratio"] == pytest.approx(8.0)
     assert fit.loc[1, "ci_low"] <= 8.0 <= fit.loc[1, "ci_high"]
+
+
+def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
+    """INFERRED_GAP_RATIOS checked against their fit here, not only in the paper build:
+    20 loops of the light pairs, on the three grid ratios around each constant (the same
+    loops as the paper profile's fit: the first 20 of the experiment's seed)."""
+    fit = registry.EXPERIMENTS["fit_layout"]
+    cases = fit.cases()
+    around = {1: (8.0, 11.0, 15.0), 4: (4.0, 6.0, 8.0)}
+    chosen = [i for i, c in enumerate(cases)
+              if c.labels["gap_ratio"] in around.get(c.labels["scenario_id"], ())]
+    df = ex.run_experiment("fit_layout", profile={**TINY, "fit_loops": 20}, results=tmp_path,
+                           n_jobs=2, progress=False, cases=chosen)
+    fits = inf.check_fits(inf.fit_layouts(df))
+    assert list(fits.index) == [1, 4] and fits["in_ci"].all()
+    # and the check bites: a constant far from its fit is refused, naming the scenario
+    bad = fits.assign(in_use=[99.0, 5.7], in_ci=[False, True])
+    with pytest.raises(ValueError, match="scenario 1"):
+        inf.check_fits(bad)
+
+
+def test_the_inferred_turbulence_is_the_closest_candidate(tmp_path):
+    df = ex.run_experiment("fit_turbulence", profile=TINY, results=tmp_path, n_jobs=2,
+                           progress=False)
+    turb = inf.compare_turbulence(df)
+    used = inf.check_turbulence(turb)
+    assert turb.loc[used, "in_use"] and "base wind" in used
+    far = turb.index[-1]  # the furthest candidate (MIL-F-8785C's zero-mean gusts) is refused
+    with pytest.raises(ValueError, match="closest candidate"):
+        inf.check_turbulence(turb.assign(in_use=turb.index == far))
+
+
+def test_miss_reasons_tell_the_clustering_from_the_geometry():
+    idx = pd.MultiIndex.from_tuples([("Table 6", "a"), ("Table 6", "b"), ("Table 5", "c")],
+                                    names=["table", "row"])
+    oos = pd.DataFrame({"difference": [-40.0, 5.0, 1.0], "correct_rate": [0.2, 0.9, 1.0],
+                        "geometry_alone": [55.0, 80.0, 90.0]}, index=idx)
+    m = inf.miss_reasons(oos)
+    assert list(m.index.get_level_values("row")) == ["a", "b"]  # within CLOSE points: no miss
+    assert m["why"].iloc[0].startswith("the clustering") and "20%" in m["why"].iloc[0]
+    assert m["why"].iloc[1].startswith("a residual of the layout")
 
 
 def test_constant_layout_silhouette_is_scale_invariant():

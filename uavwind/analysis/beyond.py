@@ -16,12 +16,13 @@ loops), the one summary and confidence-interval function of the project.
 
 from __future__ import annotations
 
+import numpy as np
 import pandas as pd
 
 from ..core.stats import bootstrap_ci, summarise
 
-__all__ = ["noise_table", "breaking_level", "observation_table", "best_observation",
-           "baseline_table"]
+__all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
+           "observation_table", "best_observation", "baseline_table"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -62,6 +63,34 @@ def breaking_level(df, threshold=0.5):
                      "correct_rate_at_first_broken": float(below["correct_rate"].iloc[0])
                      if len(below) else float("nan")})
     return pd.DataFrame(rows).set_index("scenario")
+
+
+def breaking_sentences(levels: pd.DataFrame) -> dict:
+    """Per scenario of ``levels`` (:func:`breaking_level`), where correct grouping breaks, in
+    words: between which noise levels it drops below the threshold, or that it still holds at
+    the largest level run."""
+    out = {}
+    for scen, row in levels.iterrows():
+        if np.isnan(row["first_broken"]):
+            out[scen] = (f"still groups {100 * row['correct_rate_at_last_ok']:.0f}% of the loops "
+                         f"correctly at {row['last_ok']:g} m, the largest level run")
+        else:
+            out[scen] = (f"drops below half between {row['last_ok']:g} m "
+                         f"({100 * row['correct_rate_at_last_ok']:.0f}% correct) and "
+                         f"{row['first_broken']:g} m "
+                         f"({100 * row['correct_rate_at_first_broken']:.0f}%)")
+    return out
+
+
+def at_noise(table: pd.DataFrame, sigma: float = 0.0, bias: float = 0.0) -> pd.DataFrame:
+    """The rows of a noise table (:func:`noise_table`, :func:`baseline_table`) at white noise
+    ``sigma`` [m] and bias ``bias`` [m], indexed by scenario; ``ValueError`` if none."""
+    rows = table[(table["noise_sigma"] == sigma) & (table["noise_bias"] == bias)]
+    if not len(rows):
+        raise ValueError(f"no rows at noise_sigma = {sigma:g} m, noise_bias = {bias:g} m; the "
+                         f"table has sigma {sorted(set(table['noise_sigma']))}, bias "
+                         f"{sorted(set(table['noise_bias']))}")
+    return rows.set_index("scenario")
 
 
 def observation_table(df):

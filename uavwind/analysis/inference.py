@@ -42,9 +42,9 @@ from ..study.readings import INFERRED_TURBULENCE, TURBULENCE_CANDIDATES
 from ..study.registry import EXPERIMENTS
 from .tables import comparison_table
 
-__all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "silhouette_curves",
-           "compare_turbulence", "out_of_sample", "scale_invariance", "scaled_setting",
-           "line_silhouette"]
+__all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "check_fits", "score_matrix",
+           "silhouette_curves", "compare_turbulence", "check_turbulence", "out_of_sample",
+           "miss_reasons", "CLOSE", "scale_invariance", "scaled_setting", "line_silhouette"]
 
 
 def _paper_table4():
@@ -101,7 +101,10 @@ def silhouette_curves(fit_results):
                          "n_loops": g.size()}).reset_index()
 
 
-def _score_matrix(sub):
+def score_matrix(sub: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """``(ratios, scores)`` of one scenario's fit results: the gap ratios in increasing
+    order, shape (n_ratio,), and the score of every loop at every ratio, shape
+    (n_ratio, n_loops) (the input of :func:`fit_ratio`)."""
     wide = sub.pivot_table(index="gap_ratio", columns="loop", values="score")
     return wide.index.to_numpy(dtype=float), wide.to_numpy()
 
@@ -123,10 +126,10 @@ def fit_layouts(fit_results, n_boot=N_BOOT, seed=SEED):
         ``n_loops``.
     """
     paper = _paper_table4()
-    rng = np.random.default_rng(seed)
     rows = []
     for k, sub in fit_results.groupby("scenario_id", sort=True):
-        ratios, sc = _score_matrix(sub)
+        rng = np.random.default_rng([seed, int(k)])  # one stream per scenario
+        ratios, sc = score_matrix(sub)
         target = float(paper.loc[k, "mean"])
         est = fit_ratio(ratios, sc, target)
         boots = [fit_ratio(ratios, sc[:, rng.integers(0, sc.shape[1], sc.shape[1])], target)
@@ -141,6 +144,20 @@ def fit_layouts(fit_results, n_boot=N_BOOT, seed=SEED):
                      "in_use": in_use, "in_ci": bool(lo <= in_use <= hi),
                      "n_loops": sc.shape[1]})
     return pd.DataFrame(rows).set_index("scenario_id")
+
+
+def check_fits(fits: pd.DataFrame) -> pd.DataFrame:
+    """``fits`` (:func:`fit_layouts`) if every gap ratio in use lies inside its refit's 95%
+    interval, else a ``ValueError`` naming the scenarios whose constant left it: the
+    inferred reading's constants (:data:`~uavwind.study.layouts.INFERRED_GAP_RATIOS`) must
+    agree with the fit they came from."""
+    bad = fits[~fits["in_ci"]]
+    if len(bad):
+        rows = "; ".join(f"scenario {k} ({r['scenario']}): in use {r['in_use']:g}, refit "
+                         f"{r['ratio']:.3g} [{r['ci_low']:.3g}, {r['ci_high']:.3g}]"
+                         for k, r in bad.iterrows())
+        raise ValueError(f"INFERRED_GAP_RATIOS left their fit's 95% interval: {rows}")
+    return fits
 
 
 def compare_turbulence(turb_results):
@@ -163,6 +180,51 @@ def compare_turbulence(turb_results):
                      "in_use": TURBULENCE_CANDIDATES.get(name) == INFERRED_TURBULENCE,
                      "n_loops": s["n_loops"]})
     return pd.DataFrame(rows).sort_values("distance").set_index("candidate")
+
+
+def check_turbulence(turbulence: pd.DataFrame) -> str:
+    """The candidate the inferred reading uses (:data:`~uavwind.study.readings.INFERRED_TURBULENCE`),
+    if it is the closest of ``turbulence`` (:func:`compare_turbulence`) to Table 4 or
+    indistinguishable from the closest (its mean inside the closest candidate's 95%
+    interval); else a ``ValueError`` naming both."""
+    best = turbulence.index[0]
+    used = turbulence.index[turbulence["in_use"]]
+    if len(used) != 1:
+        raise ValueError(f"exactly one candidate must be in use, got {list(used)}")
+    u = turbulence.loc[used[0]]
+    b = turbulence.loc[best]
+    if used[0] != best and not b["ci_low"] <= u["mean"] <= b["ci_high"]:
+        raise ValueError(f"the inferred reading uses {used[0]!r} (mean {u['mean']:.2f}), but the "
+                         f"closest candidate to Table 4 is {best!r} (mean {b['mean']:.2f}, 95% "
+                         f"interval [{b['ci_low']:.2f}, {b['ci_high']:.2f}])")
+    return used[0]
+
+
+#: Out-of-sample rows within this many score points of the paper's mean count as close.
+CLOSE = 3.0
+
+
+def miss_reasons(oos: pd.DataFrame, close: float = CLOSE) -> pd.DataFrame:
+    """The rows of ``oos`` (:func:`out_of_sample`) further than ``close`` points from the
+    paper's mean, with ``why``: the rule that explains them. A row whose loops are mostly
+    grouped wrongly (``correct_rate`` < 0.5) is the clustering's doing, not the geometry's
+    (inside each group the environments spread wider than the gap between the groups, and
+    the k-means++ start falls into another partition); otherwise it is a residual of the
+    layout, and ``geometry_alone`` says how much the speeds as points on a line predict."""
+    misses = oos[(oos["difference"].abs() > close)].copy()
+    why = []
+    for _, m in misses.iterrows():
+        if m["correct_rate"] < 0.5:
+            why.append("the clustering, not the geometry: the layout's speeds as points on a "
+                       f"line score {m['geometry_alone']:.1f}, but soft-DTW k-means groups "
+                       f"{100 * m['correct_rate']:.0f}% of the loops correctly, because inside "
+                       "each group the environments now spread wider than the gap between the "
+                       "groups and the k-means++ start falls into another partition")
+        else:
+            why.append(f"a residual of the layout: geometry alone gives "
+                       f"{m['geometry_alone']:.1f}")
+    misses["why"] = why
+    return misses
 
 
 def out_of_sample(results):
