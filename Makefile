@@ -11,9 +11,9 @@ BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 RUN_FLAGS ?=# extra flags for `make results`, e.g. RUN_FLAGS="--times times.json"
 BOOK    ?= book
 GEN     := $(BOOK)/generated
-NOTEBOOKS := model exp1_wind_speed exp2_range_similarity exp3_environment_count \
-             exp4_thrust_changes exp5_wind_direction exp6_cem inference exp7_noise \
-             exp8_observation exp9_baseline claims performance explore
+# every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
+# registry has its notebook, and each notebook its line in book/_toc.yml)
+NOTEBOOKS := $(basename $(notdir $(wildcard notebooks/*.md)))
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py uavwind/*/*.py uavwind/*/*/*.py uavwind/study/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js

@@ -16,10 +16,11 @@ import numpy as np
 import pandas as pd
 
 from ..core.stats import bootstrap_ci, correct_share, paired_difference
+from ..study.registry import EXPERIMENTS
 from .beyond import breaking_level, noise_table
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
-           "LESSONS", "compare_readings"]
+           "LESSONS", "compare_readings", "needed_experiments"]
 
 def _fmt(ci):
     est, lo, hi = ci
@@ -263,6 +264,15 @@ LESSONS = {
           "correctly scores 0 everywhere and the elites are arbitrary; the raw-silhouette "
           "objective (exp6_raw) keeps ordering the draws.",
 }
+
+
+def needed_experiments() -> list[str]:
+    """The experiment ids the claims read (each claim says what it needs), in registry order."""
+    need = {e for needs, _ in CLAIMS.values() for e in needs}
+    unknown = need - set(EXPERIMENTS)
+    if unknown:  # pragma: no cover - a claim naming an experiment the registry lacks
+        raise ValueError(f"claims need unknown experiments {sorted(unknown)}")
+    return [e for e in EXPERIMENTS if e in need]
 
 
 def compare_readings(by_reading):

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from ..study.registry import column_names
+
 __all__ = ["PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
 
 #: Column name -> display name.
@@ -23,12 +25,11 @@ PRETTY = {
     "correct_high": "correct, CI high (%)", "n_loops": "loops",
     "paper_max": "paper maximum", "paper_mean": "paper mean", "elite_mean": "elite mean",
     "best_so_far": "best so far", "difference": "difference", "paper_in_ci": "paper in CI",
-    "geometry_alone": "geometry alone", "n_env": "environments",
-    "thrust_changes": "thrust changes", "noise_sigma": "noise sigma (m)",
-    "noise_bias": "noise bias (m)", "gap_ratio": "gap / spacing", "scenario_id": "scenario",
+    "geometry_alone": "geometry alone",
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
     "rmse_high": "RMSE CI high", "paper_mean_t4": "paper mean",
+    **column_names(),  # the experiments' label columns, as the registry names them
 }
 #: Columns holding shares in [0, 1], shown as percentages.
 SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate",

@@ -31,7 +31,8 @@ from .layouts import Layout
 from .readings import DEFAULT_READING, TURBULENCE_CANDIDATES, get_reading
 
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
-           "FIT_RATIOS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns"]
+           "FIT_RATIOS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "column_names"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -260,22 +261,25 @@ EXPERIMENTS = {e.id: e for e in [
     Experiment(
         id="exp1", title="Wind speed", notebook="exp1_wind_speed.md",
         question="How does the wind speed of the two conditions affect the classification?",
-        paper_table="Table 4, Figure 4", build=_exp1, paper_keys=("scenario_id", "long_run")),
+        paper_table="Table 4, Figure 4", build=_exp1, paper_keys=("scenario_id", "long_run"),
+        columns={"scenario_id": "scenario", "long_run": "long run"}),
     Experiment(
         id="exp2", title="Range similarity", notebook="exp2_range_similarity.md",
         question="Does a wider gap between the groups' speed ranges raise the score?",
         paper_table="Table 5, Figure 5", build=_sweep(range_similarity_settings, "n_env"),
-        group_by=("scenario", "n_env"), paper_keys=("scenario_id", "n_env")),
+        group_by=("scenario", "n_env"), paper_keys=("scenario_id", "n_env"),
+        columns={"n_env": "environments"}),
     Experiment(
         id="exp3", title="Number of environments", notebook="exp3_environment_count.md",
         question="Do more environments per group raise the score, with the gap fixed?",
         paper_table="Table 6, Figure 6", build=_sweep(environment_count_settings, "n_env"),
-        group_by=("scenario", "n_env"), paper_keys=("scenario_id", "n_env")),
+        group_by=("scenario", "n_env"), paper_keys=("scenario_id", "n_env"),
+        columns={"n_env": "environments"}),
     Experiment(
         id="exp4", title="Thrust changes", notebook="exp4_thrust_changes.md",
         question="Does the number of thrust changes matter?",
         paper_table="Table 7, Figure 7", build=_exp4, group_by=("scenario", "thrust_changes"),
-        paper_keys=("scenario_id", "thrust_changes")),
+        paper_keys=("scenario_id", "thrust_changes"), columns={"thrust_changes": "thrust changes"}),
     Experiment(
         id="exp5", title="Wind direction", notebook="exp5_wind_direction.md",
         question="Do opposite wind directions remove the misclassifications?",
@@ -328,6 +332,16 @@ def get_experiment(exp_id):
     if exp_id not in EXPERIMENTS:
         raise ValueError(f"unknown experiment {exp_id!r}; valid: {', '.join(EXPERIMENTS)}")
     return EXPERIMENTS[exp_id]
+
+
+def column_names() -> dict:
+    """Display names of the experiments' label columns (each experiment's ``columns``)."""
+    out = {}
+    for exp in EXPERIMENTS.values():
+        for k, v in exp.columns.items():
+            if out.setdefault(k, v) != v:  # pragma: no cover - one name per idea
+                raise ValueError(f"label column {k!r} has two display names: {out[k]!r}, {v!r}")
+    return out
 
 
 def label_columns() -> tuple:
