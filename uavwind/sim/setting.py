@@ -94,7 +94,7 @@ class EnvironmentGroup:
 
     @property
     def speeds(self):
-        """Wind speed of each environment [m/s]: |velocity| or W20."""
+        """Wind speed of each environment [m/s]: ``|velocity|`` or W20."""
         if self.kind == "turbulence":
             return np.array(self.values)
         return np.linalg.norm(np.array(self.values), axis=1)

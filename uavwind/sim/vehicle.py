@@ -55,7 +55,7 @@ class UAV:
 
     @property
     def drag_factor(self) -> float:
-        """k = 1/2 rho C_D S [kg/m]; the drag force is -k |v_air| v_air [N]."""
+        """``k = 1/2 rho C_D S`` [kg/m]; the drag force is ``-k |v_air| v_air`` [N]."""
         return 0.5 * self.air_density * self.drag_coefficient * self.area
 
     @property

@@ -26,10 +26,10 @@ class EmptyClusterError(Exception):
 
 
 class KMeansResult:
-    """labels, cluster_centers, inertia, n_iter as tslearn's fitted
-    estimator attributes labels_, cluster_centers_, inertia_, n_iter_.
+    """``labels``, ``cluster_centers``, ``inertia``, ``n_iter`` as tslearn's fitted
+    estimator attributes ``labels_``, ``cluster_centers_``, ``inertia_``, ``n_iter_``.
     ``success`` is False when no initialisation succeeded (tslearn then
-    leaves labels_ from the last failed attempt; we do the same)."""
+    leaves ``labels_`` from the last failed attempt; we do the same)."""
     __slots__ = ("labels", "cluster_centers", "inertia", "n_iter", "success",
                  "n_attempts")
 
@@ -129,7 +129,7 @@ def _blas_single_thread():
 
 def fit(X, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
         tol=1e-6, n_init=1, random_state=0, parallel=None):
-    """Exact equivalent of
+    """Exact equivalent of::
 
         km = tslearn.clustering.TimeSeriesKMeans(
             n_clusters=n_clusters, metric="softdtw",
