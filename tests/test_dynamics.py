@@ -1,4 +1,6 @@
 """The integrator against invariants and closed forms (DESIGN decision 1)."""
+import warnings
+
 import numpy as np
 import pytest
 
@@ -117,3 +119,47 @@ def test_simulate_rejects_wrong_objects():
         uw.simulate([[0, 0, 1]], still())
     with pytest.raises(TypeError, match="wind"):
         uw.simulate(uw.PAPER_EXAMPLE, np.zeros((2, 3)))
+
+
+def _push(magnitude=50.0, times=(0.0,)):
+    k = len(times)
+    return uw.ThrustSequence(list(times), [magnitude] * k, [[0, 0, 1]] * k)
+
+
+def test_unstable_drag_is_refused_with_a_step_that_works():
+    light = uw.UAV(mass=0.1, drag_coefficient=1.0, area=0.1)
+    wind = uw.ConstantWind([[1.0, 0.0, 0.0]])
+    with pytest.raises(ValueError, match=r"dt = 0.1 s .*mass = 0.1 kg.*use dt <") as err:
+        uw.simulate(_push(), wind, uav=light, dt=0.1, duration=1.0)
+    ok = float(str(err.value).split("e.g. dt = ")[1].split(" s")[0])  # the suggested step
+    assert ok < uw.dynamics.max_stable_dt(_push(), light)
+    pos = uw.simulate(_push(), wind, uav=light, dt=ok, duration=1.0)
+    assert np.all(np.isfinite(pos))
+    # the paper's UAV is far inside the stable range
+    assert uw.dynamics.max_stable_dt(_push(), uw.UAV()) > 1.0
+
+
+def test_off_grid_and_late_thrust_changes_warn():
+    wind = uw.ConstantWind([[0.0, 0.0, 0.0]])
+    with pytest.warns(UserWarning, match="falls between steps.*takes effect at 4.1 s"):
+        uw.simulate(_push(20.0, (0.0, 4.05)), wind)
+    with pytest.warns(UserWarning, match="11.95 s comes after the last step start"):
+        uw.simulate(_push(20.0, (0.0, 11.95)), wind)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        uw.simulate(_push(20.0, (0.0, 4.0, 11.9)), wind)
+
+
+@pytest.mark.parametrize("call, err, match", [
+    (lambda: uw.score_loop(np.zeros((2, 5, 3)), [0, 1]), ValueError, "at least 3"),
+    (lambda: uw.score_loop(np.full((4, 5, 3), 1e200), [0, 0, 1, 1]), ValueError, "within"),
+    (lambda: uw.make_setting("light constant", "light constant", 1), ValueError, "at least 3"),
+    (lambda: uw.DrydenWind([1e-300]), ValueError, r"w20 must be in \[0.001, 1000\]"),
+    (lambda: uw.ConstantWind([[1e308, 0, 0]]), ValueError, "velocities"),
+    (lambda: uw.ShearWind([[0, 2e3, 0]]), ValueError, "reference_velocities"),
+    (lambda: uw.simulate(_push(), uw.ConstantWind([[0, 0, 0]]), dt=1e-12), ValueError,
+     "dt = 1e-12 s"),
+])
+def test_tiny_huge_and_too_few_are_refused(call, err, match):
+    with pytest.raises(err, match=match):
+        call()

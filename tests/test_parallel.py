@@ -1,9 +1,12 @@
 """Scale-out: a Dask cluster through joblib gives bit-identical results."""
+import os
+
 import joblib
 import pandas as pd
 import pytest
 
 import uavwind as uw
+from uavwind.core.parallel import check_jobs
 
 distributed = pytest.importorskip("dask.distributed")
 
@@ -21,3 +24,11 @@ def test_dask_local_cluster_is_bit_identical():
     pd.testing.assert_frame_equal(local, remote)
     ref = uw.cem(s, n_samples=4, n_elite=2, max_iter=2, seed=1, n_jobs=1, progress=False)
     pd.testing.assert_frame_equal(res.samples, ref.samples)
+
+
+def test_n_jobs_is_capped_at_the_cores():
+    cores = os.cpu_count()
+    with pytest.warns(UserWarning, match="cores"):
+        assert check_jobs(cores + 1000) == cores
+    with pytest.raises(ValueError, match="n_jobs"):
+        check_jobs(-cores - 1)

@@ -3,8 +3,15 @@ and one line in book/_toc.yml; nothing else lists the experiments."""
 import re
 from pathlib import Path
 
-from uavwind.analysis.claims import CLAIMS, needed_experiments
+import pytest
+
+from uavwind import study as ex
+from uavwind.analysis.claims import (
+    CLAIMS,
+    needed_experiments,
+)
 from uavwind.report.display import PRETTY
+from uavwind.study import registry
 from uavwind.study.registry import EXPERIMENTS, column_names, label_columns
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,3 +42,49 @@ def test_every_label_column_has_one_display_name_from_the_registry():
     names = column_names()
     assert set(names) <= set(label_columns())
     assert all(PRETTY[k] == v for k, v in names.items())
+
+
+def test_registry_matches_the_paper():
+    assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6",
+                                    "exp6_raw", "exp7", "exp8", "exp9", "fit_layout",
+                                    "fit_turbulence"]
+    sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
+    n_ratios = len(registry.FIT_RATIOS)
+    assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
+                     "exp6": 1, "exp6_raw": 1, "exp7": 3 * 11, "exp8": 3 * 4 * 2, "exp9": 3 * 11,
+                     "fit_layout": 4 * n_ratios, "fit_turbulence": 6}
+    # Exp 9 is Exp 7's loops seen by the baseline: the same settings, so one cache
+    assert [c.setting.key() for c in ex.EXPERIMENTS["exp9"].cases()] == \
+        [c.setting.key() for c in ex.EXPERIMENTS["exp7"].cases()]
+    # the layout fit: Exp 1's same-strength scenarios, every ratio of the grid
+    fit = ex.EXPERIMENTS["fit_layout"].cases()
+    assert sorted({c.labels["scenario_id"] for c in fit}) == [1, 3, 4, 6]
+    for c in fit:
+        a, b = c.setting.group_a.speeds, c.setting.group_b.speeds
+        assert (b.min() - a.max()) / (a[1] - a[0]) == pytest.approx(c.labels["gap_ratio"])
+    exp1 = ex.EXPERIMENTS["exp1"].cases()
+    assert [c.long for c in exp1] == [False] * 7 + [True]
+    assert all(c.setting.n_env == 10 for c in exp1[:7]) and exp1[7].setting.n_env == 20
+    exp4 = ex.EXPERIMENTS["exp4"].cases()
+    assert sorted({c.labels["thrust_changes"] for c in exp4}) == [0, 2, 4, 6, 8, 10, 12]
+    assert {c.setting.n_changes for c in exp4} == {0, 2, 4, 6, 8, 10, 11}
+    # Exp 6 flies Exp 5's similar-direction environments
+    assert ex.EXPERIMENTS["exp6"].cases()[0].setting.key() == ex.EXPERIMENTS["exp5"].cases()[0].setting.key()
+    for e in ex.EXPERIMENTS.values():
+        assert (Path(__file__).parents[1] / "notebooks" / e.notebook).exists()
+
+
+def test_profiles_and_loop_counts():
+    assert ex.PROFILES["paper"].loops == 50 and ex.PROFILES["paper"].long_loops == 500
+    assert ex.PROFILES["paper"].cem.to_dict() == {"n_samples": 30, "n_elite": 4, "max_iter": 20}
+    # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
+    # exp6 and exp6_raw 30x20 each, exp7/exp9 33x50 each, exp8 24x50,
+    # fit_layout 4 scenarios x 16 ratios x 20, fit_turbulence 6 x 50
+    assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 2 * 600
+                                         + 2 * 33 * 50 + 24 * 50 + 4 * 16 * 20 + 6 * 50)
+    with pytest.raises(ValueError, match="profile"):
+        ex.run_experiment("exp5", profile="huge")
+    with pytest.raises(ValueError, match="unknown experiment 'exp99'"):
+        ex.run_experiment("exp99")
+    with pytest.raises(TypeError, match="experiment id"):
+        ex.get_experiment(5)

@@ -1,10 +1,17 @@
 """Random exploration and CEM: determinism, workers, convergence, physics sanity."""
+
 import numpy as np
 import pandas as pd
 import pytest
 
 import uavwind as uw
+from uavwind import study as ex
+from uavwind.method import search
 from uavwind.method.search import cem_step
+
+
+TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 
 
 def small(a="light constant", b="strong shear", n=3):
@@ -130,3 +137,50 @@ def test_physics_sanity_on_paper_settings():
                           seed=0, progress=False)
     assert ll["magnitudes"].equals(ls["magnitudes"])
     assert ll["score"].mean() < ls["score"].mean()
+
+
+def test_cem_refuses_a_wrong_objective():
+    s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
+    with pytest.raises(ValueError, match="one score per sample"):
+        uw.cem(s, n_samples=4, n_elite=2, max_iter=1, objective=lambda x: np.zeros(3),
+               progress=False)
+    with pytest.raises(ValueError, match="NaN"):
+        uw.cem(s, n_samples=4, n_elite=2, max_iter=1, progress=False,
+               objective=lambda x: np.full(len(x), np.nan))
+
+
+def test_cem_keeps_its_cap_apart_from_the_k_means_cap(tmp_path):
+    s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
+    res = uw.cem(s, n_samples=3, n_elite=1, max_iter=2, seed=0, n_jobs=1, progress=False,
+                 clustering={"max_iter": 1})
+    assert len(res.history) == 2 and (res.samples["n_iter"] <= 1).all()
+    df = ex.run_experiment("exp6", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                           max_iter=1)
+    assert (df["n_iter"] <= 1).all() and df["iteration"].max() == 2
+
+
+def test_cem_history_ignores_nan_scores():
+    s = uw.make_setting("light constant", "strong shear", 2, n_changes=0)
+    res = uw.cem(s, n_samples=4, n_elite=2, max_iter=1, progress=False,
+                 objective=lambda x: np.array([1.0, np.nan, 3.0, 2.0]))
+    assert res.history["max"].iloc[0] == 3.0 and res.history["mean"].iloc[0] == 2.0
+
+
+def test_an_interrupt_shuts_the_workers_down(monkeypatch):
+    stopped = []
+    monkeypatch.setattr(search, "stop_workers", lambda: stopped.append(True))
+
+    class Interrupted:
+        def __init__(self, *a, **k):
+            pass
+
+        def __call__(self, tasks):
+            def gen():
+                raise KeyboardInterrupt
+                yield
+            return gen()
+    monkeypatch.setattr("joblib.Parallel", Interrupted)
+    s = uw.make_setting("light constant", "strong shear", 2)
+    with pytest.raises(KeyboardInterrupt):
+        uw.random_search(s, n_loops=2, n_jobs=2, progress=False)
+    assert stopped == [True]

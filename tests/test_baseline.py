@@ -1,0 +1,52 @@
+"""The physics baseline: a least-squares wind estimate from the same positions."""
+import numpy as np
+import pytest
+
+import uavwind as uw
+from uavwind.method.baseline import estimate_wind
+from uavwind.sim.observation import Noise, observe
+
+
+def _flight(wind, thrust=uw.PAPER_EXAMPLE):
+    return uw.simulate_flight(thrust, wind)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_estimate_wind_is_exact_on_noise_free_constant_wind(seed):
+    rng = np.random.default_rng(seed)
+    thrust = uw.sample_paper(rng)
+    w = rng.uniform(-5, 5, size=(4, 3))
+    pos = uw.simulate(thrust, uw.ConstantWind(w))
+    assert np.allclose(estimate_wind(pos, thrust), w, rtol=0, atol=1e-12)
+    path = estimate_wind(pos, thrust, model="path")
+    assert path.shape == (4, 120, 3) and np.allclose(path, w[:, None], atol=1e-9)
+
+
+def test_path_model_recovers_a_shear_wind_along_the_path():
+    f = uw.simulate_flight(uw.PAPER_EXAMPLE, uw.ShearWind([[2.0, 10.0, 0.0]]))
+    est = estimate_wind(f.positions, uw.PAPER_EXAMPLE, model="path")
+    assert np.allclose(est, f.winds, atol=1e-9)
+
+
+def test_estimate_wind_is_unbiased_under_white_noise():
+    w = np.array([[1.0, 0.5, 0.0]])
+    f = _flight(uw.ConstantWind(w))
+    est = np.array([estimate_wind(observe(f, "position", Noise(position=1.0), seed=s),
+                                  uw.PAPER_EXAMPLE)[0] for s in range(400)])
+    err = est - w[0]
+    se = err.std(axis=0, ddof=1) / np.sqrt(len(err))
+    assert np.all(np.abs(err.mean(axis=0)) < 3 * se)
+
+
+def test_two_means_separates_two_clouds_and_matches_kmeans():
+    from sklearn.cluster import KMeans
+
+    from uavwind.method.baseline import two_means
+
+    rng = np.random.default_rng(4)
+    for trial in range(20):
+        x = np.concatenate([rng.normal(0, 0.3, (6, 3)), rng.normal(rng.uniform(1, 4), 0.3, (7, 3))])
+        ours = two_means(x)
+        ref = KMeans(n_clusters=2, n_init=10, random_state=0).fit_predict(x)
+        assert np.array_equal(ours, ref) or np.array_equal(ours, 1 - ref)
+    assert two_means(np.zeros((4, 3))).tolist() == [0, 0, 0, 0]

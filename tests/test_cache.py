@@ -1,0 +1,163 @@
+"""The result cache: keys, verified reads, atomic writes, locks."""
+import os
+import threading
+import time
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import uavwind as uw
+from uavwind import study as ex
+from uavwind.study import cache, runner
+
+
+def _py(v):
+    v = v.tolist() if hasattr(v, "tolist") else v
+    return [_py(x) for x in v] if isinstance(v, (list, tuple)) else v
+
+
+def _exact(df):
+    """Every cell as the repr of its Python value (a list read back from Parquet is an
+    array): equal texts mean equal doubles."""
+    return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
+
+TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
+
+
+RUN = dict(profile=TINY, n_jobs=1, progress=False, cases=[0])
+
+
+def _chunks(folder):
+    return sorted((folder / "loops").glob("*.parquet"))
+
+
+@pytest.mark.parametrize("damage", [
+    lambda p: p.write_bytes(p.read_bytes()[: len(p.read_bytes()) // 2]),  # truncated
+    lambda p: p.write_bytes(b""),                                        # empty
+    lambda p: p.write_bytes(np.random.default_rng(0).bytes(3000)),       # random bytes
+    lambda p: pd.read_parquet(p).iloc[:-1].to_parquet(p),                # a dropped row
+    lambda p: pd.read_parquet(p).assign(score=999.0).to_parquet(p),      # impossible score
+    lambda p: pd.read_parquet(p).assign(seed=7).to_parquet(p),           # another seed
+])
+def test_a_damaged_chunk_is_moved_aside_and_recomputed(tmp_path, damage):
+    first = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    (chunk,) = _chunks(tmp_path)
+    damage(chunk)
+    with pytest.warns(cache.CorruptChunkWarning, match="moved to"):
+        again = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    assert again.attrs["cached"] == 0
+    assert (chunk.parent / (chunk.name + ".corrupt")).exists()
+    pd.testing.assert_frame_equal(first, again)
+    with warnings.catch_warnings():  # and now it is trusted again
+        warnings.simplefilter("error")
+        assert ex.run_experiment("exp5", results=tmp_path, **RUN).attrs["cached"] == 1
+
+
+def test_a_chunk_copied_over_another_is_detected(tmp_path):
+    ex.run_experiment("exp5", results=tmp_path, profile=TINY, n_jobs=1, progress=False)
+    a, b = _chunks(tmp_path)
+    b.write_bytes(a.read_bytes())
+    with pytest.warns(cache.CorruptChunkWarning, match="setting_key"):
+        df = ex.run_experiment("exp5", results=tmp_path, profile=TINY, n_jobs=1, progress=False)
+    assert df.attrs["cached"] == 1
+
+
+@pytest.mark.parametrize("make_bad", ["file", "readonly"])
+def test_an_unwritable_results_folder_fails_before_any_work(tmp_path, monkeypatch, make_bad):
+    if make_bad == "file":
+        target = tmp_path / "results"
+        target.write_text("not a folder")
+    else:
+        if os.geteuid() == 0:
+            pytest.skip("root writes to read-only folders")
+        target = tmp_path / "ro"
+        target.mkdir()
+        target.chmod(0o500)
+    monkeypatch.setattr(runner, "random_search", lambda *a, **k: pytest.fail("computed anyway"))
+    with pytest.raises(ValueError, match="cannot be written"):
+        ex.run_experiment("exp5", results=target, **RUN)
+
+
+def test_a_full_disk_leaves_no_orphan_file(tmp_path, monkeypatch):
+    def full(self, path, **kw):
+        with open(path, "wb") as fh:
+            fh.write(b"PAR1 partial")
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    with pytest.raises(OSError, match="No space"):
+        cache.atomic_write(pd.DataFrame({"score": [1.0]}), tmp_path / "x.parquet")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_user_paths_are_expanded(tmp_path, monkeypatch):
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("UAVWIND_RESULTS", "~/uw-results")
+    assert cache.results_dir() == tmp_path / "uw-results"
+    assert cache.results_dir("~/named") == tmp_path / "named"  # a named folder wins
+    ex.run_experiment("exp5", **RUN)
+    assert _chunks(tmp_path / "uw-results") and not (tmp_path / "~").exists()
+
+
+def test_two_runs_on_one_chunk_compute_it_once(tmp_path):
+    path = tmp_path / "loops" / "chunk.parquet"
+    expect = cache.Expected("k", 1, "fast", 1)
+    meta = {"setting_key": "k", "seed": 1, "engine": "fast"}
+    calls = []
+
+    def compute():
+        calls.append(threading.get_ident())
+        time.sleep(0.5)
+        return pd.DataFrame({"score": [50.0], "silhouette": [0.5], "correct": [True]})
+    out = {}
+
+    def run(name):
+        out[name] = cache.cached(path, compute, meta, expect)
+    t1 = threading.Thread(target=run, args=("first",))
+    t1.start()
+    time.sleep(0.1)
+    run("second")
+    t1.join()
+    assert len(calls) == 1
+    assert out["first"][1] is False and out["second"][1] is True
+    pd.testing.assert_frame_equal(out["first"][0], out["second"][0])
+
+
+def test_a_correct_loop_with_a_negative_silhouette_is_cached(tmp_path):
+    path = tmp_path / "loops" / "c.parquet"
+    expect = cache.Expected("k", 1, "fast", 2)
+    rows = pd.DataFrame({"score": [-12.5, 0.0], "silhouette": [-0.125, 0.4],
+                         "correct": [True, False]})
+    df, hit = cache.cached(path, lambda: rows.copy(), {"setting_key": "k", "seed": 1,
+                                                       "engine": "fast"}, expect)
+    assert not hit and cache.read_verified(path, expect) is not None
+    from uavwind.core.stats import correct_share
+    assert correct_share(df) == 0.5  # the correct column, not score > 0
+
+
+def test_cache_key_depends_on_what_matters():
+    s = uw.make_setting("light constant", "strong shear")
+    base = cache.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == cache.cache_key(s, 1, 0, 50, "fast", {})
+    assert base == cache.cache_key(s, 1, 0, 50, "fast", {"gamma": 0.5})  # the default, spelled out
+    assert base == cache.cache_key(uw.make_setting("light constant", "strong shear", name="x"),
+                                1, 0, 50, "fast", {})  # names do not change results
+    for other in (cache.cache_key(s, 2, 0, 50, "fast", {}), cache.cache_key(s, 1, 0, 49, "fast", {}),
+                  cache.cache_key(s, 1, 0, 50, "tslearn", {}), cache.cache_key(s, 1, 0, 50, "fast", {"gamma": 1.0}),
+                  cache.cache_key(uw.make_setting("light constant", "strong shear", n_changes=5), 1, 0, 50, "fast", {})):
+        assert other != base
+
+
+def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
+    first = ex.run_experiment("exp4", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                              cases=[0])
+    again = ex.run_experiment("exp4", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                              cases=[0])
+    assert first.attrs["cached"] == 0 and again.attrs["cached"] == again.attrs["chunks"]
+    assert list(first.columns) == list(again.columns)
+    assert (first.dtypes == again.dtypes).all()
+    for col in first.columns:  # e.g. thrust sequences: arrays both times, not lists then arrays
+        assert [type(v) for v in first[col]] == [type(v) for v in again[col]], col
+    assert _exact(first) == _exact(again)

@@ -1,0 +1,127 @@
+"""The fill: every missing entry of many experiments in one pool, timed."""
+import pytest
+
+from uavwind import study as ex
+from uavwind.study import fill
+
+TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
+
+
+def _py(v):
+    v = v.tolist() if hasattr(v, "tolist") else v
+    return [_py(x) for x in v] if isinstance(v, (list, tuple)) else v
+
+
+def _exact(df):
+    """Every cell as the repr of its Python value (a list read back from Parquet is an
+    array): equal texts mean equal doubles."""
+    return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
+
+
+def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
+    from uavwind.study.readings import READINGS
+
+    ids = ["exp5", "exp6"]
+    done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+                         readings="all", progress=False)
+    assert done["entries"] > 0 and done["cached"] == 0 and done["computed"] == done["entries"]
+    # every computed entry is timed, by the worker that computed it
+    times = done["times"]
+    assert len(times) == done["computed"] and all(t["cpu_seconds"] > 0 for t in times)
+    assert sum(t["rows"] for t in times) == done["rows_computed"]
+    by_exp = fill.time_by_experiment(times)
+    assert set(by_exp.index.get_level_values("experiment")) <= set(ids)
+    assert by_exp["entries"].sum() == done["computed"]
+    assert by_exp["share"].sum() == pytest.approx(100.0)
+    assert fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+                         readings="all", progress=False) == {
+        "entries": done["entries"], "cached": done["entries"], "computed": 0,
+        "rows_computed": 0, "times": []}
+    for reading in READINGS:
+        for eid in ids:
+            pooled = ex.run_experiment(eid, profile=TINY, results=tmp_path / "pool", n_jobs=1,
+                                       progress=False, reading=reading)
+            assert pooled.attrs["cached"] == pooled.attrs["chunks"]  # nothing left to compute
+            alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone", n_jobs=1,
+                                      progress=False, reading=reading)
+            assert _exact(pooled) == _exact(alone)
+
+
+def _record_fills(monkeypatch):
+    """Replace the work of fill_cache by a record of the entries it hands out, in order."""
+    order = []
+
+    def record(entry, pin=True, n_jobs=1):
+        order.append(entry)
+        return entry.path, entry.n_rows, False, 0.5
+    monkeypatch.setattr(fill, "_fill_one", record)
+    return order
+
+
+def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
+    order = _record_fills(monkeypatch)
+    done = fill.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
+                         progress=False)
+    n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
+    assert len(order) == done["entries"] == done["computed"] < n_cases  # shared settings once
+    assert len({e.path for e in order}) == len(order)
+    costs = [e.cost for e in order]
+    assert costs == sorted(costs, reverse=True) and order[0].search == "cem"
+    assert done["rows_computed"] == sum(e.n_rows for e in order)
+    assert [t["rows"] for t in done["times"]] == [e.n_rows for e in order]
+    assert [(t["experiment"], t["case"]) for t in done["times"]] == \
+        [(e.labels["experiment"], e.labels["case"]) for e in order]
+
+
+def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
+    order = _record_fills(monkeypatch)
+    done = fill.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
+                         progress=False)
+    users = {e.path: pairs for e, pairs in
+             fill._needed("all", TINY, "all", ex.DEFAULT_SEED, None, tmp_path).items()}
+    assert len(done["times"]) == len(users) == len(order)
+    for t, e in zip(done["times"], order):
+        pairs = users[e.path]
+        assert t["experiment"] == pairs[0][0] and t["case"] == e.labels["case"]
+        assert (t["reading"] == "both") == (len({r for _, r in pairs}) == 2)
+        assert t["shared_with"] == sorted({x for x, _ in pairs} - {pairs[0][0]})
+    assert {"inferred", "halves", "both"} <= {t["reading"] for t in done["times"]}
+    # Exp 2, 3 and 4 share their 20-environment settings: one entry, counted under exp2
+    assert any(t["experiment"] == "exp2" and "exp3" in t["shared_with"] for t in done["times"])
+    # a single experiment id given as a string is that experiment, not its letters
+    assert [e.path for e in fill.needed_entries("exp5", TINY)] == \
+        [e.path for e in fill.needed_entries(["exp5"], TINY)]
+
+
+def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
+    done = fill.fill_cache(["exp6"], profile=TINY, results=tmp_path, n_jobs=2, progress=False)
+    assert done["computed"] == 1 and done["times"][0]["search"] == "cem"
+    assert done["times"][0]["cpu_seconds"] > 0
+    alone = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=1,
+                              progress=False)
+    pooled = ex.run_experiment("exp6", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
+    assert _exact(pooled) == _exact(alone)
+
+
+def test_time_by_experiment_sums_per_experiment_in_registry_order():
+    rec = [{"experiment": e, "reading": r, "case": 0, "search": "random", "n_env": 6, "rows": n,
+            "cpu_seconds": c}
+           for e, r, n, c in [("exp6", "inferred", 10, 6.0), ("exp1", "halves", 50, 1.0),
+                              ("exp1", "inferred", 50, 2.0), ("exp1", "inferred", 20, 1.0)]]
+    t = fill.time_by_experiment(rec)
+    assert list(t.index) == [("exp1", "halves"), ("exp1", "inferred"), ("exp6", "inferred")]
+    assert t["rows"].tolist() == [50, 70, 10] and t["entries"].tolist() == [1, 2, 1]
+    assert t["share"].tolist() == [10.0, 30.0, 60.0]
+    assert fill.time_by_experiment([]).empty
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    ({"exp_ids": ["exp99"]}, "exp99"), ({"readings": "upside-down"}, "reading"),
+    ({"profile": "slow"}, "profile"), ({"n_jobs": 0}, "n_jobs"), ({"engine": "x"}, "engine"),
+])
+def test_fill_cache_refuses_bad_input_before_any_work(tmp_path, kwargs, word):
+    with pytest.raises(ValueError, match=word):
+        fill.fill_cache(**{"exp_ids": ["exp5"], "profile": TINY, "results": tmp_path / "r",
+                         "progress": False, **kwargs})
+    assert not (tmp_path / "r").exists()

@@ -1,0 +1,137 @@
+"""Fast smoke tests of every figure function: each draws a Figure from inputs shaped as the
+library's own tables make them (synthetic loops through the real summary functions), with a
+title or labels that say what it shows. A new figure function must get a call here."""
+import inspect
+
+import matplotlib
+import numpy as np
+import pandas as pd
+import pytest
+
+matplotlib.use("agg")  # noqa: E402 -- headless; the book's notebooks keep their own backend
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+import uavwind as uw  # noqa: E402
+from uavwind.analysis import beyond, inference  # noqa: E402
+from uavwind.analysis.tables import cem_table  # noqa: E402
+from uavwind.report import plotting  # noqa: E402
+
+
+def _loops(**labels_by_case):
+    """Synthetic result rows: 6 loops per combination of the label values given."""
+    rng = np.random.default_rng(3)
+    keys = list(labels_by_case)
+    combos = pd.MultiIndex.from_product(list(labels_by_case.values()), names=keys)
+    rows = []
+    for combo in combos:
+        for loop in range(6):
+            ok = bool(rng.random() < 0.8)
+            sil = float(rng.uniform(0.3, 0.9))
+            rows.append({**dict(zip(keys, combo)), "loop": loop, "correct": ok,
+                         "silhouette": sil, "score": 100 * sil if ok else 0.0,
+                         "baseline_rmse": float(rng.uniform(0.01, 1)),
+                         "baseline_correct": bool(rng.random() < 0.9),
+                         "baseline_rmse_mass": 1.0, "baseline_correct_mass": True,
+                         "baseline_rmse_drag": 0.5, "baseline_correct_drag": True})
+    df = pd.DataFrame(rows)
+    df.attrs.update(experiment="exp7", reading="inferred", profile="quick", seed=1,
+                    engine="fast")
+    return df
+
+
+@pytest.fixture(scope="module")
+def flight():
+    s = uw.table3_setting()
+    return uw.simulate_flight(uw.PAPER_EXAMPLE, s.wind(0))
+
+
+def _oos():
+    idx = pd.MultiIndex.from_tuples([("Table 5", "a"), ("Table 6", "b")], names=["table", "row"])
+    return pd.DataFrame({"paper_mean": [80.0, 90.0], "mean": [78.0, 91.0], "ci_low": [75.0, 89.0],
+                         "ci_high": [81.0, 93.0]}, index=idx)
+
+
+def _fits_and_curves():
+    df = _loops(scenario_id=[1], gap_ratio=[4.0, 8.0, 16.0]).assign(
+        scenario="Light constant vs light constant")
+    curves = inference.silhouette_curves(df)
+    fits = pd.DataFrame({"paper_mean": [70.0], "ratio": [8.0], "ci_low": [6.0],
+                         "ci_high": [10.0]}, index=pd.Index([1], name="scenario_id"))
+    return curves, fits
+
+
+def _cem_history():
+    rows = [{"iteration": it, "sample": j, "score": float(10 * it + j), "elite": j < 2}
+            for it in range(1, 4) for j in range(5)]
+    return cem_table(pd.DataFrame(rows))
+
+
+#: figure function -> a call with inputs shaped as the library makes them
+CALLS = {
+    "fig1_trajectory_and_wind": lambda f: plotting.fig1_trajectory_and_wind(f),
+    "fig1_velocity_projections": lambda f: plotting.fig1_velocity_projections(f),
+    "fig2_flowcharts": lambda f: plotting.fig2_flowcharts(),
+    "fig3_loop": lambda f: plotting.fig3_loop(f.positions, uw.table3_setting().groups,
+                                              [10.0, 50.0, 80.0]),
+    "score_per_loop": lambda f: plotting.score_per_loop(_loops(scenario=["a", "b", "c"])),
+    "score_vs_parameter": lambda f: plotting.score_vs_parameter(
+        _loops(scenario=["a", "b"], n_env=[6, 8, 10]), "n_env"),
+    "fig9_cem": lambda f: plotting.fig9_cem(_cem_history(), random_scores=[1.0, 20.0]),
+    "dryden_spectrum": lambda f: plotting.dryden_spectrum(uw.DrydenWind([12.0] * 4, seed=1),
+                                                          n_samples=512, nperseg=128),
+    "paper_vs_replication": lambda f: plotting.paper_vs_replication(pd.DataFrame(
+        {"paper_max": [90.0], "max": [88.0], "paper_mean": [80.0], "mean": [79.0]},
+        index=["row"])),
+    "silhouette_vs_ratio": lambda f: plotting.silhouette_vs_ratio(*_fits_and_curves()),
+    "predicted_vs_paper": lambda f: plotting.predicted_vs_paper(_oos()),
+    "noise_curves": lambda f: plotting.noise_curves(beyond.noise_table(
+        _loops(scenario=["a", "b"], noise_sigma=[0.0, 0.5, 2.0], noise_bias=[0.0]))),
+    "observation_bars": lambda f: plotting.observation_bars(beyond.observation_table(
+        _loops(scenario=["a", "b"], observation=["position", "velocity"],
+               noise=["none", "consumer"]))),
+    "baseline_vs_clustering": lambda f: plotting.baseline_vs_clustering(beyond.baseline_table(
+        _loops(scenario=["a"], noise_sigma=[0.0, 1.0], noise_bias=[0.0]))),
+    "stamp": lambda f: plotting.stamp(plotting.fig2_flowcharts(), _loops(scenario=["a"])),
+}
+
+
+def _figure_functions():
+    return {name for name, obj in vars(plotting).items()
+            if inspect.isfunction(obj) and obj.__module__ == plotting.__name__
+            and not name.startswith("_")}
+
+
+def test_every_figure_function_has_a_smoke_call():
+    assert _figure_functions() == set(CALLS) | {"panel_grid"}
+
+
+def test_panel_grid_shows_n_axes_and_hides_the_rest():
+    fig, axes = plotting.panel_grid(3, ncols=2)
+    try:
+        assert len(axes) == 3 and sum(ax.get_visible() for ax in fig.axes) == 3
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("name", sorted(CALLS))
+def test_each_figure_draws_something_labelled(name, flight):
+    fig = CALLS[name](flight)
+    try:
+        assert isinstance(fig, Figure)
+        axes = [ax for ax in fig.axes if ax.get_visible()]
+        assert axes, name
+        words = [ax.get_title() + ax.get_xlabel() + ax.get_ylabel() for ax in axes]
+        assert any(w.strip() for w in words) or fig.texts, f"{name}: nothing says what it shows"
+        assert any(ax.has_data() or ax.patches or ax.texts for ax in axes), name
+    finally:
+        plt.close(fig)
+
+
+def test_stamp_writes_the_provenance_under_the_figure():
+    fig = plotting.stamp(plotting.fig2_flowcharts(), _loops(scenario=["a"]), note="Note.")
+    try:
+        text = " ".join(t.get_text() for t in fig.texts)
+        assert "experiment exp7" in text and "'inferred' reading" in text and "Note." in text
+    finally:
+        plt.close(fig)

@@ -1,0 +1,36 @@
+"""Summary and comparison tables in the paper's layout; the paper's values."""
+import pytest
+
+from uavwind import study as ex
+from uavwind.analysis import tables
+from uavwind.study.paper import PAPER_FILES, load_paper_values
+
+TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
+        "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
+
+
+def test_both_readings_are_tabulated_and_compared_as_exp1(tmp_path):
+    t4 = load_paper_values("exp1").set_index("scenario")
+    for reading in ("inferred", "halves"):
+        df = ex.run_experiment("exp1", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
+                               cases=[0, 2, 3], reading=reading)
+        assert (df["reading"] == reading).all()
+        assert len(tables.summary_table(df)) == 3
+        cmp = tables.comparison_table(df)
+        assert list(cmp.index) == [t4.index[k] for k in (0, 2, 3)]
+        assert cmp["paper_mean"].tolist() == [t4.iloc[k]["mean"] for k in (0, 2, 3)]
+        assert "'" + reading + "' reading" in tables.provenance(df)
+    with pytest.raises(ValueError, match="no paper table"):
+        tables.comparison_table(df.assign(experiment="exp6"))
+
+
+def test_paper_values_load_with_sources():
+    for exp_id in PAPER_FILES:
+        df = load_paper_values(exp_id)
+        assert "source" in df.columns and len(df) >= 2
+    t4 = load_paper_values("exp1")
+    assert t4.set_index("scenario_id").loc[4, "maximum"] == 79.83
+    assert t4.set_index(["scenario_id", "long_run"]).loc[(1, True), "mean"] == 79.30
+    assert set(load_paper_values("exp2")["n_env"]) == {6, 20}
+    with pytest.raises(ValueError, match="unknown experiment"):
+        load_paper_values("exp9")
