@@ -7,15 +7,18 @@ same ``RandomState`` stream, assignments by soft-DTW, centres as soft-DTW baryce
 (:mod:`uavwind.softdtw._lbfgsb`), tslearn's stopping rule and empty-cluster handling.
 """
 
+import math
 import numbers
 
 import numpy as np
+from sklearn.base import BaseEstimator, ClusterMixin, TransformerMixin
+from sklearn.utils.validation import check_is_fitted
 
+from ._checks import _as_dataset, _check_gamma, _same_features, _use_parallel
 from ._consts import env_flag
+from ._dispatch import _objgrad, _sdtw_cross
 from ._lbfgsb import lbfgsb
 from ._libm import _libm_selfcheck
-from ._checks import _as_dataset, _check_gamma, _use_parallel
-from ._dispatch import _objgrad, _sdtw_cross
 
 
 # ---------------------------------------------------------------------------
@@ -128,32 +131,34 @@ def _blas_single_thread():
 
 
 def fit(X, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
-        tol=1e-6, n_init=1, random_state=0, parallel=None):
+        tol=1e-6, n_init=1, random_state=0, parallel=None, init="k-means++"):
     """Exact equivalent of::
 
         km = tslearn.clustering.TimeSeriesKMeans(
             n_clusters=n_clusters, metric="softdtw",
             metric_params={"gamma": gamma}, max_iter=max_iter,
             max_iter_barycenter=max_iter_barycenter, tol=tol, n_init=n_init,
-            random_state=random_state)          # init="k-means++"
+            random_state=random_state, init=init)
         labels = km.fit_predict(X)
 
     Returns a KMeansResult (labels, cluster_centers, inertia, n_iter).
     X: (n_ts, sz, d) float array without NaN.  random_state: None, int or
-    numpy RandomState (consumed exactly as tslearn does).
+    numpy RandomState (consumed exactly as tslearn does).  init: "k-means++",
+    "random" or an array of starting centres (n_clusters, sz_c, d).
     Raises EmptyClusterError where tslearn raises it (final re-assignment).
     """
-    X = _as_dataset(X)
-    gamma = _check_gamma(gamma)
-    if max_iter < 1:
-        raise ValueError("max_iter must be >= 1")
+    est = SoftDTWKMeans(n_clusters=n_clusters, gamma=gamma, max_iter=max_iter,
+                        max_iter_barycenter=max_iter_barycenter, tol=tol, n_init=n_init,
+                        random_state=random_state, parallel=parallel, init=init)
+    X, init = est._validate(X)
     with _blas_single_thread():
-        return _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol,
-                    n_init, random_state, parallel)
+        return _fit(X, est.n_clusters, _check_gamma(est.gamma), est.max_iter,
+                    est.max_iter_barycenter, est.tol, est.n_init, est.random_state,
+                    parallel, init)
 
 
 def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
-         random_state, parallel):
+         random_state, parallel, init="k-means++"):
     par = _use_parallel(parallel)
 
     fx = _libm_selfcheck()
@@ -165,7 +170,7 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
     def cdist_sdtw(A, B):
         A = np.ascontiguousarray(A)
         out = np.empty((A.shape[0], B.shape[0]))
-        _sdtw_cross(A, B, gamma, out, par, fx)
+        _sdtw_cross(A, np.ascontiguousarray(B), gamma, out, par, fx)
         return out
 
     arange = np.arange(n_ts)
@@ -188,7 +193,12 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
     n_attempts = 0
     while n_successful < n_init and n_attempts < max_attempts:
         n_attempts += 1
-        centers = _k_init_metric(X, n_clusters, cdist_sdtw, rs)
+        if isinstance(init, np.ndarray):  # tslearn: self.init.copy(), every attempt
+            centers = init.copy()
+        elif init == "random":
+            centers = X[rs.choice(X.shape[0], n_clusters, replace=False)].copy()
+        else:
+            centers = _k_init_metric(X, n_clusters, cdist_sdtw, rs)
         state_centers = centers
         old_inertia = np.inf
         failed = False
@@ -228,19 +238,31 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
                         n_attempts)
 
 
-class SoftDTWKMeans:
-    """Time-series k-means under soft-DTW, equal to tslearn's, in the scikit-learn style.
+#: The constructor's parameters and how each is checked (name -> (kind, low)).
+_INT_PARAMS = {"n_clusters": 1, "max_iter": 1, "max_iter_barycenter": 0, "n_init": 1}
 
-    ``SoftDTWKMeans(n_clusters, gamma, max_iter, max_iter_barycenter, random_state)``
-    gives the labels, centres, inertia and iteration count of
+
+class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
+    """Time-series k-means under soft-DTW, equal to tslearn's, a scikit-learn estimator.
+
+    ``SoftDTWKMeans(n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
+    random_state, init)`` gives the labels, centres, inertia and iteration count of
     ``tslearn.clustering.TimeSeriesKMeans(n_clusters, metric="softdtw",
-    metric_params={"gamma": gamma}, max_iter, max_iter_barycenter, random_state)``
-    bit for bit (tested with ``==``).
+    metric_params={"gamma": gamma}, max_iter, max_iter_barycenter, tol, n_init,
+    random_state, init)`` bit for bit, and the same :meth:`predict` and :meth:`transform`
+    on new data, including series of another length (tested with ``==``). It follows
+    scikit-learn's conventions (``get_params``/``set_params``, ``clone``, fitted attributes
+    ending in ``_``, ``check_is_fitted``) and passes ``check_estimator`` but for the checks
+    that cannot apply to time series (``tests/test_softdtw.py`` names each, with why).
+
+    Input: a dataset ``(n_ts, sz, d)``, or ``(n_ts, sz)`` for univariate series (as tslearn
+    reads a 2-D array). NaN-padded variable-length datasets, which tslearn accepts, are
+    refused with a ``ValueError`` that says so.
 
     Parameters
     ----------
     n_clusters : int
-        Number of clusters, >= 1.
+        Number of clusters, >= 1 and at most the number of series.
     gamma : float
         Soft-DTW smoothing, > 0 (0.5 in the paper's reference code).
     max_iter : int
@@ -250,9 +272,12 @@ class SoftDTWKMeans:
     tol : float
         Stop when the inertia changes by less than this, >= 0 (tslearn: 1e-6).
     n_init : int
-        k-means++ restarts kept, >= 1 (the best inertia wins).
+        Starts kept, >= 1 (the best inertia wins; at most ``max(n_init, 10)`` are tried).
     random_state : None, int or numpy.random.RandomState
         Consumed exactly as tslearn consumes it.
+    init : {"k-means++", "random"} or array of shape (n_clusters, sz_c, d)
+        How the centres start: tslearn's k-means++ under soft-DTW, ``n_clusters`` distinct
+        series drawn at random, or the given centres (any length ``sz_c``).
     parallel : bool, optional
         Run the batched kernels over numba threads (default: ``UAVWIND_SOFTDTW_PARALLEL``);
         the result does not depend on it.
@@ -265,17 +290,20 @@ class SoftDTWKMeans:
         Mean squared soft-DTW to the assigned centre (``inf`` if no start succeeded).
     n_iter_ : int
         Iterations run by the kept start.
+    n_features_in_ : int
+        Features per time step ``d`` of the series seen in :meth:`fit`.
 
     Examples
     --------
     >>> import numpy as np
     >>> X = np.random.default_rng(0).normal(size=(6, 20, 2)) + np.repeat([0, 5], 3)[:, None, None]
-    >>> SoftDTWKMeans(n_clusters=2, random_state=0).fit_predict(X).tolist()
-    [1, 1, 1, 0, 0, 0]
+    >>> km = SoftDTWKMeans(n_clusters=2, random_state=0).fit(X)
+    >>> km.labels_.tolist(), km.predict(X[:, :15]).tolist()
+    ([1, 1, 1, 0, 0, 0], [1, 1, 1, 0, 0, 0])
     """
 
     def __init__(self, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
-                 tol=1e-6, n_init=1, random_state=None, parallel=None):
+                 tol=1e-6, n_init=1, random_state=None, init="k-means++", parallel=None):
         self.n_clusters = n_clusters
         self.gamma = gamma
         self.max_iter = max_iter
@@ -283,51 +311,90 @@ class SoftDTWKMeans:
         self.tol = tol
         self.n_init = n_init
         self.random_state = random_state
+        self.init = init
         self.parallel = parallel
 
-    def get_params(self, deep=True):
-        """The constructor's parameters (scikit-learn's convention)."""
-        return {k: getattr(self, k) for k in ("n_clusters", "gamma", "max_iter",
-                                              "max_iter_barycenter", "tol", "n_init",
-                                              "random_state", "parallel")}
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.three_d_array = True  # (n_ts, sz, d) time-series datasets
+        tags.input_tags.allow_nan = False     # NaN-padded variable-length data refused
+        tags.input_tags.sparse = False
+        return tags
 
-    def set_params(self, **params):
-        """Set constructor parameters; unknown names raise ``ValueError``."""
-        for k, v in params.items():
-            if k not in self.get_params():
-                raise ValueError(f"unknown parameter {k!r} of SoftDTWKMeans")
-            setattr(self, k, v)
-        return self
-
-    def _check(self, n_ts):
-        for name, low in (("n_clusters", 1), ("max_iter", 1), ("max_iter_barycenter", 0),
-                          ("n_init", 1)):
+    # -- checks -------------------------------------------------------------- #
+    def _validate(self, X):
+        """``(X, init)`` checked: the dataset and the parameters (a ValueError or TypeError
+        names the parameter); ``init`` as a string or a float array."""
+        for name, low in _INT_PARAMS.items():
             v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, numbers.Integral) or v < low:
+            if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral):
+                raise TypeError(f"{name} must be an integer >= {low}, got {v!r}")
+            if v < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {v!r}")
-        if self.n_clusters > n_ts:
-            raise ValueError(f"n_clusters must be <= the number of series ({n_ts}), "
-                             f"got {self.n_clusters}")
-        if not (isinstance(self.tol, numbers.Real) and self.tol >= 0):
-            raise ValueError(f"tol must be a real number >= 0, got {self.tol!r}")
+        _check_gamma(self.gamma)
+        if (isinstance(self.tol, (bool, np.bool_)) or not isinstance(self.tol, numbers.Real)
+                or not (math.isfinite(self.tol) and self.tol >= 0)):
+            raise ValueError(f"tol must be a finite real number >= 0, got {self.tol!r}")
+        _use_parallel(self.parallel)
+        if not (self.random_state is None or isinstance(self.random_state, numbers.Integral)
+                or isinstance(self.random_state, np.random.RandomState)):
+            raise TypeError(f"random_state must be None, an int or a numpy RandomState, got "
+                            f"{type(self.random_state).__name__}")
+        X = _as_dataset(X, "X")
+        init = self.init
+        if isinstance(init, str):
+            if init not in ("k-means++", "random"):
+                raise ValueError(f"init must be 'k-means++', 'random' or an array of "
+                                 f"centres, got {init!r}")
+        elif hasattr(init, "__array__") or isinstance(init, (list, tuple)):
+            init = _as_dataset(init, "init", n_features=X.shape[2])
+            if init.shape[0] != self.n_clusters:
+                raise ValueError(f"init must hold n_clusters = {self.n_clusters} centres, "
+                                 f"got {init.shape[0]}")
+        else:
+            raise TypeError(f"init must be 'k-means++', 'random' or an array of centres, got "
+                            f"{type(init).__name__}")
+        if self.n_clusters > X.shape[0]:
+            raise ValueError(f"n_clusters = {self.n_clusters} needs at least as many series, "
+                             f"got n_samples = {X.shape[0]}")
+        _same_features(X, X if isinstance(init, str) else init, "X", "X" if isinstance(
+            init, str) else "init")
+        return X, init
 
+    def _check_new(self, X):
+        check_is_fitted(self, "cluster_centers_")
+        X = _as_dataset(X, "X", n_features=self.cluster_centers_.shape[2])
+        _same_features(X, self.cluster_centers_, "X", "cluster_centers_")
+        return X
+
+    # -- scikit-learn's interface -------------------------------------------- #
     def fit(self, X, y=None):
         """Cluster ``X`` (n_ts, sz, d); returns ``self`` with the fitted attributes."""
-        X = _as_dataset(X)
-        self._check(X.shape[0])
-        res = fit(X, n_clusters=self.n_clusters, gamma=self.gamma, max_iter=self.max_iter,
-                  max_iter_barycenter=self.max_iter_barycenter, tol=self.tol,
-                  n_init=self.n_init, random_state=self.random_state, parallel=self.parallel)
+        X, init = self._validate(X)
+        with _blas_single_thread():
+            res = _fit(X, self.n_clusters, _check_gamma(self.gamma), self.max_iter,
+                       self.max_iter_barycenter, self.tol, self.n_init, self.random_state,
+                       self.parallel, init)
         self.labels_ = np.asarray(res.labels, dtype=np.int64)
         self.cluster_centers_ = res.cluster_centers
         self.inertia_ = float(res.inertia)
         self.n_iter_ = int(res.n_iter)
+        self.n_features_in_ = int(X.shape[2])
         return self
 
     def fit_predict(self, X, y=None):
         """:meth:`fit`, then the labels of ``X``."""
         return self.fit(X).labels_
 
-    def __repr__(self):
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"SoftDTWKMeans({args})"
+    def transform(self, X):
+        """Soft-DTW of each series of ``X`` to each centre, shape (n_ts, n_clusters) (as
+        tslearn's ``transform``; series may have another length than the centres)."""
+        X = self._check_new(X)
+        out = np.empty((X.shape[0], self.cluster_centers_.shape[0]))
+        _sdtw_cross(X, np.ascontiguousarray(self.cluster_centers_), _check_gamma(self.gamma),
+                    out, _use_parallel(self.parallel), _libm_selfcheck())
+        return out
+
+    def predict(self, X):
+        """The nearest centre of each series of ``X`` under soft-DTW, shape (n_ts,)."""
+        return self.transform(X).argmin(axis=1)

@@ -1,12 +1,16 @@
 """Soft-DTW and DTW as functions of series and batches (the kernels' checked entry points).
 
 Equal to tslearn's ``soft_dtw``, ``cdist_soft_dtw``, the barycentre objective and its
-gradient, ``dtw`` and the DTW distance matrix, for equal-length series without NaN.
+gradient, ``dtw`` and the DTW distance matrix, for series without NaN (a dataset's series
+share one length; two datasets compared may have different lengths). Every function checks
+its input before a kernel runs: a ``ValueError`` or ``TypeError`` names the argument for an
+empty series, mismatched feature counts, NaN, inf, complex or sparse input, a non-positive
+``gamma`` or values whose squared distances would overflow.
 """
 
 import numpy as np
 
-from ._checks import _as_dataset, _as_series, _check_gamma, _use_parallel
+from ._checks import _as_dataset, _as_series, _check_gamma, _same_features, _use_parallel
 from ._dispatch import _objgrad, _sdtw_cross
 from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _dtw_value, _n_workers,
                        _objgrad_range, _sdtw_upper_par_inner, _sdtw_upper_range, _sdtw_value)
@@ -15,16 +19,18 @@ from ._libm import _libm_selfcheck
 
 def soft_dtw(x, y, gamma=1.0):
     """= tslearn.metrics.soft_dtw(x, y, gamma) (no constraint)."""
-    x = _as_series(x)
-    y = _as_series(y)
+    x = _as_series(x, "x")
+    y = _as_series(y, "y")
+    _same_features(x, y, "x", "y")
     gamma = _check_gamma(gamma)
     return float(_sdtw_value(x, y, gamma, _libm_selfcheck()))
 
 
 def soft_dtw_cross(A, B, gamma=1.0, parallel=None):
     """out[i, j] = soft_dtw(A[i], B[j]) (= tslearn _cdist_soft_dtw(A, B))."""
-    A = _as_dataset(A)
-    B = _as_dataset(B)
+    A = _as_dataset(A, "A")
+    B = _as_dataset(B, "B")
+    _same_features(A, B, "A", "B")
     gamma = _check_gamma(gamma)
     out = np.empty((A.shape[0], B.shape[0]))
     _sdtw_cross(A, B, gamma, out, _use_parallel(parallel), _libm_selfcheck())
@@ -35,8 +41,9 @@ def soft_dtw_grad(Z, X, gamma=1.0):
     """(value, gradient w.r.t. Z) of soft_dtw(Z, X) computed exactly like
     tslearn.barycenters.softdtw._softdtw_func(Z, X, 1., gamma, 0, None, None)
     (cost matrix D = cdist(Z, X) ** 2)."""
-    Z = _as_series(Z)
-    X = _as_series(X)
+    Z = _as_series(Z, "Z")
+    X = _as_series(X, "X")
+    _same_features(Z, X, "Z", "X")
     gamma = _check_gamma(gamma)
     vals = np.empty(1)
     Gs = np.empty((1,) + Z.shape)
@@ -48,22 +55,25 @@ def soft_dtw_objgrad(Z, Xs, gamma=1.0, parallel=None):
     """Barycentre objective of tslearn (_acc_softdtw_func, unit weights):
     (sum_i soft_dtw(Z, Xs[i]), gradient w.r.t. Z of shape Z.shape).
     All series of Xs must have the same length (any length, != len(Z) ok)."""
-    Z = _as_series(Z)
-    Xs = _as_dataset(Xs)
+    Z = _as_series(Z, "Z")
+    Xs = _as_dataset(Xs, "Xs")
+    _same_features(Z, Xs, "Z", "Xs")
     gamma = _check_gamma(gamma)
     return _objgrad(Z, Xs, gamma, _use_parallel(parallel), _libm_selfcheck())
 
 
 def dtw(x, y):
     """= tslearn.metrics.dtw(x, y) (no constraint)."""
-    x = _as_series(x)
-    y = _as_series(y)
+    x = _as_series(x, "x")
+    y = _as_series(y, "y")
+    _same_features(x, y, "x", "y")
     return float(_dtw_value(x, y))
 
 
 def dtw_pdist(X, parallel=None):
     """Full symmetric DTW matrix (= tslearn _cdist_dtw(X)), zero diagonal."""
-    X = _as_dataset(X)
+    X = _as_dataset(X, "X")
+    _same_features(X, X, "X", "X")
     nts = X.shape[0]
     out = np.zeros((nts, nts))
     npairs = nts * (nts - 1) // 2
@@ -77,7 +87,8 @@ def dtw_pdist(X, parallel=None):
 
 def soft_dtw_normalized_pdist(X, gamma=1.0, parallel=None):
     """= tslearn _cdist_soft_dtw_normalized(X, gamma=gamma)."""
-    X = _as_dataset(X)
+    X = _as_dataset(X, "X")
+    _same_features(X, X, "X", "X")
     gamma = _check_gamma(gamma)
     nts = X.shape[0]
     c = np.zeros((nts, nts))

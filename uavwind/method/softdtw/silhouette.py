@@ -50,14 +50,31 @@ def _silhouette_precomputed(D, labels):
     return float(np.mean(sil_samples))
 
 
+def _check_labels(labels, n_ts):
+    labels = np.asarray(labels)
+    if labels.ndim != 1 or labels.shape[0] != n_ts:
+        raise ValueError(f"labels must have shape ({n_ts},) (one per series), got "
+                         f"{labels.shape}")
+    if not (np.issubdtype(labels.dtype, np.integer) or labels.dtype == bool):
+        raise TypeError(f"labels must be integers, got dtype {labels.dtype}")
+    return labels
+
+
 def silhouette(X, labels, metric="dtw", gamma=None, parallel=None):
     """= tslearn.clustering.silhouette_score(X, labels, metric=metric,
     metric_params={"gamma": gamma} if gamma is not None else None).
     metric: "dtw" (or None) or "softdtw" (normalised soft-DTW, gamma
     default 1.0 as in tslearn) or "precomputed"."""
+    if metric not in ("dtw", None, "softdtw", "precomputed"):
+        raise ValueError(f"metric must be 'dtw', 'softdtw' or 'precomputed', got {metric!r}")
     if metric == "precomputed":
-        return _silhouette_precomputed(X, labels)
-    X = _as_dataset(X)
+        D = np.asarray(X, dtype=np.float64)
+        if D.ndim != 2 or D.shape[0] != D.shape[1] or not np.all(np.isfinite(D)):
+            raise ValueError(f"X must be a finite square distance matrix for "
+                             f"metric='precomputed', got shape {D.shape}")
+        return _silhouette_precomputed(D, _check_labels(labels, D.shape[0]))
+    X = _as_dataset(X, "X")
+    labels = _check_labels(labels, X.shape[0])
     if metric == "dtw" or metric is None:
         D = dtw_pdist(X, parallel=parallel)
     elif metric == "softdtw":
