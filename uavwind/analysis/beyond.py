@@ -38,13 +38,13 @@ def _summary(df, by):
     return pd.DataFrame(rows)
 
 
-def noise_table(df):
+def noise_table(df: pd.DataFrame) -> pd.DataFrame:
     """Exp 7: per scenario, white noise sigma [m] and bias [m]: score and correct share
     with 95% intervals."""
     return _summary(df, ("scenario", "noise_sigma", "noise_bias"))
 
 
-def breaking_level(df, threshold=0.5):
+def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
     """Per scenario, the white-noise level [m] at which the share of correctly grouped
     loops first falls below ``threshold``: ``last_ok`` (the largest level before it),
     ``first_broken`` (NaN: never within the levels run) and the shares at both."""
@@ -93,12 +93,12 @@ def at_noise(table: pd.DataFrame, sigma: float = 0.0, bias: float = 0.0) -> pd.D
     return rows.set_index("scenario")
 
 
-def observation_table(df):
+def observation_table(df: pd.DataFrame) -> pd.DataFrame:
     """Exp 8: per scenario, observation and noise (``none``/``consumer``)."""
     return _summary(df, ("scenario", "observation", "noise"))
 
 
-def best_observation(df, noise="none"):
+def best_observation(df: pd.DataFrame, noise: str = "none") -> pd.DataFrame:
     """Per scenario, the observation with the highest mean score under ``noise``."""
     t = observation_table(df)
     t = t[t["noise"] == noise]
@@ -107,7 +107,7 @@ def best_observation(df, noise="none"):
                                              "correct_rate"]]
 
 
-def baseline_table(df):
+def baseline_table(df: pd.DataFrame) -> pd.DataFrame:
     """Exp 9: per scenario and noise, the baseline's wind RMSE [m/s] and grouping
     accuracy beside the causal-curiosity score and correct share on the same loops,
     and the baseline with 20% too much mass or drag coefficient."""

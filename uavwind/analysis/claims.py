@@ -10,6 +10,7 @@ written in the claim's ``rule`` so a reader can disagree with it.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,7 +38,7 @@ class Verdict:
     evidence: str
     verdict: str  # "reproduced", "partly", "not reproduced", "not run"
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, str]:
         return {"claim": self.claim, "statement": self.statement, "verdict": self.verdict,
                 "evidence": self.evidence, "rule": self.rule}
 
@@ -59,7 +60,7 @@ def _excludes(ci, sign):
     return ci[1] > 0 if sign > 0 else ci[2] < 0
 
 
-def claim_c1(r):
+def claim_c1(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp1"]
     d = df[~df["long_run"]] if "long_run" in df.columns else df
     means = d.groupby("scenario_id")["score"].mean()
@@ -79,7 +80,7 @@ def claim_c1(r):
                    "among the two lowest", ev, verdict)
 
 
-def claim_c2(r):
+def claim_c2(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp1"]
     s7 = _by_id(df, 7)
     below = {k: paired_difference(s7, _by_id(df, k)) for k in (2, 3, 5, 6)}
@@ -98,7 +99,7 @@ def claim_c2(r):
                    "agree without every CI excluding 0", ev, verdict)
 
 
-def claim_c3(r):
+def claim_c3(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp1"]
     long = _by_id(df, 1, long_run=True)
     short = long[:min(50, max(1, long.size // 10))]
@@ -119,7 +120,7 @@ def _sweep_claim(df, x, lo, hi):
     return out
 
 
-def claim_c4(r):
+def claim_c4(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp2"]
     d = _sweep_claim(df, "n_env", 6, 20)
     pos = [_excludes(c, +1) for c in d.values()]
@@ -130,7 +131,7 @@ def claim_c4(r):
                    "minus 20 env has a CI above 0; partly: for some", ev, verdict)
 
 
-def claim_c5(r):
+def claim_c5(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp3"]
     d = _sweep_claim(df, "n_env", 20, 6)
     more = [_excludes(c, +1) for c in d.values()]
@@ -154,7 +155,7 @@ def claim_c5(r):
                    verdict)
 
 
-def claim_c6(r):
+def claim_c6(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp4"]
     d = _sweep_claim(df, "thrust_changes", 12, 0)
     spread = {k: np.ptp(df[df["scenario_id"] == k].groupby("thrust_changes")["score"].mean())
@@ -170,7 +171,7 @@ def claim_c6(r):
                    verdict)
 
 
-def claim_c7(r):
+def claim_c7(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df = r["exp5"]
     same, opp = _scores(df, direction="similar"), _scores(df, direction="opposite")
     rs = correct_share(df[df["direction"] == "similar"])
@@ -185,7 +186,7 @@ def claim_c7(r):
                    verdict)
 
 
-def claim_c8(r):
+def claim_c8(r: Mapping[str, pd.DataFrame]) -> Verdict:
     df6, df5 = r["exp6"], r["exp5"]
     rand = _scores(df5, direction="similar")
     g = df6.groupby("iteration")["score"]
@@ -209,7 +210,7 @@ def claim_c8(r):
                    "maximum or mean", ev, verdict)
 
 
-def claim_c9(r):
+def claim_c9(r: Mapping[str, pd.DataFrame]) -> Verdict:
 
     df = r["exp7"]
     t = noise_table(df)
@@ -275,7 +276,7 @@ def needed_experiments() -> list[str]:
     return [e for e in EXPERIMENTS if e in need]
 
 
-def compare_readings(by_reading):
+def compare_readings(by_reading: Mapping[str, Mapping[str, pd.DataFrame]]) -> pd.DataFrame:
     """Verdicts side by side: ``by_reading`` maps a reading name to its results dict
     (experiment id -> table). Columns ``verdict (<reading>)``, ``evidence (<reading>)``
     per reading, the statement and :data:`LESSONS`."""
@@ -291,7 +292,7 @@ def compare_readings(by_reading):
     return out
 
 
-def evaluate_claims(results):
+def evaluate_claims(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """All verdicts as a DataFrame; ``results`` maps experiment id -> its result table."""
     rows = []
     for cid, (needs, fn) in CLAIMS.items():

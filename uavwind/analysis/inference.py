@@ -28,6 +28,9 @@ geometry -- here the gap-to-spacing ratio -- and hardly on the wind strength.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
 import numpy as np
 import pandas as pd
 
@@ -42,6 +45,9 @@ from ..study.readings import INFERRED_TURBULENCE, TURBULENCE_CANDIDATES
 from ..study.registry import EXPERIMENTS
 from .tables import comparison_table
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "check_fits", "score_matrix",
            "silhouette_curves", "compare_turbulence", "check_turbulence", "out_of_sample",
            "miss_reasons", "CLOSE", "scale_invariance", "scaled_setting", "line_silhouette"]
@@ -53,7 +59,7 @@ def _paper_table4():
     return t4[~t4["long_run"]].set_index("scenario_id")
 
 
-def fit_ratio(ratios, scores, target):
+def fit_ratio(ratios: ArrayLike, scores: ArrayLike, target: float) -> float:
     """The gap ratio at which the mean score reaches ``target``.
 
     Parameters
@@ -92,7 +98,7 @@ def fit_ratio(ratios, scores, target):
     return float(np.exp(lo + w * (hi - lo)))
 
 
-def silhouette_curves(fit_results):
+def silhouette_curves(fit_results: pd.DataFrame) -> pd.DataFrame:
     """Mean, max and correct share of the score per scenario and gap ratio."""
     keys = ["scenario_id", "scenario", "gap_ratio"]
     g = fit_results.groupby(keys)["score"]
@@ -109,7 +115,8 @@ def score_matrix(sub: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     return wide.index.to_numpy(dtype=float), wide.to_numpy()
 
 
-def fit_layouts(fit_results, n_boot=N_BOOT, seed=SEED):
+def fit_layouts(fit_results: pd.DataFrame, n_boot: int = N_BOOT,
+                seed: int = SEED) -> pd.DataFrame:
     """Fitted gap ratio of each same-strength scenario, from Table 4's mean alone.
 
     Parameters
@@ -160,7 +167,7 @@ def check_fits(fits: pd.DataFrame) -> pd.DataFrame:
     return fits
 
 
-def compare_turbulence(turb_results):
+def compare_turbulence(turb_results: pd.DataFrame) -> pd.DataFrame:
     """Each turbulence candidate's score on scenario 7 beside Table 4 (93.59 / 92.44).
 
     Returns one row per candidate with ``mean`` (and its bootstrap ``ci_low``,
@@ -227,7 +234,7 @@ def miss_reasons(oos: pd.DataFrame, close: float = CLOSE) -> pd.DataFrame:
     return misses
 
 
-def out_of_sample(results):
+def out_of_sample(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     """The rows the fit never saw, predicted under the inferred reading, beside the paper.
 
     Parameters
@@ -267,7 +274,7 @@ def out_of_sample(results):
     return pd.concat(frames, ignore_index=True).set_index(["table", "row"])
 
 
-def line_silhouette(setting):
+def line_silhouette(setting: Setting) -> float:
     """Silhouette of the setting's wind speeds as points on a line, grouped as the setting
     groups them: what the layout's geometry alone predicts for a constant pair (NaN for
     turbulence, whose environments are not points on a line)."""
@@ -281,7 +288,7 @@ def line_silhouette(setting):
     return float(silhouette_score((v @ d)[:, None], setting.groups))
 
 
-def scaled_setting(setting, factor):
+def scaled_setting(setting: Setting, factor: float) -> Setting:
     """``setting`` with every constant and shear wind velocity multiplied by ``factor``."""
     from dataclasses import replace
 
@@ -293,7 +300,9 @@ def scaled_setting(setting, factor):
     return replace(setting, group_a=scale(setting.group_a), group_b=scale(setting.group_b))
 
 
-def scale_invariance(setting, factor=10.0, n_loops=20, seed=0, engine=None, n_jobs=1):
+def scale_invariance(setting: Setting, factor: float = 10.0, n_loops: int = 20,
+                     seed: int | np.random.SeedSequence | None = 0, engine: str | None = None,
+                     n_jobs: int | None = 1) -> pd.DataFrame:
     """Silhouettes of the same loops on ``setting`` and on its winds scaled by ``factor``.
 
     Returns a DataFrame with one row per loop: ``silhouette``, ``scaled`` and their

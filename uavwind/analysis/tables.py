@@ -11,6 +11,7 @@ confidence interval.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import pandas as pd
@@ -25,7 +26,7 @@ __all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFE
            "maxmean_table", "cem_table"]
 
 
-def maxmean_table(df: pd.DataFrame, by) -> pd.DataFrame:
+def maxmean_table(df: pd.DataFrame, by: Iterable[str]) -> pd.DataFrame:
     """One row per ``by`` group: ``max``, ``mean`` with its 95% bootstrap ``ci_low`` and
     ``ci_high``, ``correct_rate`` and ``n_loops`` (:func:`~uavwind.core.stats.summarise`)."""
     by = list(by)

@@ -10,15 +10,22 @@ work starts. :func:`check_scalar` and :func:`check_array` check numbers and arra
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, TypeVar
 
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike, DTypeLike
+
 __all__ = ["check_scalar", "check_array", "check_choice", "check_instance", "check_kwargs"]
 
+_T = TypeVar("_T")
 
-def check_scalar(value, name, *, low=None, high=None, low_inclusive=True,
-                 high_inclusive=True, integer=False):
+
+def check_scalar(value: float, name: str, *, low: float | None = None,
+                 high: float | None = None, low_inclusive: bool = True,
+                 high_inclusive: bool = True, integer: bool = False) -> float:
     """Return ``value`` as a float (or int) after checking type, finiteness and range.
 
     Raises
@@ -54,7 +61,9 @@ def check_scalar(value, name, *, low=None, high=None, low_inclusive=True,
     return value
 
 
-def check_array(value, name, *, shape=None, ndim=None, finite=True, dtype=float):
+def check_array(value: ArrayLike, name: str, *, shape: Sequence[int | None] | None = None,
+                ndim: int | None = None, finite: bool = True,
+                dtype: DTypeLike = float) -> np.ndarray:
     """Return ``value`` as a float ndarray after checking shape and finiteness.
 
     ``shape`` may contain ``None`` for a free axis, e.g. ``(None, 3)``.
@@ -75,7 +84,7 @@ def check_array(value, name, *, shape=None, ndim=None, finite=True, dtype=float)
     return arr
 
 
-def check_choice(value, name: str, choices: Iterable):
+def check_choice(value: _T, name: str, choices: Iterable) -> _T:
     """``value`` if it is one of ``choices``, else ``ValueError`` naming ``name`` and the choices.
 
     >>> check_choice("fast", "engine", ("fast", "tslearn"))
@@ -91,7 +100,8 @@ def check_choice(value, name: str, choices: Iterable):
     return value
 
 
-def check_instance(value, name: str, types, what: str | None = None):
+def check_instance(value: _T, name: str, types: type | tuple[type, ...],
+                   what: str | None = None) -> _T:
     """``value`` if it is an instance of ``types``, else ``TypeError`` naming ``name``."""
     if not isinstance(value, types):
         if what is None:

@@ -21,7 +21,7 @@ from pathlib import Path
 __all__ = ["atomic_write", "check_target"]
 
 
-def check_target(path, name: str = "path") -> Path:
+def check_target(path: os.PathLike | str, name: str = "path") -> Path:
     """``path`` as a Path if it is a regular file or does not exist yet (in an existing
     folder); ``ValueError`` naming ``name`` for a folder, a device, a pipe or a socket."""
     path = Path(path).expanduser()
@@ -38,7 +38,8 @@ def check_target(path, name: str = "path") -> Path:
     return path
 
 
-def atomic_write(path, write: Callable[[Path], None] | str | bytes, name: str = "path") -> Path:
+def atomic_write(path: os.PathLike | str, write: Callable[[Path], None] | str | bytes,
+                 name: str = "path") -> Path:
     """Write ``path`` atomically.
 
     Parameters

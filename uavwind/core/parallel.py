@@ -26,7 +26,7 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def check_jobs(n_jobs, name: str = "n_jobs") -> int:
+def check_jobs(n_jobs: int | None, name: str = "n_jobs") -> int:
     """``n_jobs`` checked: ``None`` or ``-1`` mean all cores (returned as -1), a negative
     ``-k`` all but ``k - 1``; more than the cores is capped at the cores with a warning."""
     if n_jobs is None:

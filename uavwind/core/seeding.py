@@ -15,7 +15,7 @@ import numpy as np
 __all__ = ["root_seed", "child_seed", "child_rng"]
 
 
-def root_seed(seed) -> np.random.SeedSequence:
+def root_seed(seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
     """``seed`` as a SeedSequence: an int (>= 0), None (fresh entropy) or a SeedSequence."""
     if isinstance(seed, np.random.SeedSequence):
         return seed
@@ -28,7 +28,7 @@ def root_seed(seed) -> np.random.SeedSequence:
                     f"got {type(seed).__name__}")
 
 
-def child_seed(root, *key: int) -> np.random.SeedSequence:
+def child_seed(root: int | np.random.SeedSequence | None, *key: int) -> np.random.SeedSequence:
     """The descendant of ``root`` with spawn key ``root.spawn_key + key`` (no state touched).
 
     >>> child_seed(np.random.SeedSequence(1), 3, 0).spawn_key
@@ -39,6 +39,6 @@ def child_seed(root, *key: int) -> np.random.SeedSequence:
                                   pool_size=root.pool_size)
 
 
-def child_rng(root, *key: int) -> np.random.Generator:
+def child_rng(root: int | np.random.SeedSequence | None, *key: int) -> np.random.Generator:
     """A PCG64 generator on :func:`child_seed` ``(root, *key)``."""
     return np.random.Generator(np.random.PCG64(child_seed(root, *key)))

@@ -10,7 +10,14 @@ and figures all call these, so an interval means the same thing everywhere.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import ArrayLike
 
 __all__ = ["bootstrap_ci", "paired_difference", "correct_share", "summarise", "N_BOOT",
            "SEED", "LEVEL"]
@@ -23,7 +30,8 @@ SEED = 12345
 LEVEL = 0.95
 
 
-def bootstrap_ci(values, stat=np.mean, n_boot: int = N_BOOT, level: float = LEVEL,
+def bootstrap_ci(values: ArrayLike, stat: Callable[..., ArrayLike] = np.mean,
+                 n_boot: int = N_BOOT, level: float = LEVEL,
                  seed: int = SEED) -> tuple[float, float, float]:
     """Percentile bootstrap: ``(estimate, low, high)`` of ``stat`` over ``values``.
 
@@ -41,14 +49,15 @@ def bootstrap_ci(values, stat=np.mean, n_boot: int = N_BOOT, level: float = LEVE
     return float(stat(v)), float(np.quantile(boots, a)), float(np.quantile(boots, 1 - a))
 
 
-def paired_difference(a, b, n_boot=N_BOOT, seed=SEED):
+def paired_difference(a: ArrayLike, b: ArrayLike, n_boot: int = N_BOOT,
+                      seed: int = SEED) -> tuple[float, float, float]:
     """Mean of ``a - b`` over loops paired by index, with a bootstrap 95% CI."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     n = min(a.size, b.size)
     return bootstrap_ci(a[:n] - b[:n], n_boot=n_boot, seed=seed)
 
 
-def correct_share(rows):
+def correct_share(rows: pd.DataFrame | ArrayLike) -> float:
     """Share of loops whose clusters are the two groups: the ``correct`` column of a result
     table (a loop can be grouped correctly with a silhouette <= 0, so a score > 0 is not
     the same test); a bare score array falls back to ``score > 0``."""
@@ -58,7 +67,7 @@ def correct_share(rows):
     return float((s > 0).mean())
 
 
-def summarise(rows) -> dict:
+def summarise(rows: pd.DataFrame | ArrayLike) -> dict:
     """The summary row of a group of loops: ``max``, ``mean`` with its bootstrap ``ci_low``
     and ``ci_high``, ``correct_rate`` with ``correct_low`` and ``correct_high``, and
     ``n_loops``.

@@ -22,6 +22,8 @@ drag coefficient; :func:`baseline_metrics` also measures what a 20% error in the
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..sim.actions import ThrustSequence
@@ -29,6 +31,11 @@ from ..core.checks import check_array, check_scalar
 from ..sim.dynamics import simulate
 from ..sim.vehicle import UAV
 from ..sim.wind import ConstantWind
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..sim.dynamics import Flight
 
 __all__ = ["estimate_wind", "baseline_metrics", "two_means", "WIND_MODELS", "BASELINE_VERSION"]
 
@@ -44,7 +51,9 @@ def _still_air(thrust, uav, dt, n, start):
                     start_position=start)[0]
 
 
-def estimate_wind(positions, thrust, uav=None, dt=0.1, model="constant", start_position=None):
+def estimate_wind(positions: ArrayLike, thrust: ThrustSequence, uav: UAV | None = None,
+                  dt: float = 0.1, model: str = "constant",
+                  start_position: ArrayLike | None = None) -> np.ndarray:
     """Estimate each environment's wind from its positions and the known thrust.
 
     Parameters
@@ -95,7 +104,7 @@ def estimate_wind(positions, thrust, uav=None, dt=0.1, model="constant", start_p
     return (drift - prev) / dt
 
 
-def two_means(points, max_iter=100):
+def two_means(points: ArrayLike, max_iter: int = 100) -> np.ndarray:
     """Deterministic 2-means (Lloyd's iterations) of ``points`` (n, d), n >= 2.
 
     Starts from the two points farthest apart and alternates assignment and centroid
@@ -128,8 +137,9 @@ def _grouped(estimates, groups):
     return bool(np.array_equal(labels, groups) or np.array_equal(labels, 1 - groups))
 
 
-def baseline_metrics(flight, positions, thrust, uav, dt, groups, start_position=None,
-                     model_error=0.2):
+def baseline_metrics(flight: Flight, positions: ArrayLike, thrust: ThrustSequence, uav: UAV,
+                     dt: float, groups: ArrayLike, start_position: ArrayLike | None = None,
+                     model_error: float = 0.2) -> dict[str, float | bool]:
     """The baseline on one loop: wind RMSE and grouping, with the true UAV and with
     ``model_error`` (20%) too much mass or drag coefficient.
 

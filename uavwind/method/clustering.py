@@ -21,11 +21,19 @@ Both are driven by one adapter: an estimator with tslearn's interface and a silh
 from __future__ import annotations
 
 import warnings
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_kwargs, check_scalar
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from numpy.typing import ArrayLike
+
+    from ..sim.actions import ThrustSequence
 
 __all__ = ["score_loop", "LoopResult", "ClusteringParams", "ENGINES", "DEFAULT_PARAMS",
            "check_groups", "check_engine", "default_engine"]
@@ -82,7 +90,7 @@ class ClusteringParams:
         return asdict(self)
 
     @classmethod
-    def from_kwargs(cls, kwargs, where: str) -> "ClusteringParams":
+    def from_kwargs(cls, kwargs: Mapping[str, Any], where: str) -> "ClusteringParams":
         """From the ``**params`` of a function called ``where``: an unknown keyword is a
         ``TypeError`` that names it, the function and the allowed ones."""
         check_kwargs(kwargs, [f.name for f in fields(cls)], where)
@@ -124,16 +132,16 @@ class LoopResult:
     metrics: dict = field(default_factory=dict, repr=False)
 
     @property
-    def observations(self):
+    def observations(self) -> tuple[np.ndarray, np.ndarray]:
         """Cluster labels of each group: ``(labels of group 0, labels of group 1)``."""
         return self.labels[self.groups == 0], self.labels[self.groups == 1]
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         """Flat row for a pandas table."""
         return {"score": self.score, "silhouette": self.silhouette, "correct": self.correct,
                 "n_iter": self.n_iter, "labels": self.labels.tolist(), **self.metrics}
 
-    def to_table(self, thrust=None):
+    def to_table(self, thrust: ThrustSequence | None = None) -> pd.DataFrame:
         """The paper's "Simulation parameters and outputs after one simulation loop" table.
 
         Returns a one-column ``pandas.DataFrame``; pass the loop's
@@ -159,7 +167,7 @@ class LoopResult:
         return self.to_table().to_string(header=False)
 
 
-def check_groups(groups, n_env):
+def check_groups(groups: ArrayLike, n_env: int) -> np.ndarray:
     """Validate ``groups``: length ``n_env``, values 0/1, both present. Returns an int array."""
     g = np.asarray(groups)
     if g.ndim != 1 or g.shape[0] != n_env:
@@ -222,18 +230,19 @@ def _cluster(X, p, engine):
     return labels, float(sil), int(km.n_iter_)
 
 
-def default_engine():
+def default_engine() -> str:
     """The default engine: ``"fast"`` (equal to ``"tslearn"``, see the tests)."""
     return "fast"
 
 
-def check_engine(engine):
+def check_engine(engine: str | None) -> str:
     """``engine``, or :func:`default_engine` for None; ``ValueError`` if not in :data:`ENGINES`."""
     engine = default_engine() if engine is None else engine
     return check_choice(engine, "engine", sorted(ENGINES))
 
 
-def score_loop(trajectories, groups, engine=None, **params):
+def score_loop(trajectories: ArrayLike, groups: ArrayLike, engine: str | None = None,
+               **params: float | str) -> LoopResult:
     """Cluster one loop's trajectories into two clusters and score them.
 
     Parameters

@@ -22,7 +22,9 @@ works, including Dask through ``joblib.parallel_config(backend="dask")``.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -35,6 +37,11 @@ from ..sim.actions import MAX_THRUST, ThrustSequence
 from ..sim.setting import Setting
 from .baseline import baseline_metrics
 from .clustering import ClusteringParams, check_engine, score_loop
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .clustering import LoopResult
 
 __all__ = ["evaluate", "random_search", "cem", "CEMResult", "cem_step"]
 
@@ -54,8 +61,10 @@ def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     return res
 
 
-def evaluate(setting, thrusts, wind_seeds, engine=None, n_jobs=None, progress=True,
-             desc="loops", **params):
+def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
+             wind_seeds: Sequence[np.random.SeedSequence], engine: str | None = None,
+             n_jobs: int | None = None, progress: bool = True, desc: str = "loops",
+             **params: float | str) -> list[LoopResult]:
     """Score every thrust sequence of ``thrusts`` on ``setting``.
 
     Parameters
@@ -123,8 +132,10 @@ def _rows(results, thrusts):
     return rows
 
 
-def random_search(setting, n_loops=50, seed=0, n_jobs=None, engine=None, progress=True,
-                  loop_offset=0, **params):
+def random_search(setting: Setting, n_loops: int = 50,
+                  seed: int | np.random.SeedSequence | None = 0, n_jobs: int | None = None,
+                  engine: str | None = None, progress: bool = True, loop_offset: int = 0,
+                  **params: float | str) -> pd.DataFrame:
     """Random exploration: ``n_loops`` fresh thrust sequences, each scored on ``setting``.
 
     Parameters
@@ -203,7 +214,8 @@ class CEMResult:
     stopped_early: bool
 
 
-def cem_step(samples, scores, n_elite):
+def cem_step(samples: ArrayLike, scores: ArrayLike,
+             n_elite: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One CEM update (eqs CEM1-2): mean and (population) standard deviation of the
     ``n_elite`` best rows of ``samples`` (ties keep the lower index)."""
     order = np.argsort(-np.asarray(scores, dtype=float), kind="stable")
@@ -213,10 +225,15 @@ def cem_step(samples, scores, n_elite):
     return mu, sigma, order[:n_elite]
 
 
-def cem(setting, n_samples=30, n_elite=4, max_iter=20, seed=0, patience=None,
-        magnitude_mean=25.0, magnitude_std=50.0, direction_mean=0.0, direction_std=0.33,
-        max_magnitude=MAX_THRUST, n_jobs=None, engine=None, progress=True, objective=None,
-        rank_by="score", clustering=None, **params):
+def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int = 20,
+        seed: int | np.random.SeedSequence | None = 0, patience: int | None = None,
+        magnitude_mean: float = 25.0, magnitude_std: float = 50.0,
+        direction_mean: float = 0.0, direction_std: float = 0.33,
+        max_magnitude: float = MAX_THRUST, n_jobs: int | None = None,
+        engine: str | None = None, progress: bool = True,
+        objective: Callable[[np.ndarray], ArrayLike] | None = None, rank_by: str = "score",
+        clustering: Mapping[str, float | str] | None = None,
+        **params: float | str) -> CEMResult:
     """Cross-Entropy Method over thrust magnitudes and direction components.
 
     The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``

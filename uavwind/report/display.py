@@ -12,9 +12,15 @@ and tests can reach the presentation too:
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import pandas as pd
 
 from ..study.registry import column_names
+
+if TYPE_CHECKING:
+    from ..sim.setting import Setting
 
 __all__ = ["PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
 
@@ -36,7 +42,7 @@ SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate"
           "cc_correct_rate")
 
 
-def pretty(df, precision=2):
+def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     """A display copy of ``df``: shares as percentages, columns and index levels renamed
     by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``."""
     out = df.copy()
@@ -51,13 +57,14 @@ def pretty(df, precision=2):
     return out.round(precision)
 
 
-def group_name(setting, group):
+def group_name(setting: Setting, group: int) -> str:
     """Display name of group ``group`` (0 or 1) of ``setting``: its condition's label
     (:meth:`~uavwind.sim.setting.Setting.group_label`)."""
     return setting.group_label(group)
 
 
-def claims_markdown(verdicts, readings=("inferred", "halves")):
+def claims_markdown(verdicts: pd.DataFrame,
+                    readings: Sequence[str] = ("inferred", "halves")) -> str:
     """The claims page's evidence: per claim, the verdict and evidence under each reading,
     what the difference teaches and the rule (from :func:`uavwind.claims.compare_readings`)."""
     names = {"inferred": "Inferred reading", "halves": "Halves (decision 5)"}

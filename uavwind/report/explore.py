@@ -12,6 +12,9 @@ from __future__ import annotations
 import hashlib
 import html
 import json
+import os
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,13 +27,23 @@ from ..study.readings import get_reading
 from .display import group_name
 from .plotting import fig3_loop
 
+if TYPE_CHECKING:
+    from ipywidgets import VBox
+    from matplotlib.figure import Figure
+
+    from ..method.clustering import LoopResult
+    from ..sim.setting import Setting
+    from ..study.conditions import WindCondition
+
 __all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "explorer_html",
            "explore_thrusts",
            "EXPLORE_PAIRS"]
 
 
-def explore_loop(condition_a="light constant", condition_b="strong shear", n_per_group=5,
-                 thrust_seed=0, n_changes=6, engine=None):
+def explore_loop(condition_a: str | WindCondition = "light constant",
+                 condition_b: str | WindCondition = "strong shear", n_per_group: int = 5,
+                 thrust_seed: int = 0, n_changes: int = 6, engine: str | None = None,
+                 ) -> tuple[Figure, LoopResult, Setting, ThrustSequence]:
     """Fly one random thrust sequence through two generated groups and score it.
 
     Returns ``(figure, LoopResult, setting, thrust)``.
@@ -46,7 +59,7 @@ def explore_loop(condition_a="light constant", condition_b="strong shear", n_per
     return fig, res, setting, thrust
 
 
-def explorer():
+def explorer() -> VBox:
     """An ipywidgets panel: wind conditions, environments, thrust seed and changes."""
     import ipywidgets as w
     import matplotlib.pyplot as plt
@@ -80,7 +93,7 @@ EXPLORE_PAIRS = (("light constant", "light constant"), ("light constant", "stron
                  ("light constant", "strong turbulence"), ("light constant", "light shear"))
 
 
-def explore_thrusts():
+def explore_thrusts() -> dict[str, ThrustSequence]:
     """The thrust sequences the static explorer offers: label -> ThrustSequence."""
 
     return {"the paper's example (Table 3)": PAPER_EXAMPLE,
@@ -91,8 +104,11 @@ def explore_thrusts():
             "random (seed 2)": sample_paper(np.random.default_rng(2))}
 
 
-def explore_grid(pairs=EXPLORE_PAIRS, n_per_group=(3, 5), layouts=("inferred", "halves"),
-                 every=3, engine=None, seed=0):
+def explore_grid(pairs: Sequence[tuple[str, str]] = EXPLORE_PAIRS,
+                 n_per_group: Sequence[int] = (3, 5),
+                 layouts: Sequence[str] = ("inferred", "halves"), every: int = 3,
+                 engine: str | None = None,
+                 seed: int | np.random.SeedSequence | None = 0) -> dict:
     """Fly and score every combination of the explorer's controls.
 
     Returns a JSON-ready dict: ``controls`` (the options of each control) and
@@ -127,7 +143,7 @@ def _grid_settings(pairs, n_per_group, layouts):
                 yield (i, n, layout), make_setting(a, b, n, **get_reading(layout).builder_kwargs)
 
 
-def cached_grid(folder=None, **kwargs):
+def cached_grid(folder: os.PathLike | str | None = None, **kwargs: Any) -> dict:
     """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a digest of
     everything that determines it -- its arguments with their defaults, every setting's
     key (so a refitted layout changes it), the thrust sequences and the results version;
@@ -149,7 +165,8 @@ def cached_grid(folder=None, **kwargs):
         return grid
 
 
-def explorer_html(grid, plotly_src="../_static/plotly/plotly.min.js", element_id="uw-explorer"):
+def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/plotly.min.js",
+                  element_id: str = "uw-explorer") -> str:
     """A self-contained HTML widget over ``grid`` (:func:`explore_grid`): four selects, a
     rotatable 3-D plot and the score, redrawn in the browser on every change.
 

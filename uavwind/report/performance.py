@@ -9,7 +9,10 @@ beside the measured values. It measures nothing itself.
 from __future__ import annotations
 
 import json
+import os
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -27,7 +30,7 @@ TARGETS = {
 }
 
 
-def load_report(path):
+def load_report(path: os.PathLike | str) -> dict:
     """The benchmark report at ``path`` as a dict (empty if the file does not exist)."""
     path = Path(path)
     return json.loads(path.read_text()) if path.exists() else {}
@@ -39,7 +42,7 @@ def _loop_label(key):
     return f"{env.removesuffix('env')} environments x {steps.removesuffix('steps')} steps"
 
 
-def report_tables(report):
+def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     """Tables of ``report`` (a dict from :func:`load_report`), by section name.
 
     Returns
@@ -130,7 +133,7 @@ def report_tables(report):
     return out
 
 
-def summary_lines(report):
+def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     """The sentences the performance page prints around its tables, by section (each
     built from the report's numbers, so none is typed)."""
     out = {}

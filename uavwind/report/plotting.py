@@ -17,12 +17,22 @@ that a test cannot reach elsewhere). Figures:
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.dryden import dryden_psd
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+    from numpy.typing import ArrayLike
+
+    from ..sim.dryden import DrydenWind
+    from ..sim.dynamics import Flight
 
 __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",
@@ -36,7 +46,7 @@ def _plt():
     return plt
 
 
-def stamp(fig, results, note=""):
+def stamp(fig: Figure, results: pd.DataFrame, note: str = "") -> Figure:
     """Write how ``fig`` was made under it: experiment, reading, profile, seed, engine,
     rows, library version and commit of ``results`` (an experiment's table), as
     :func:`uavwind.analysis.tables.provenance` says it. Returns ``fig``."""
@@ -46,7 +56,8 @@ def stamp(fig, results, note=""):
     return fig
 
 
-def panel_grid(n, ncols=2, size=(4.2, 3.0)):
+def panel_grid(n: int, ncols: int = 2,
+               size: tuple[float, float] = (4.2, 3.0)) -> tuple[Figure, np.ndarray]:
     """Figure with ``n`` axes on a grid of ``ncols`` columns (extra axes hidden)."""
     plt = _plt()
     nrows = math.ceil(n / ncols)
@@ -61,7 +72,8 @@ def panel_grid(n, ncols=2, size=(4.2, 3.0)):
 # --------------------------------------------------------------------------- #
 # Fig 1: one flight
 # --------------------------------------------------------------------------- #
-def fig1_trajectory_and_wind(flight, envs=(0, -1), arrow_env=0, every=10, labels=None):
+def fig1_trajectory_and_wind(flight: Flight, envs: Sequence[int] = (0, -1), arrow_env: int = 0,
+                             every: int = 10, labels: Sequence[str] | None = None) -> Figure:
     """Fig 1a: 3-D trajectories of two environments (left) and the wind met along one path (right).
 
     Parameters
@@ -99,7 +111,7 @@ def fig1_trajectory_and_wind(flight, envs=(0, -1), arrow_env=0, every=10, labels
     return fig
 
 
-def fig1_velocity_projections(flight, env=0, every=10):
+def fig1_velocity_projections(flight: Flight, env: int = 0, every: int = 10) -> Figure:
     """Fig 1b: UAV ground velocity (top) and wind (bottom) along the path in XY, XZ, YZ."""
     plt = _plt()
     fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), constrained_layout=True)
@@ -137,7 +149,7 @@ def _flow(ax, boxes, loop_back, title):
     ax.set_title(title, fontsize=10)
 
 
-def fig2_flowcharts():
+def fig2_flowcharts() -> Figure:
     """Fig 2: the system with random exploration (a) and with CEM (b)."""
     plt = _plt()
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 5.5), constrained_layout=True)
@@ -157,7 +169,9 @@ def fig2_flowcharts():
 # --------------------------------------------------------------------------- #
 # loops and sweeps
 # --------------------------------------------------------------------------- #
-def fig3_loop(trajectories, groups, scores, group_labels=("group 0", "group 1"), title=None):
+def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
+              group_labels: Sequence[str] = ("group 0", "group 1"),
+              title: str | None = None) -> Figure:
     """Fig 3: (a) one loop's trajectories by group, (b) scores over the loops."""
     plt = _plt()
     fig = plt.figure(figsize=(11, 4.5), constrained_layout=True)
@@ -183,7 +197,8 @@ def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
     ax.legend(fontsize=7, loc="lower right")
 
 
-def score_per_loop(df, by="scenario", ncols=2, paper=None):
+def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
+                   paper: pd.DataFrame | None = None) -> Figure:
     """Figs 4 and 8: score vs loop number, one panel per ``by`` value, with max and mean.
 
     ``paper`` (optional DataFrame with ``scenario, maximum, mean``) adds the
@@ -202,7 +217,8 @@ def score_per_loop(df, by="scenario", ncols=2, paper=None):
     return fig
 
 
-def score_vs_parameter(df, x, by="scenario", ncols=2, paper=None, xlabel=None):
+def score_vs_parameter(df: pd.DataFrame, x: str, by: str = "scenario", ncols: int = 2,
+                       paper: pd.DataFrame | None = None, xlabel: str | None = None) -> Figure:
     """Figs 5-7: maximum and mean score vs ``x`` (``n_env``, ``thrust_changes``), one panel per
     ``by`` value; the paper's two reported points (if given) as grey markers."""
     keys = list(dict.fromkeys(df[by]))
@@ -230,7 +246,8 @@ def score_vs_parameter(df, x, by="scenario", ncols=2, paper=None, xlabel=None):
     return fig
 
 
-def fig9_cem(history, random_scores=None, paper=None):
+def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
+             paper: pd.DataFrame | None = None) -> Figure:
     """Fig 9: CEM maximum and mean score per iteration (and the random-search reference)."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
@@ -254,7 +271,7 @@ def fig9_cem(history, random_scores=None, paper=None):
 # --------------------------------------------------------------------------- #
 # model checks and comparisons
 # --------------------------------------------------------------------------- #
-def dryden_spectrum(wind, n_samples=4096, nperseg=512):
+def dryden_spectrum(wind: DrydenWind, n_samples: int = 4096, nperseg: int = 512) -> Figure:
     """Simulated gust spectra (Welch, averaged over environments) over the analytic
     MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.dryden.DrydenWind`
     whose environments share one W20."""
@@ -279,7 +296,8 @@ def dryden_spectrum(wind, n_samples=4096, nperseg=512):
     return fig
 
 
-def paper_vs_replication(table, ncols=1, title=None):
+def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
+                         title: str | None = None) -> Figure:
     """Bar chart of reported vs regenerated values: ``table`` has an index of row labels
     and columns ``paper_max, max, paper_mean, mean`` (:func:`~uavwind.experiments.comparison_table`)."""
     plt = _plt()
@@ -303,7 +321,7 @@ def paper_vs_replication(table, ncols=1, title=None):
 # --------------------------------------------------------------------------- #
 # what the paper's numbers reveal
 # --------------------------------------------------------------------------- #
-def silhouette_vs_ratio(curves, fits=None):
+def silhouette_vs_ratio(curves: pd.DataFrame, fits: pd.DataFrame | None = None) -> Figure:
     """Mean score against the gap-to-spacing ratio, one line per scenario (log x axis);
     with ``fits`` (:func:`uavwind.inference.fit_layouts`) the paper's Table 4 mean as a
     horizontal line and the fitted ratio with its 95% interval as a shaded band."""
@@ -328,7 +346,7 @@ def silhouette_vs_ratio(curves, fits=None):
     return fig
 
 
-def predicted_vs_paper(table):
+def predicted_vs_paper(table: pd.DataFrame) -> Figure:
     """Out-of-sample check: the paper's mean against the predicted mean (95% CI), one
     point per row of ``table`` (:func:`uavwind.inference.out_of_sample`), by table."""
     plt = _plt()
@@ -349,7 +367,7 @@ def predicted_vs_paper(table):
 # --------------------------------------------------------------------------- #
 # beyond the paper
 # --------------------------------------------------------------------------- #
-def noise_curves(table):
+def noise_curves(table: pd.DataFrame) -> Figure:
     """Exp 7: mean score and share of correctly grouped loops against the white position
     noise (log x; 0 drawn at 0.01 m), one line per scenario, 95% bands."""
     plt = _plt()
@@ -372,7 +390,7 @@ def noise_curves(table):
     return fig
 
 
-def observation_bars(table):
+def observation_bars(table: pd.DataFrame) -> Figure:
     """Exp 8: mean score (95% CI) per observation, one panel per scenario, without and
     with consumer-grade noise."""
     plt = _plt()
@@ -396,7 +414,7 @@ def observation_bars(table):
     return fig
 
 
-def baseline_vs_clustering(table):
+def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     """Exp 9: the baseline's wind RMSE and both methods' correct shares against the
     white position noise, one line per scenario."""
     plt = _plt()

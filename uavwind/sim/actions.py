@@ -10,9 +10,14 @@ vector form the Cross-Entropy Method searches over (:meth:`ThrustSequence.to_vec
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..core.checks import check_array, check_scalar
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
            "MAX_THRUST", "PAPER_EXAMPLE"]
@@ -96,12 +101,12 @@ class ThrustSequence:
         """Thrust vector of each segment, shape (k, 3) [N]."""
         return self.magnitudes[:, None] * self.directions
 
-    def segment(self, t):
+    def segment(self, t: ArrayLike) -> np.ndarray | np.intp:
         """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
         t = np.asarray(t, dtype=float)
         return np.searchsorted(self.times, t + 1e-9, side="right") - 1
 
-    def thrust(self, t):
+    def thrust(self, t: ArrayLike) -> np.ndarray:
         """Thrust vector [N] at time(s) ``t`` [s]: shape (3,) or (len(t), 3)."""
         t_arr = np.asarray(t, dtype=float)
         if np.any(t_arr < -1e-9) or not np.all(np.isfinite(t_arr)):
@@ -109,7 +114,7 @@ class ThrustSequence:
         idx = np.maximum(self.segment(t_arr), 0)
         return self.vectors[idx]
 
-    def check_within(self, duration: float):
+    def check_within(self, duration: float) -> None:
         """Raise ``ValueError`` unless every change happens inside ``[0, duration)``."""
         if self.times[-1] >= duration:
             raise ValueError(f"thrust change times must lie inside the flight [0, {duration}) s, "
@@ -121,7 +126,8 @@ class ThrustSequence:
         return np.column_stack([self.magnitudes, self.directions]).ravel()
 
     @classmethod
-    def from_vector(cls, vector, times, max_magnitude=MAX_THRUST):
+    def from_vector(cls, vector: ArrayLike, times: ArrayLike,
+                    max_magnitude: float = MAX_THRUST) -> ThrustSequence:
         """Thrust sequence from a CEM sample (replication notes, decision 7).
 
         Magnitudes are clipped to ``[0, max_magnitude]`` [N] and direction
@@ -159,7 +165,7 @@ class ThrustSequence:
                 f"magnitudes={self.magnitudes.tolist()}, "
                 f"directions={np.round(self.directions, 4).tolist()})")
 
-    def to_dict(self):
+    def to_dict(self) -> dict[str, list]:
         """Plain lists, for tables: times [s], magnitudes [N], directions."""
         return {"times": self.times.tolist(), "magnitudes": self.magnitudes.tolist(),
                 "directions": self.directions.tolist()}
@@ -185,8 +191,9 @@ def _change_times(rng, n_changes, duration, step):
     return np.concatenate([[0.0], chosen])
 
 
-def sample_paper(rng, n_changes=6, duration=12.0, magnitude_step=5.0,
-                 max_magnitude=MAX_THRUST, axes="positive", time_step=1.0):
+def sample_paper(rng: np.random.Generator, n_changes: int = 6, duration: float = 12.0,
+                 magnitude_step: float = 5.0, max_magnitude: float = MAX_THRUST,
+                 axes: str = "positive", time_step: float = 1.0) -> ThrustSequence:
     """The paper's thrust sampler (replication notes, decision 2).
 
     Change times are ``n_changes`` distinct whole multiples of ``time_step``
@@ -225,7 +232,9 @@ def sample_paper(rng, n_changes=6, duration=12.0, magnitude_step=5.0,
     return ThrustSequence(times, mags, dirs)
 
 
-def sample_continuous(rng, n_changes=6, duration=12.0, max_magnitude=MAX_THRUST, time_step=1.0):
+def sample_continuous(rng: np.random.Generator, n_changes: int = 6, duration: float = 12.0,
+                      max_magnitude: float = MAX_THRUST,
+                      time_step: float = 1.0) -> ThrustSequence:
     """Continuous variant: uniform magnitudes in [0, max_magnitude] [N], directions
     uniform on the unit sphere; change times as in :func:`sample_paper`."""
     _check_rng(rng)

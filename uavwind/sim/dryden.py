@@ -20,14 +20,19 @@ closed-form zero-order hold is the tests' oracle); the cited series are simulate
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from functools import cached_property, lru_cache
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from .wind import WindModel
+
+if TYPE_CHECKING:
+    from control import TransferFunction
+    from numpy.typing import ArrayLike
 
 FEET = 0.3048  # [m] per foot
 #: [ft] per metre as the cited code converts (``* 3.28084``).
@@ -44,7 +49,7 @@ __all__ = ["FEET", "VARIANTS", "MilDryden", "CitedDryden", "DrydenWind", "dryden
            "cited_dryden_parameters", "cited_transfer_functions", "cited_gusts"]
 
 
-def dryden_gain(sigma, L, V, axis):
+def dryden_gain(sigma: float, L: float, V: float, axis: str) -> float:
     """Gain of the Dryden filter of ``axis`` from unit white noise: ``sigma sqrt(2 L/(pi V))``
     for ``"u"`` (first order), ``sigma sqrt(L/(pi V))`` for ``"v"`` and ``"w"`` (second
     order); ``sigma`` [speed], ``L`` [length] and ``V`` [speed] in any one unit system.
@@ -62,7 +67,7 @@ def dryden_gain(sigma, L, V, axis):
 # --------------------------------------------------------------------------- #
 # MIL-F-8785C
 # --------------------------------------------------------------------------- #
-def dryden_parameters(w20, altitude):
+def dryden_parameters(w20: ArrayLike, altitude: float) -> dict[str, np.ndarray | float]:
     """MIL-F-8785C low-altitude turbulence intensities and scale lengths.
 
     Parameters
@@ -93,7 +98,9 @@ def dryden_parameters(w20, altitude):
             "L_u": L_u, "L_v": L_u, "L_w": L_w}
 
 
-def dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed):
+def dryden_transfer_functions(sigma_u: float, sigma_v: float, sigma_w: float, L_u: float,
+                              L_v: float, L_w: float, airspeed: float,
+                              ) -> tuple[TransferFunction, TransferFunction, TransferFunction]:
     """The three Dryden shaping filters as ``control.TransferFunction`` (eqs 10-12).
 
     Parameters
@@ -124,7 +131,8 @@ def dryden_transfer_functions(sigma_u, sigma_v, sigma_w, L_u, L_v, L_w, airspeed
     return H_u, second_order(sigma_v, L_v, "v"), second_order(sigma_w, L_w, "w")
 
 
-def dryden_psd(omega, sigma, L, airspeed, axis):
+def dryden_psd(omega: ArrayLike, sigma: float, L: float, airspeed: float,
+               axis: str) -> np.ndarray:
     """Analytic one-sided Dryden spectrum ``|H(j omega)|^2`` [(m/s)^2 / (rad/s)].
 
     ``axis`` is ``"u"`` (longitudinal, first order) or ``"v"``/``"w"``.
@@ -201,7 +209,8 @@ class MilDryden:
 
     name: ClassVar[str] = "mil-f-8785c"
 
-    def gusts(self, w20, altitude, airspeed, dt, children) -> "_FilteredGusts":
+    def gusts(self, w20: np.ndarray, altitude: float, airspeed: np.ndarray, dt: float,
+              children: Sequence[np.random.SeedSequence]) -> "_FilteredGusts":
         """The gust source of ``len(w20)`` environments (see :class:`DrydenWind`)."""
         return _FilteredGusts(w20, altitude, airspeed, dt, children)
 
@@ -366,19 +375,21 @@ class CitedDryden:
             object.__setattr__(self, "base_direction", tuple(float(x) for x in d))
 
     @property
-    def rate(self):
+    def rate(self) -> float:
         """Index rate of the gust series [samples/s] (``grid_samples / grid_duration``)."""
         return self.grid_samples / self.grid_duration
 
     def to_dict(self) -> dict:
         return asdict(self)
 
-    def gusts(self, w20, altitude, airspeed, dt, children) -> "_CitedGusts":
+    def gusts(self, w20: np.ndarray, altitude: float, airspeed: np.ndarray, dt: float,
+              children: Sequence[np.random.SeedSequence]) -> "_CitedGusts":
         """The gust source of ``len(w20)`` environments (see :class:`DrydenWind`)."""
         return _CitedGusts(self, w20, altitude, airspeed, children)
 
 
-def cited_dryden_parameters(level, altitude, airspeed, options=None) -> dict:
+def cited_dryden_parameters(level: float, altitude: float, airspeed: float,
+                            options: CitedDryden | None = None) -> dict:
     """Intensities and scale lengths exactly as the cited code computes them.
 
     Parameters
@@ -411,7 +422,9 @@ def cited_dryden_parameters(level, altitude, airspeed, options=None) -> dict:
             "L_u": L_u, "L_v": L_u, "L_w": h, "h": h, "V": V}
 
 
-def cited_transfer_functions(level, altitude, airspeed, options=None):
+def cited_transfer_functions(level: float, altitude: float, airspeed: float,
+                             options: CitedDryden | None = None,
+                             ) -> tuple[TransferFunction, TransferFunction, TransferFunction]:
     """The cited code's three filters as ``control.TransferFunction`` (ft/s in and out).
 
     ``H_u = sigma_u sqrt(2 L_u/(pi V)) V / (L_u s + V)``;
@@ -451,7 +464,9 @@ def _cited_series(level, altitude, airspeed, options, seeds):
     return out
 
 
-def cited_gusts(level, altitude, airspeed, options=None, seeds=None) -> np.ndarray:
+def cited_gusts(level: float, altitude: float, airspeed: float,
+                options: CitedDryden | None = None,
+                seeds: Sequence[int] | None = None) -> np.ndarray:
     """One gust series of the cited code, shape (grid_samples, 3) [m/s] (u, v, w).
 
     Built with ``control.tf`` and simulated with ``control.forced_response`` on the
@@ -616,7 +631,7 @@ class DrydenWind(WindModel):
                                  f"{self.variant!r}")
         return getattr(self._gusts, name)
 
-    def gusts(self, n_samples) -> np.ndarray:
+    def gusts(self, n_samples: int) -> np.ndarray:
         """The first ``n_samples`` gust samples, shape (n_env, n_samples, 3) [m/s]
         (for the cited variant: its mean wind included, at times ``k * dt``)."""
         n_samples = check_scalar(n_samples, "n_samples", low=0, high=10 ** 8, integer=True)

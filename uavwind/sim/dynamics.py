@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -29,6 +30,9 @@ from .actions import ThrustSequence
 from ..core.checks import check_array, check_scalar
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindModel
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 __all__ = ["simulate", "simulate_flight", "Flight"]
 
@@ -115,7 +119,7 @@ def _check_thrust_grid(thrust, dt, n):
                           stacklevel=4)
 
 
-def max_stable_dt(thrust, uav):
+def max_stable_dt(thrust: ThrustSequence, uav: UAV) -> float:
     """Largest time step [s] for which the explicit drag update is well resolved.
 
     The air-relative speed approaches the terminal speed ``v_t = sqrt(a_max / c)``
@@ -193,8 +197,9 @@ def _integrate(wind, uav, dt, n, t_start, forces, start, record_all):
     return positions
 
 
-def simulate(thrust, wind, uav=None, dt=0.1, duration=12.0, start_altitude=10.0,
-             start_position=None):
+def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None, dt: float = 0.1,
+             duration: float = 12.0, start_altitude: float = 10.0,
+             start_position: ArrayLike | None = None) -> np.ndarray:
     """Fly one thrust sequence through every environment of ``wind``.
 
     Parameters
@@ -231,8 +236,9 @@ def simulate(thrust, wind, uav=None, dt=0.1, duration=12.0, start_altitude=10.0,
     return _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=False)
 
 
-def simulate_flight(thrust, wind, uav=None, dt=0.1, duration=12.0, start_altitude=10.0,
-                    start_position=None) -> Flight:
+def simulate_flight(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None,
+                    dt: float = 0.1, duration: float = 12.0, start_altitude: float = 10.0,
+                    start_position: ArrayLike | None = None) -> Flight:
     """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too."""
     uav = UAV() if uav is None else uav
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,

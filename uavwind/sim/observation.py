@@ -31,11 +31,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.checks import check_scalar
 from ..core.seeding import child_seed
+
+if TYPE_CHECKING:
+    from .dynamics import Flight
 
 __all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
            "check_observation", "noise_seed"]
@@ -44,7 +48,7 @@ __all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
 OBSERVATIONS = ("position", "velocity", "acceleration", "position+velocity")
 
 
-def check_observation(observation):
+def check_observation(observation: str) -> str:
     """``observation`` if it names a channel of :data:`OBSERVATIONS`, else ``ValueError``."""
     if observation not in OBSERVATIONS:
         raise ValueError(f"observation must be one of {list(OBSERVATIONS)}, got {observation!r}")
@@ -88,7 +92,7 @@ class Noise:
             self.bias_time, "bias_time", low=0.0, low_inclusive=False, high=1e7))
 
     @property
-    def is_zero(self):
+    def is_zero(self) -> bool:
         return not (self.position or self.bias or self.velocity or self.acceleration)
 
 
@@ -96,7 +100,8 @@ class Noise:
 CONSUMER_NOISE = Noise(position=2.5 / 1.1774, velocity=0.05, acceleration=400e-6 * 9.81 * 5 ** 0.5)
 
 
-def gauss_markov(shape, dt, sigma, tau, rng):
+def gauss_markov(shape: tuple[int, int, int], dt: float, sigma: float, tau: float,
+                 rng: np.random.Generator) -> np.ndarray:
     """First-order Gauss-Markov series ``b[k] = phi b[k-1] + sigma sqrt(1 - phi^2) w[k]``.
 
     ``phi = exp(-dt / tau)``; ``b[0]`` is drawn from the stationary N(0, sigma^2), so
@@ -123,12 +128,12 @@ def gauss_markov(shape, dt, sigma, tau, rng):
     return out
 
 
-def noise_seed(loop_seed) -> np.random.SeedSequence:
+def noise_seed(loop_seed: int | np.random.SeedSequence | None) -> np.random.SeedSequence:
     """The noise's SeedSequence of a loop: spawn key ``(..., 2)`` of the loop's seed."""
     return child_seed(loop_seed, 2)
 
 
-def specific_force(flight, gravity):
+def specific_force(flight: Flight, gravity: float) -> np.ndarray:
     """What an IMU measures: inertial (ground) acceleration without gravity, (n_env, n, 3).
 
     ``(v_ground[k] - v_ground[k-1]) / dt + g e_z``, with the UAV moving with the air
@@ -142,7 +147,9 @@ def specific_force(flight, gravity):
     return acc
 
 
-def observe(flight, observation="position", noise=None, seed=None, gravity=9.81):
+def observe(flight: Flight, observation: str = "position", noise: Noise | None = None,
+            seed: int | np.random.SeedSequence | None = None,
+            gravity: float = 9.81) -> np.ndarray:
     """The channel ``observation`` of ``flight`` with ``noise`` added.
 
     Parameters

@@ -15,7 +15,9 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -27,6 +29,10 @@ from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
 from .vehicle import UAV
 from .wind import CombinedWind, ConstantWind, ShearWind
+
+if TYPE_CHECKING:
+    from .actions import ThrustSequence
+    from .dynamics import Flight
 
 __all__ = ["KINDS", "EnvironmentGroup", "Setting"]
 
@@ -89,17 +95,18 @@ class EnvironmentGroup:
         object.__setattr__(self, "values", vals)
 
     @property
-    def n_env(self):
+    def n_env(self) -> int:
         return len(self.values)
 
     @property
-    def speeds(self):
+    def speeds(self) -> np.ndarray:
         """Wind speed of each environment [m/s]: ``|velocity|`` or W20."""
         if self.kind == "turbulence":
             return np.array(self.values)
         return np.linalg.norm(np.array(self.values), axis=1)
 
-    def wind(self, seed=None):
+    def wind(self, seed: int | np.random.SeedSequence | None = None,
+             ) -> ConstantWind | ShearWind | DrydenWind:
         """The :class:`~uavwind.wind.WindModel` of this group (``seed`` for turbulence)."""
         if self.kind == "constant":
             return ConstantWind(self.values)
@@ -109,19 +116,19 @@ class EnvironmentGroup:
         return DrydenWind(self.values, altitude=self.altitude, seed=seed, variant=self.variant,
                           cited=self.cited)
 
-    def subset(self, keep):
+    def subset(self, keep: Iterable[int]) -> EnvironmentGroup:
         """Group with only the environments at indices ``keep`` (order kept)."""
         keep = sorted(int(i) for i in keep)
         return replace(self, values=tuple(self.values[i] for i in keep))
 
-    def negated(self):
+    def negated(self) -> EnvironmentGroup:
         """Same group with every wind velocity reversed (Exp 5's opposite direction)."""
         if self.kind == "turbulence":
             raise ValueError("a turbulence group is zero-mean: it has no direction to negate")
         return replace(self, values=tuple(tuple(-x for x in v) for v in self.values),
                        label=f"{self.label} (reversed)".strip())
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """The group as the paper prints it (Table 3): one row per environment."""
         if self.kind == "turbulence":
             return pd.DataFrame({"W20 (m/s)": self.values})
@@ -192,24 +199,24 @@ class Setting:
                              f"{self.group_b.n_env}")
 
     @property
-    def n_env(self):
+    def n_env(self) -> int:
         return self.group_a.n_env + self.group_b.n_env
 
     @property
-    def groups(self):
+    def groups(self) -> np.ndarray:
         """Group of each environment, shape (n_env,): 0 for ``group_a``, 1 for ``group_b``."""
         return np.repeat([0, 1], [self.group_a.n_env, self.group_b.n_env])
 
     @property
-    def plain(self):
+    def plain(self) -> bool:
         """The paper's loop: positions, no noise, no baseline."""
         return self.observation == "position" and self.noise is None and not self.baseline
 
     @property
-    def has_turbulence(self):
+    def has_turbulence(self) -> bool:
         return "turbulence" in (self.group_a.kind, self.group_b.kind)
 
-    def wind(self, seed=None):
+    def wind(self, seed: int | np.random.SeedSequence | None = None) -> CombinedWind:
         """A :class:`~uavwind.wind.CombinedWind` of both groups.
 
         ``seed`` (int or SeedSequence) seeds the turbulence; each group draws
@@ -219,16 +226,18 @@ class Setting:
         sa, sb = ss.spawn(2)
         return CombinedWind(self.group_a.wind(sa), self.group_b.wind(sb))
 
-    def sample_thrust(self, rng):
+    def sample_thrust(self, rng: np.random.Generator) -> ThrustSequence:
         """Draw one thrust sequence with this setting's sampler."""
         return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration)
 
-    def simulate(self, thrust, seed=None):
+    def simulate(self, thrust: ThrustSequence,
+                 seed: int | np.random.SeedSequence | None = None) -> np.ndarray:
         """Positions (n_env, n_steps, 3) [m] of all environments under ``thrust``."""
         return simulate(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                         duration=self.duration, start_altitude=self.start_altitude)
 
-    def observe(self, thrust, seed=None):
+    def observe(self, thrust: ThrustSequence, seed: int | np.random.SeedSequence | None = None,
+                ) -> tuple[np.ndarray, Flight, np.ndarray | None]:
         """``(observations, flight, positions)`` of one loop: the observed channel with
         its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
         :class:`~uavwind.dynamics.Flight`, and the noisy positions (what the baseline sees)."""
@@ -242,10 +251,10 @@ class Setting:
             flight, "position", self.noise, seed=noise_seed(seed), gravity=self.uav.gravity)
         return obs, flight, pos
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         return asdict(self)
 
-    def key(self):
+    def key(self) -> str:
         """Stable 16-hex-digit digest of every field that changes results (all but ``name``)."""
         fields = self.to_dict()
         fields.pop("name")
@@ -265,7 +274,7 @@ class Setting:
         g = self.group_a if group == 0 else self.group_b
         return g.label or f"group {group}"
 
-    def to_frame(self):
+    def to_frame(self) -> pd.DataFrame:
         """Both groups side by side, as in the paper's Table 3."""
         return pd.concat({self.group_label(0): self.group_a.to_frame(),
                           self.group_label(1): self.group_b.to_frame()}, axis=1)

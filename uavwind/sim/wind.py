@@ -22,10 +22,14 @@ the lazily generated, seeded gust history of :class:`DrydenWind`.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.checks import check_array, check_scalar
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
 
 __all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "MAX_WIND"]
@@ -42,7 +46,7 @@ class WindModel(ABC):
 
     n_env: int
 
-    def velocity(self, t, positions):
+    def velocity(self, t: float, positions: ArrayLike) -> np.ndarray:
         """Wind velocity of each environment at time ``t`` and its UAV position.
 
         Parameters
@@ -147,7 +151,7 @@ class ShearWind(WindModel):
         self.floor = check_scalar(floor, "floor", low=0, low_inclusive=False)
         self.n_env = self.reference_velocities.shape[0]
 
-    def factor(self, z):
+    def factor(self, z: ArrayLike) -> np.ndarray:
         """Profile factor ``(max(z, floor)/z_ref)**alpha`` [-] for heights ``z`` [m]."""
         z = np.maximum(np.asarray(z, dtype=float), self.floor)
         return (z / self.reference_height) ** self.alpha

@@ -10,6 +10,7 @@ taking ``layout=`` and ``turbulence=`` (a reading's :attr:`~uavwind.study.readin
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -18,10 +19,18 @@ from .conditions import HORIZONTAL, WindCondition
 from .layouts import group_speeds, resolve_layout
 from .readings import INFERRED_TURBULENCE, turbulence_fields
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..sim.dryden import CitedDryden
+    from .layouts import Layout
+
 __all__ = ["make_group", "make_setting", "range_similarity_settings",
            "environment_count_settings", "direction_settings"]
 
-def make_group(condition, speeds, direction=HORIZONTAL, turbulence="mil-f-8785c", **kwargs):
+def make_group(condition: str | WindCondition, speeds: ArrayLike,
+               direction: ArrayLike = HORIZONTAL, turbulence: str | CitedDryden = "mil-f-8785c",
+               **kwargs: Any) -> EnvironmentGroup:
     """An :class:`EnvironmentGroup` of ``condition`` with the given ``speeds`` [m/s]."""
     cond = WindCondition.parse(condition)
     speeds = np.asarray(speeds, dtype=float)
@@ -35,8 +44,10 @@ def make_group(condition, speeds, direction=HORIZONTAL, turbulence="mil-f-8785c"
     return EnvironmentGroup(cond.kind, values, label=cond.label, **kwargs)
 
 
-def make_setting(condition_a, condition_b, n_per_group=5, n_changes=6, name="",
-                 layout="inferred", turbulence=INFERRED_TURBULENCE, **kwargs):
+def make_setting(condition_a: str | WindCondition, condition_b: str | WindCondition,
+                 n_per_group: int = 5, n_changes: int = 6, name: str = "",
+                 layout: Layout | str = "inferred",
+                 turbulence: str | CitedDryden = INFERRED_TURBULENCE, **kwargs: Any) -> Setting:
     """Setting of two generated groups with ``n_per_group`` environments each.
 
     ``layout`` places the environments (a :class:`Layout` or ``"inferred"``,
@@ -64,7 +75,8 @@ def _lower_first(setting):
     return b, a, True
 
 
-def range_similarity_settings(condition_a, condition_b, start=10, stop=3, **kwargs):
+def range_similarity_settings(condition_a: str | WindCondition, condition_b: str | WindCondition,
+                              start: int = 10, stop: int = 3, **kwargs: Any) -> list[Setting]:
     """Exp 2: from ``start`` per group, repeatedly drop the two closest environments
     across the gap (the top of the lower group, the bottom of the upper group).
 
@@ -83,7 +95,9 @@ def range_similarity_settings(condition_a, condition_b, start=10, stop=3, **kwar
     return out
 
 
-def environment_count_settings(condition_a, condition_b, start=10, stop=3, **kwargs):
+def environment_count_settings(condition_a: str | WindCondition,
+                               condition_b: str | WindCondition, start: int = 10, stop: int = 3,
+                               **kwargs: Any) -> list[Setting]:
     """Exp 3: from ``start`` per group, repeatedly drop each group's median environment
     (index ``n // 2`` of the sorted speeds), keeping the outer speeds and the gap."""
     base = make_setting(condition_a, condition_b, start, **kwargs)
@@ -96,8 +110,9 @@ def environment_count_settings(condition_a, condition_b, start=10, stop=3, **kwa
     return out
 
 
-def direction_settings(condition_a="light constant", condition_b="light shear",
-                       n_per_group=10, **kwargs):
+def direction_settings(condition_a: str | WindCondition = "light constant",
+                       condition_b: str | WindCondition = "light shear",
+                       n_per_group: int = 10, **kwargs: Any) -> list[Setting]:
     """Exp 5: the same pair with similar and with opposite wind directions
     (group B's velocities negated)."""
     same = make_setting(condition_a, condition_b, n_per_group, **kwargs)

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import pandas as pd
 
@@ -49,7 +50,7 @@ class WindCondition:
             raise ValueError(f"kind must be one of {list(KINDS)}, got {self.kind!r}")
 
     @classmethod
-    def parse(cls, text):
+    def parse(cls, text: str | WindCondition) -> WindCondition:
         """From ``"light constant"``, ``"strong turbulence"``, ... (or a WindCondition)."""
         if isinstance(text, WindCondition):
             return text
@@ -61,11 +62,11 @@ class WindCondition:
         return cls(*parts)
 
     @property
-    def label(self):
+    def label(self) -> str:
         return f"{self.strength} {self.kind}"
 
     @property
-    def speed_range(self):
+    def speed_range(self) -> tuple[float, float]:
         return SPEED_RANGES[self.strength]
 
 
@@ -81,14 +82,14 @@ PAPER_SCENARIOS = {
 }
 
 
-def scenario_table():
+def scenario_table() -> pd.DataFrame:
     """Table 2 as a DataFrame (index: scenario)."""
     return pd.DataFrame(
         [(k, a.label, b.label) for k, (a, b) in PAPER_SCENARIOS.items()],
         columns=["Scenario", "Wind condition 1", "Wind condition 2"]).set_index("Scenario")
 
 
-def table3_setting(**kwargs):
+def table3_setting(**kwargs: Any) -> Setting:
     """The worked example, Table 3 verbatim: strong shear (group 0) vs light constant (group 1)."""
     shear = EnvironmentGroup("shear", [(2.1 + 0.1 * i, 10.1 + 0.1 * i, 0.0) for i in range(5)],
                              label="strong shear")

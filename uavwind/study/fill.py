@@ -15,8 +15,11 @@ workers, and it then reads them from the cache.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
+from collections.abc import Iterable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -28,11 +31,20 @@ from .readings import DEFAULT_READING, READINGS, get_reading
 from .registry import EXPERIMENTS, get_experiment
 from .runner import check_seed_engine, experiment_entries
 
+if TYPE_CHECKING:
+    from .profiles import Profile
+    from .readings import Reading
+    from .runner import Entry
+
 __all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
 
 
-def needed_entries(exp_ids="all", profile="quick", readings=None, seed=DEFAULT_SEED,
-                   engine=None, results=None, **params):
+def needed_entries(exp_ids: str | Iterable[str] = "all",
+                   profile: str | Profile | Mapping[str, Any] = "quick",
+                   readings: str | Iterable[str | Reading] | None = None,
+                   seed: int = DEFAULT_SEED, engine: str | None = None,
+                   results: os.PathLike | str | None = None,
+                   **params: float | str) -> list[Entry]:
     """The cache entries ``exp_ids`` need under ``readings`` (default
     :data:`~uavwind.study.readings.DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
     experiments or two readings share is one entry. Computes nothing. The arguments are
@@ -100,8 +112,12 @@ def _fill_one(entry, pin=True, n_jobs=1):
     return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
 
 
-def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, engine=None,
-               results=None, readings=None, progress=True, times=None, **params):
+def fill_cache(exp_ids: str | Iterable[str] = "all",
+               profile: str | Profile | Mapping[str, Any] = "quick", seed: int = DEFAULT_SEED,
+               n_jobs: int | None = None, engine: str | None = None,
+               results: os.PathLike | str | None = None,
+               readings: str | Iterable[str | Reading] | None = None, progress: bool = True,
+               times: list[dict] | None = None, **params: float | str) -> dict:
     """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
@@ -191,7 +207,7 @@ def fill_cache(exp_ids="all", profile="quick", seed=DEFAULT_SEED, n_jobs=None, e
     return out
 
 
-def time_by_experiment(times):
+def time_by_experiment(times: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
     """Where the compute of a :func:`fill_cache` run went: its ``times`` records summed
     per experiment and reading.
 

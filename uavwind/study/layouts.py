@@ -81,7 +81,8 @@ class Layout:
             raise ValueError(f"direction must be a finite, non-zero 3-vector, got {self.direction!r}")
         object.__setattr__(self, "direction", tuple(float(x) for x in d / np.linalg.norm(d)))
 
-    def speeds(self, speed_range, n_a, n_b):
+    def speeds(self, speed_range: tuple[float, float], n_a: int,
+               n_b: int) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
         """Speeds [m/s] of two same-strength groups sharing ``speed_range``: ``(2, n)``
         when ``n_a == n_b``, else a pair of arrays."""
         lo, hi = speed_range
@@ -119,7 +120,8 @@ INFERRED_GAP_RATIOS = {
 }
 
 
-def resolve_layout(layout, condition_a, condition_b):
+def resolve_layout(layout: Layout | str, condition_a: str | WindCondition,
+                   condition_b: str | WindCondition) -> Layout:
     """The :class:`Layout` that ``layout`` (a Layout or a name) means for this pair."""
     if isinstance(layout, Layout):
         return layout
@@ -147,7 +149,9 @@ def _cell_centres(lo, hi, n):
     return lo + (np.arange(n) + 0.5) * (hi - lo) / n
 
 
-def group_speeds(condition_a, condition_b, n_a=5, n_b=None, layout="inferred"):
+def group_speeds(condition_a: str | WindCondition, condition_b: str | WindCondition,
+                 n_a: int = 5, n_b: int | None = None,
+                 layout: Layout | str = "inferred") -> tuple[np.ndarray, np.ndarray]:
     """Speeds [m/s] of the two groups under ``layout`` (see :class:`Layout`).
 
     >>> a, b = group_speeds("light constant", "strong constant", 2)

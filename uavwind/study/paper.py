@@ -31,7 +31,7 @@ def paper_dir() -> Path:
     return Path(__file__).resolve().parent / "paper_values"
 
 
-def load_paper_values(exp_id) -> pd.DataFrame:
+def load_paper_values(exp_id: str) -> pd.DataFrame:
     """The paper's values for ``exp_id`` as a DataFrame (with a ``source`` column).
 
     >>> load_paper_values("exp1").loc[0, "maximum"]

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 from ..core.checks import check_instance, check_scalar
 
@@ -93,7 +94,7 @@ PROFILES = {
 }
 
 
-def get_profile(profile) -> Profile:
+def get_profile(profile: str | Profile | Mapping[str, Any]) -> Profile:
     """A :class:`Profile` by name (:data:`PROFILES`), itself, or from a dict with the keys
     ``loops``, ``long_loops``, ``fit_loops`` and ``cem`` (``n_samples``, ``n_elite``,
     ``max_iter``)."""

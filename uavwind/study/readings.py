@@ -40,7 +40,7 @@ TURBULENCE_CANDIDATES = {
 }
 
 
-def turbulence_fields(turbulence):
+def turbulence_fields(turbulence: str | CitedDryden) -> tuple[str, CitedDryden | None]:
     """``(variant, cited)`` of an :class:`EnvironmentGroup` from ``turbulence``."""
     if isinstance(turbulence, CitedDryden):
         return "cited", turbulence
@@ -80,7 +80,7 @@ class Reading:
         check_scalar(self.long_run_per_group, "long_run_per_group", low=1, integer=True)
 
     @property
-    def builder_kwargs(self):
+    def builder_kwargs(self) -> dict[str, str | Layout | CitedDryden]:
         """What this reading tells every setting builder: ``{"layout", "turbulence"}``
         (``make_setting(a, b, n, **reading.builder_kwargs)``)."""
         return {"layout": self.layout, "turbulence": self.turbulence}
@@ -99,7 +99,7 @@ READINGS = {
 }
 
 
-def get_reading(reading):
+def get_reading(reading: str | Reading) -> Reading:
     """A :class:`Reading` by name (``"inferred"``, ``"halves"``) or itself."""
     if isinstance(reading, Reading):
         return reading

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
 from ..sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise
@@ -29,6 +30,9 @@ from .builders import (direction_settings, environment_count_settings, make_sett
 from .conditions import PAPER_SCENARIOS, WindCondition, table3_setting
 from .layouts import Layout
 from .readings import DEFAULT_READING, TURBULENCE_CANDIDATES, get_reading
+
+if TYPE_CHECKING:
+    from .readings import Reading
 
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
            "FIT_RATIOS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
@@ -107,7 +111,7 @@ class Experiment:
         check_choice(self.reference, "reference", ("paper", "example"))
         check_kwargs(self.search_options, ("rank_by",), f"experiment {self.id!r} search_options")
 
-    def cases(self, reading=None) -> list[Case]:
+    def cases(self, reading: str | Reading | None = None) -> list[Case]:
         """The cases under ``reading`` (a name or a :class:`~uavwind.study.readings.Reading`)."""
         return self.build(get_reading(DEFAULT_READING if reading is None else reading))
 
@@ -325,7 +329,7 @@ EXPERIMENTS = {e.id: e for e in [
 ]}
 
 
-def get_experiment(exp_id):
+def get_experiment(exp_id: str) -> Experiment:
     """The :class:`Experiment` called ``exp_id``; ``ValueError`` naming the valid ids."""
     if not isinstance(exp_id, str):
         raise TypeError(f"experiment id must be a string, got {type(exp_id).__name__}")

@@ -17,8 +17,11 @@ at 20 environments) is one entry, computed once.
 
 from __future__ import annotations
 
+import os
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -33,18 +36,26 @@ from .profiles import CHUNK, DEFAULT_SEED, get_profile
 from .readings import DEFAULT_READING, get_reading
 from .registry import EXPERIMENTS, get_experiment
 
+if TYPE_CHECKING:
+    from .profiles import Profile
+    from .readings import Reading
+    from .registry import Case, Experiment
+
 __all__ = ["run_experiment", "Entry", "experiment_entries", "check_cases", "case_loops",
            "check_seed_engine", "n_loops_total"]
 
 
-def check_seed_engine(seed, engine):
+def check_seed_engine(seed: int, engine: str | None) -> tuple[int, str]:
     """``(seed, engine)`` checked, the engine defaulted."""
     return check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True), check_engine(engine)
 
 
-def run_experiment(exp_id: str, profile="quick", seed: int = DEFAULT_SEED, n_jobs: int | None = None,
-                   engine: str | None = None, results=None, progress: bool = True,
-                   cases=None, reading=None, **params) -> pd.DataFrame:
+def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "quick",
+                   seed: int = DEFAULT_SEED, n_jobs: int | None = None,
+                   engine: str | None = None, results: os.PathLike | str | None = None,
+                   progress: bool = True, cases: Iterable[int] | None = None,
+                   reading: str | Reading | None = None,
+                   **params: float | str) -> pd.DataFrame:
     """Run (or load from the cache) one experiment.
 
     Parameters
@@ -127,21 +138,21 @@ class Entry:
     labels: dict = field(default_factory=dict)
 
     @property
-    def n_rows(self):
+    def n_rows(self) -> int:
         """Rows the entry holds: loops, or CEM samples."""
         if self.search == "cem":
             return self.options["n_samples"] * self.options["max_iter"]
         return self.stop - self.start
 
     @property
-    def cost(self):
+    def cost(self) -> int:
         """A rough cost, for ordering only: rows x environments^2 x observed channels (a
         soft-DTW k-means loop grows with the square of the number of series)."""
         s = self.setting
         channels = 6 if s.observation == "position+velocity" else 3
         return self.n_rows * s.n_env ** 2 * channels
 
-    def compute(self, n_jobs=None, progress=False):
+    def compute(self, n_jobs: int | None = None, progress: bool = False) -> pd.DataFrame:
         """The entry's rows, computed (no cache)."""
         s = self.setting
         if self.search == "cem":
@@ -152,13 +163,14 @@ class Entry:
                              loop_offset=self.start, n_jobs=n_jobs, engine=self.engine,
                              progress=progress, **self.params)
 
-    def fill(self, n_jobs=None, progress=False):
+    def fill(self, n_jobs: int | None = None,
+             progress: bool = False) -> tuple[pd.DataFrame, bool]:
         """``(rows, from_cache)``: the verified cached rows, or computed and stored."""
         meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
         return cached(self.path, lambda: self.compute(n_jobs, progress), meta, self._expected)
 
-    def present(self):
+    def present(self) -> bool:
         """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""
         return read_verified(self.path, self._expected) is not None
 
@@ -168,7 +180,8 @@ class Entry:
         return Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
 
 
-def experiment_entries(exp, prof, rd, seed, engine, folder, params, chosen) -> list[Entry]:
+def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, engine: str,
+                       folder: Path, params: dict, chosen: Iterable[int]) -> list[Entry]:
     """The cache entries of ``exp``'s cases ``chosen`` under reading ``rd``, in case order."""
     cases = exp.cases(rd)
     out = []
@@ -199,7 +212,7 @@ def experiment_entries(exp, prof, rd, seed, engine, folder, params, chosen) -> l
     return out
 
 
-def check_cases(cases, n):
+def check_cases(cases: Iterable[int] | None, n: int) -> list[int]:
     """Validated case indices (each in [0, n), no repeats, at least one)."""
     if cases is None:
         return list(range(n))
@@ -213,12 +226,12 @@ def check_cases(cases, n):
     return out
 
 
-def case_loops(prof, case) -> int:
+def case_loops(prof: Profile, case: Case) -> int:
     """Loops ``case`` runs under profile ``prof`` (its fit, long or plain count)."""
     return prof.fit_loops if case.fit else prof.long_loops if case.long else prof.loops
 
 
-def n_loops_total(profile):
+def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
     """Total loops (or CEM samples) of every experiment in ``profile``."""
     prof = get_profile(profile)
     total = 0
