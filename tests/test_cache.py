@@ -3,6 +3,7 @@ import os
 import threading
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -82,11 +83,13 @@ def test_an_unwritable_results_folder_fails_before_any_work(tmp_path, monkeypatc
 
 
 def test_a_full_disk_leaves_no_orphan_file(tmp_path, monkeypatch):
-    def full(self, path, **kw):
+    import pyarrow.parquet as pq
+
+    def full(table, path, **kw):
         with open(path, "wb") as fh:
             fh.write(b"PAR1 partial")
         raise OSError(28, "No space left on device")
-    monkeypatch.setattr(pd.DataFrame, "to_parquet", full)
+    monkeypatch.setattr(pq, "write_table", full)
     with pytest.raises(OSError, match="No space"):
         cache.atomic_write(pd.DataFrame({"score": [1.0]}), tmp_path / "x.parquet")
     assert list(tmp_path.iterdir()) == []
@@ -110,7 +113,8 @@ def test_two_runs_on_one_chunk_compute_it_once(tmp_path):
     def compute():
         calls.append(threading.get_ident())
         time.sleep(0.5)
-        return pd.DataFrame({"score": [50.0], "silhouette": [0.5], "correct": [True]})
+        return pd.DataFrame({"score": [50.0], "silhouette": [0.5], "correct": [True],
+                             "n_iter": [3], "labels": [[0, 0, 1]]})
     out = {}
 
     def run(name):
@@ -129,7 +133,8 @@ def test_a_correct_loop_with_a_negative_silhouette_is_cached(tmp_path):
     path = tmp_path / "loops" / "c.parquet"
     expect = cache.Expected("k", 1, "fast", 2)
     rows = pd.DataFrame({"score": [-12.5, 0.0], "silhouette": [-0.125, 0.4],
-                         "correct": [True, False]})
+                         "correct": [True, False], "n_iter": [3, 4],
+                         "labels": [[0, 0, 1], [0, 1, 1]]})
     df, hit = cache.cached(path, lambda: rows.copy(), {"setting_key": "k", "seed": 1,
                                                        "engine": "fast"}, expect)
     assert not hit and cache.read_verified(path, expect) is not None
@@ -161,3 +166,126 @@ def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
     for col in first.columns:  # e.g. thrust sequences: arrays both times, not lists then arrays
         assert [type(v) for v in first[col]] == [type(v) for v in again[col]], col
     assert _exact(first) == _exact(again)
+
+
+# --------------------------------------------------------------------------- #
+# nothing lost, nothing trusted that should not be
+# --------------------------------------------------------------------------- #
+def _one_chunk(tmp_path):
+    ex.run_experiment("exp5", results=tmp_path, **RUN)
+    (path,) = _chunks(tmp_path)
+    return path
+
+
+def _rewrite(path, edit, keep_checksum=True):
+    """Edit a chunk's content, keeping its stored checksum (as a careless editor would) or
+    writing it back without one."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    df = edit(table.to_pandas())
+    new = pa.Table.from_pandas(df, preserve_index=False)
+    if keep_checksum:
+        new = new.replace_schema_metadata({**(new.schema.metadata or {}),
+                                           cache.CHECKSUM_KEY: table.schema.metadata[
+                                               cache.CHECKSUM_KEY]})
+    pq.write_table(new, path)
+
+
+@pytest.mark.parametrize("edit, keep, why", [
+    # score and silhouette edited consistently: only the checksum can tell
+    (lambda d: d.assign(score=d["score"] * 0.5, silhouette=d["silhouette"] * 0.5), True,
+     "checksum"),
+    (lambda d: d.drop(columns=["n_iter"]), True, "checksum"),
+    (lambda d: d.drop(columns=["n_iter"]), False, "no checksum"),
+    # stamped 0.1 (no checksum expected), but the labels contradict the correct flag
+    (lambda d: d.assign(uavwind_version="0.1.0",
+                        labels=[np.array([0, 1] * (len(x) // 2)) for x in d["labels"]]),
+     False, "contradict"),
+    (lambda d: d.assign(uavwind_version="0.1.0").drop(columns=["silhouette"]), False,
+     "no silhouette column"),
+])
+def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why):
+    path = _one_chunk(tmp_path)
+    _rewrite(path, edit, keep)
+    with pytest.warns(cache.CorruptChunkWarning, match=why):
+        df = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    assert df.attrs["cached"] == 0  # recomputed
+    assert path.with_name(path.name + ".corrupt").exists()
+
+
+def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path):
+    path = _one_chunk(tmp_path)
+    before = pd.read_parquet(path)
+    _rewrite(path, lambda d: d.assign(uavwind_version="0.1.0"), keep_checksum=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", cache.CorruptChunkWarning)
+        df = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    assert df.attrs["cached"] == 1 and df["score"].tolist() == before["score"].tolist()
+    import pyarrow.parquet as pq
+    assert cache.CHECKSUM_KEY in pq.read_table(path).schema.metadata  # upgraded in place
+
+
+def test_a_second_corrupt_copy_keeps_the_first(tmp_path):
+    path = _one_chunk(tmp_path)
+    for _ in range(2):
+        path.write_bytes(b"PAR1 damaged")
+        with pytest.warns(cache.CorruptChunkWarning):
+            ex.run_experiment("exp5", results=tmp_path, **RUN)
+    kept = sorted(p.name for p in path.parent.iterdir() if ".corrupt" in p.name)
+    assert kept == [path.name + ".corrupt", path.name + ".corrupt.1"]
+
+
+def test_a_chunk_that_cannot_be_read_is_left_in_place_and_nothing_is_recomputed(
+        tmp_path, monkeypatch):
+    import errno
+    from pathlib import Path
+
+    path = _one_chunk(tmp_path)
+    good = path.read_bytes()
+    real = Path.read_bytes
+
+    def no_fds(self):
+        if self == path:
+            raise OSError(errno.EMFILE, "Too many open files")
+        return real(self)
+    monkeypatch.setattr(Path, "read_bytes", no_fds)
+    monkeypatch.setattr(runner, "random_search", lambda *a, **k: pytest.fail("recomputed"))
+    with pytest.raises(cache.TransientReadError, match="left in place"):
+        ex.run_experiment("exp5", results=tmp_path, **RUN)
+    monkeypatch.setattr(Path, "read_bytes", real)
+    assert path.read_bytes() == good and not any(".corrupt" in p.name
+                                                 for p in path.parent.iterdir())
+
+
+def test_a_complete_cache_in_a_read_only_folder_is_read(tmp_path, monkeypatch):
+    ex.run_experiment("exp5", results=tmp_path, profile=RUN["profile"], n_jobs=1,
+                      progress=False)
+    monkeypatch.setattr(cache, "check_writable", lambda f: pytest.fail("checked writability"))
+    monkeypatch.setattr(runner, "check_writable", lambda f: pytest.fail("checked writability"))
+    df = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    assert df.attrs["cached"] == 1
+    done = ex.fill_cache("exp5", profile=RUN["profile"], results=tmp_path, n_jobs=1,
+                         progress=False, readings="inferred")
+    assert done["computed"] == 0
+
+
+@pytest.mark.parametrize("results", ["", 3])
+def test_an_empty_or_wrong_results_folder_is_refused(results):
+    with pytest.raises((ValueError, TypeError), match="results"):
+        cache.results_dir(results)
+
+
+def test_the_default_results_folder_is_the_user_cache_never_the_package(tmp_path,
+                                                                       monkeypatch):
+    monkeypatch.delenv("UAVWIND_RESULTS", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert cache.results_dir() == tmp_path / "xdg" / "uavwind" / "results"
+    monkeypatch.setenv("UAVWIND_RESULTS", "")  # empty = unset
+    assert cache.results_dir() == tmp_path / "xdg" / "uavwind" / "results"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert cache.results_dir() == tmp_path / ".cache" / "uavwind" / "results"
+    import uavwind
+    assert Path(uavwind.__file__).parent not in cache.results_dir().parents

@@ -160,9 +160,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
     n_jobs = check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
-    check_writable(results_dir(results))  # before any work: keep what is computed
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
+    if missing:  # before any work: keep what is computed (a complete cache is only read)
+        check_writable(results_dir(results))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
            "rows_computed": 0, "times": [] if times is None else times}
     by_path = {e.path: e for e in missing}

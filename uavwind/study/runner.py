@@ -177,7 +177,8 @@ class Entry:
     @property
     def _expected(self):
         """What a cached copy must hold to be trusted."""
-        return Expected(self.setting.key(), self.seed, self.engine, self.n_rows)
+        return Expected(self.setting.key(), self.seed, self.engine, self.n_rows,
+                        tuple(int(g) for g in self.setting.groups))
 
 
 def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, engine: str,

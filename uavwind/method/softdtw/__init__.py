@@ -20,9 +20,12 @@ The replication notes ("The fast engine") say why the arithmetic is the same and
 could stop being so.
 """
 
-import numpy as np
+from __future__ import annotations
 
-from .kmeans import EmptyClusterError, SoftDTWKMeans, fit
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .kmeans import EmptyClusterError, KMeansResult, SoftDTWKMeans, fit
 from .metrics import dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad
 from .silhouette import silhouette
 
@@ -31,13 +34,14 @@ __all__ = ["SoftDTWKMeans", "silhouette_score", "EmptyClusterError", "soft_dtw",
            "warmup"]
 
 
-def silhouette_score(X, labels, metric="dtw", gamma=None, parallel=None):
+def silhouette_score(X: ArrayLike, labels: ArrayLike, metric: str = "dtw",
+                     gamma: float | None = None, parallel: bool | None = None) -> float:
     """= ``tslearn.clustering.silhouette_score(X, labels, metric=metric)`` (``"dtw"``,
     ``"softdtw"`` with ``gamma``, or ``"precomputed"``)."""
     return silhouette(X, labels, metric=metric, gamma=gamma, parallel=parallel)
 
 
-def warmup(parallel=False):
+def warmup(parallel: bool = False) -> KMeansResult:
     """Compile (or load from numba's on-disk cache) the kernels, once per process.
 
     Parameters

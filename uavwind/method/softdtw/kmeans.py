@@ -7,10 +7,13 @@ same ``RandomState`` stream, assignments by soft-DTW, centres as soft-DTW baryce
 (:mod:`uavwind.softdtw._lbfgsb`), tslearn's stopping rule and empty-cluster handling.
 """
 
+from __future__ import annotations
+
 import math
 import numbers
 
 import numpy as np
+from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator, ClusterMixin, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -130,8 +133,10 @@ def _blas_single_thread():
     return _TP_CONTROLLER.limit(limits=1, user_api="blas")
 
 
-def fit(X, n_clusters=2, gamma=0.5, max_iter=100, max_iter_barycenter=5,
-        tol=1e-6, n_init=1, random_state=0, parallel=None, init="k-means++"):
+def fit(X: ArrayLike, n_clusters: int = 2, gamma: float = 0.5, max_iter: int = 100,
+        max_iter_barycenter: int = 5, tol: float = 1e-6, n_init: int = 1,
+        random_state: int | np.random.RandomState | None = 0, parallel: bool | None = None,
+        init: str | ArrayLike = "k-means++") -> KMeansResult:
     """Exact equivalent of::
 
         km = tslearn.clustering.TimeSeriesKMeans(
@@ -368,7 +373,7 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
         return X
 
     # -- scikit-learn's interface -------------------------------------------- #
-    def fit(self, X, y=None):
+    def fit(self, X: ArrayLike, y: None = None) -> SoftDTWKMeans:
         """Cluster ``X`` (n_ts, sz, d); returns ``self`` with the fitted attributes."""
         X, init = self._validate(X)
         with _blas_single_thread():
@@ -382,11 +387,11 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
         self.n_features_in_ = int(X.shape[2])
         return self
 
-    def fit_predict(self, X, y=None):
+    def fit_predict(self, X: ArrayLike, y: None = None) -> np.ndarray:
         """:meth:`fit`, then the labels of ``X``."""
         return self.fit(X).labels_
 
-    def transform(self, X):
+    def transform(self, X: ArrayLike) -> np.ndarray:
         """Soft-DTW of each series of ``X`` to each centre, shape (n_ts, n_clusters) (as
         tslearn's ``transform``; series may have another length than the centres)."""
         X = self._check_new(X)
@@ -395,6 +400,6 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
                     out, _use_parallel(self.parallel), _libm_selfcheck())
         return out
 
-    def predict(self, X):
+    def predict(self, X: ArrayLike) -> np.ndarray:
         """The nearest centre of each series of ``X`` under soft-DTW, shape (n_ts,)."""
         return self.transform(X).argmin(axis=1)

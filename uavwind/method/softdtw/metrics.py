@@ -8,7 +8,10 @@ empty series, mismatched feature counts, NaN, inf, complex or sparse input, a no
 ``gamma`` or values whose squared distances would overflow.
 """
 
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._checks import _as_dataset, _as_series, _check_gamma, _same_features, _use_parallel
 from ._dispatch import _objgrad, _sdtw_cross
@@ -17,7 +20,7 @@ from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _dtw_value, _n_wo
 from ._libm import _libm_selfcheck
 
 
-def soft_dtw(x, y, gamma=1.0):
+def soft_dtw(x: ArrayLike, y: ArrayLike, gamma: float = 1.0) -> float:
     """= tslearn.metrics.soft_dtw(x, y, gamma) (no constraint)."""
     x = _as_series(x, "x")
     y = _as_series(y, "y")
@@ -26,7 +29,8 @@ def soft_dtw(x, y, gamma=1.0):
     return float(_sdtw_value(x, y, gamma, _libm_selfcheck()))
 
 
-def soft_dtw_cross(A, B, gamma=1.0, parallel=None):
+def soft_dtw_cross(A: ArrayLike, B: ArrayLike, gamma: float = 1.0,
+                   parallel: bool | None = None) -> np.ndarray:
     """out[i, j] = soft_dtw(A[i], B[j]) (= tslearn _cdist_soft_dtw(A, B))."""
     A = _as_dataset(A, "A")
     B = _as_dataset(B, "B")
@@ -37,7 +41,7 @@ def soft_dtw_cross(A, B, gamma=1.0, parallel=None):
     return out
 
 
-def soft_dtw_grad(Z, X, gamma=1.0):
+def soft_dtw_grad(Z: ArrayLike, X: ArrayLike, gamma: float = 1.0) -> tuple[float, np.ndarray]:
     """(value, gradient w.r.t. Z) of soft_dtw(Z, X) computed exactly like
     tslearn.barycenters.softdtw._softdtw_func(Z, X, 1., gamma, 0, None, None)
     (cost matrix D = cdist(Z, X) ** 2)."""
@@ -51,7 +55,8 @@ def soft_dtw_grad(Z, X, gamma=1.0):
     return float(vals[0]), Gs[0]
 
 
-def soft_dtw_objgrad(Z, Xs, gamma=1.0, parallel=None):
+def soft_dtw_objgrad(Z: ArrayLike, Xs: ArrayLike, gamma: float = 1.0,
+                     parallel: bool | None = None) -> tuple[float, np.ndarray]:
     """Barycentre objective of tslearn (_acc_softdtw_func, unit weights):
     (sum_i soft_dtw(Z, Xs[i]), gradient w.r.t. Z of shape Z.shape).
     All series of Xs must have the same length (any length, != len(Z) ok)."""
@@ -62,7 +67,7 @@ def soft_dtw_objgrad(Z, Xs, gamma=1.0, parallel=None):
     return _objgrad(Z, Xs, gamma, _use_parallel(parallel), _libm_selfcheck())
 
 
-def dtw(x, y):
+def dtw(x: ArrayLike, y: ArrayLike) -> float:
     """= tslearn.metrics.dtw(x, y) (no constraint)."""
     x = _as_series(x, "x")
     y = _as_series(y, "y")
@@ -70,7 +75,7 @@ def dtw(x, y):
     return float(_dtw_value(x, y))
 
 
-def dtw_pdist(X, parallel=None):
+def dtw_pdist(X: ArrayLike, parallel: bool | None = None) -> np.ndarray:
     """Full symmetric DTW matrix (= tslearn _cdist_dtw(X)), zero diagonal."""
     X = _as_dataset(X, "X")
     _same_features(X, X, "X", "X")
@@ -85,7 +90,8 @@ def dtw_pdist(X, parallel=None):
     return out
 
 
-def soft_dtw_normalized_pdist(X, gamma=1.0, parallel=None):
+def soft_dtw_normalized_pdist(X: ArrayLike, gamma: float = 1.0,
+                              parallel: bool | None = None) -> np.ndarray:
     """= tslearn _cdist_soft_dtw_normalized(X, gamma=gamma)."""
     X = _as_dataset(X, "X")
     _same_features(X, X, "X", "X")

@@ -6,7 +6,10 @@ once with the DTW kernel and then does scikit-learn's arithmetic.
 """
 
 
+from __future__ import annotations
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ._checks import _as_dataset
 from .metrics import dtw_pdist, soft_dtw_normalized_pdist
@@ -60,7 +63,8 @@ def _check_labels(labels, n_ts):
     return labels
 
 
-def silhouette(X, labels, metric="dtw", gamma=None, parallel=None):
+def silhouette(X: ArrayLike, labels: ArrayLike, metric: str | None = "dtw",
+               gamma: float | None = None, parallel: bool | None = None) -> float:
     """= tslearn.clustering.silhouette_score(X, labels, metric=metric,
     metric_params={"gamma": gamma} if gamma is not None else None).
     metric: "dtw" (or None) or "softdtw" (normalised soft-DTW, gamma
