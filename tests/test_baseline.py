@@ -50,3 +50,14 @@ def test_two_means_separates_two_clouds_and_matches_kmeans():
         ref = KMeans(n_clusters=2, n_init=10, random_state=0).fit_predict(x)
         assert np.array_equal(ours, ref) or np.array_equal(ours, 1 - ref)
     assert two_means(np.zeros((4, 3))).tolist() == [0, 0, 0, 0]
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda: estimate_wind(np.full((2, 120, 3), 1e307), uw.PAPER_EXAMPLE), "positions"),
+    (lambda: estimate_wind(np.zeros((2, 120, 3)), uw.PAPER_EXAMPLE, dt=1e6), "dt must be"),
+    (lambda: __import__("uavwind.method.baseline", fromlist=["two_means"]).two_means(
+        np.array([[0.0], [np.nan], [5.0]])), "points"),
+])
+def test_the_baseline_names_the_bad_argument(call, match):
+    with pytest.raises(ValueError, match=match):
+        call()

@@ -1,5 +1,7 @@
 """The command line: one-line usage errors, --jobs, --times."""
 import json
+import os
+import time
 
 import pytest
 
@@ -65,3 +67,61 @@ def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monk
     rec = json.loads(out.read_text())
     assert rec["complete"] is False and rec["entries"][0]["cpu_seconds"] == 1.5
     assert [p.name for p in tmp_path.iterdir()] == ["times.json"]  # no temporary file left
+
+
+def test_a_signal_during_a_serial_run_stops_between_entries_and_keeps_the_record(tmp_path):
+    """SIGTERM while a kernel runs: the entry under way finishes, is stored and recorded,
+    then the run stops (no SystemError from inside numba), with complete: false."""
+    import signal
+    import subprocess
+    import sys
+
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "r")}
+    out = tmp_path / "t.json"
+    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "exp2", "--profile",
+                             "quick", "--jobs", "1", "--no-tables", "--no-progress",
+                             "--times", str(out)], env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while time.time() < deadline and not list((tmp_path / "r").rglob("*.lock")):
+        time.sleep(0.2)  # the first entry is being computed
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    assert "SystemError" not in err and "Traceback" not in err
+    rec = json.loads(out.read_text())
+    assert rec["complete"] is False and rec["error"] == "interrupted"
+    assert len(rec["entries"]) >= 1  # the entry under way finished and was kept
+    stored = list((tmp_path / "r").rglob("*.parquet"))
+    assert len(stored) == len(rec["entries"])
+
+
+def test_a_failing_fill_writes_its_record_and_one_error_line(tmp_path, monkeypatch, capsys):
+    import uavwind.cli as cli
+
+    def disk_full(*args, times=None, **kwargs):
+        times.append({"experiment": "exp5", "reading": "inferred", "rows": 2,
+                      "cpu_seconds": 1.0})
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(cli, "fill_cache", disk_full)
+    out = tmp_path / "times.json"
+    assert main(["run", "exp5", "--no-progress", "--times", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "No space left" in err and "Traceback" not in err
+    rec = json.loads(out.read_text())
+    assert rec["complete"] is False and "No space" in rec["error"] and len(rec["entries"]) == 1
+
+
+def test_times_refuses_a_pipe_or_a_device(tmp_path, capsys):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    for target in (fifo, "/dev/null", tmp_path):
+        with pytest.raises(SystemExit) as stop:
+            main(["run", "exp5", "--times", str(target)])
+        assert stop.value.code == 2 and "--times" in capsys.readouterr().err
+    assert fifo.is_fifo()  # never replaced by a regular file
+
+
+def test_all_with_other_ids_is_a_clear_error(capsys):
+    with pytest.raises(SystemExit):
+        main(["run", "exp1", "all"])
+    assert "'all' means every experiment" in capsys.readouterr().err

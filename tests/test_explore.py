@@ -1,4 +1,7 @@
 """The explorer: its cached grid follows what determines it."""
+import pytest
+
+
 
 
 def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
@@ -21,3 +24,26 @@ def _stub_grid(calls):
         calls.append(1)
         return {"controls": {}, "loops": {}}
     return explore_grid
+
+
+@pytest.mark.parametrize("kwargs, match", [({"every": -1}, "every"), ({"pairs": ()}, "pairs"),
+                                           ({"n_per_group": []}, "n_per_group")])
+def test_explore_grid_refuses_controls_that_would_draw_nothing_or_backwards(kwargs, match):
+    from uavwind.report.explore import explore_grid
+    with pytest.raises(ValueError, match=match):
+        explore_grid(**kwargs)
+
+
+def test_the_static_explorer_escapes_what_it_writes_into_its_script():
+    import re
+
+    from uavwind.report.explore import explorer_html
+    grid = {"controls": {"pair": ['a</script><script>alert("x")</script> vs b'], "n": [3],
+                         "thrust": ["t"], "layout": ["inferred"]},
+            "loops": {"0|3|0|inferred": {"x": [[0.0]], "y": [[0.0]], "z": [[0.0]],
+                                         "groups": [0], "score": 1.0, "correct": True}}}
+    page = explorer_html(grid)
+    scripts = re.findall(r"<script>(.*?)</script>", page, flags=re.S)
+    assert len(scripts) == 1 and "alert" in scripts[0] and "</script>" not in scripts[0]
+    with pytest.raises(ValueError, match="element_id"):
+        explorer_html(grid, element_id='x" onload="alert(1)')

@@ -125,3 +125,17 @@ def test_fill_cache_refuses_bad_input_before_any_work(tmp_path, kwargs, word):
         fill.fill_cache(**{"exp_ids": ["exp5"], "profile": TINY, "results": tmp_path / "r",
                          "progress": False, **kwargs})
     assert not (tmp_path / "r").exists()
+
+
+@pytest.mark.parametrize("cpu", [float("nan"), float("inf"), -1.0])
+def test_time_by_experiment_refuses_impossible_records(cpu):
+    rec = [{"experiment": "exp5", "reading": "inferred", "rows": 2, "cpu_seconds": 1.0},
+           {"experiment": "exp1", "reading": "inferred", "rows": 2, "cpu_seconds": cpu}]
+    with pytest.raises(ValueError, match="record 1 has cpu_seconds"):
+        fill.time_by_experiment(rec)
+
+
+def test_a_parameter_spelt_as_a_float_keys_the_same_loops():
+    a = fill.needed_entries("exp5", "quick")
+    b = fill.needed_entries("exp5", "quick", max_iter=100.0)
+    assert [e.path for e in a] == [e.path for e in b]

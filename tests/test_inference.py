@@ -117,3 +117,13 @@ def test_replication_notes_quote_the_ratios_in_use():
     notes = (Path(__file__).resolve().parents[1] / "book" / "replication_notes.md").read_text()
     quoted = ", ".join(f"{k} {v:g}" for k, v in uw.INFERRED_GAP_RATIOS.items())
     assert quoted in " ".join(notes.split()), quoted
+
+
+@pytest.mark.parametrize("scores, target, match", [
+    ([[50.0, np.nan], [70.0, 71.0]], 60.0, "scores must be finite"),
+    ([[50.0, np.inf], [70.0, 71.0]], 60.0, "scores must be finite"),
+    ([[50.0, 51.0], [70.0, 71.0]], np.nan, "target"),
+])
+def test_fit_ratio_refuses_what_would_come_out_as_a_number(scores, target, match):
+    with pytest.raises(ValueError, match=match):
+        inf.fit_ratio([1.0, 4.0], scores, target)

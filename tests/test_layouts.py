@@ -93,3 +93,14 @@ def test_inferred_layout_with_a_turbulent_group_a():
     assert s.group_a.kind == "turbulence" and s.n_env == 6
     with pytest.raises(ValueError, match="no fitted gap"):
         uw.make_setting("strong turbulence", "strong turbulence", 3)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: uw.Layout("x", gap=0.5, gap_ratio=3.0), "give one"),
+    (lambda: uw.group_speeds("light constant", "light constant", 5,
+                             layout=uw.Layout("x", gap_ratio=2.0, spacing=100.0)),
+     "beyond the class range"),
+])
+def test_a_layout_never_silently_ignores_or_leaves_its_class(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()

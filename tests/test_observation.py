@@ -87,3 +87,8 @@ def test_consumer_noise_levels_are_the_cited_figures():
     assert CONSUMER_NOISE.position == pytest.approx(2.5 / 1.1774)
     assert CONSUMER_NOISE.velocity == 0.05
     assert CONSUMER_NOISE.acceleration == pytest.approx(0.0088, abs=1e-4)
+
+
+def test_observe_refuses_a_gravity_that_is_not_a_number():
+    with pytest.raises(ValueError, match="gravity"):
+        observe(_flight(uw.ConstantWind([[0, 0, 0]])), "acceleration", gravity=float("nan"))

@@ -29,3 +29,17 @@ def test_readings_build_every_experiment_and_label_rows(tmp_path):
     df = ex.run_experiment("exp1", profile=TINY, results=tmp_path, n_jobs=1, progress=False,
                            cases=[1], reading="halves")
     assert (df["reading"] == "halves").all() and df.attrs["reading"] == "halves"
+
+
+@pytest.mark.parametrize("kwargs, err, match", [
+    ({"name": 1}, TypeError, "name"), ({"long_run_per_group": 10 ** 9}, ValueError,
+                                       "long_run_per_group"),
+    ({"description": 3}, TypeError, "description"),
+])
+def test_a_reading_names_its_bad_field(kwargs, err, match):
+    base = {"name": "mine", "layout": "halves", "turbulence": "mil-f-8785c",
+            "long_run_per_group": 5}
+    with pytest.raises(err, match=match):
+        uw.Reading(**{**base, **kwargs})
+    with pytest.raises(TypeError):
+        uw.Reading("mine", "halves", "mil-f-8785c", 5)  # keyword-only

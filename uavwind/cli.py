@@ -18,6 +18,7 @@ import json
 import os
 import signal
 import sys
+import threading
 import time
 import warnings
 from collections.abc import Sequence
@@ -67,11 +68,6 @@ def _seed(text):
     return n
 
 
-def _terminate(signum, frame):
-    """SIGTERM ends the run like Ctrl-C: workers are shut down on the way out."""
-    raise KeyboardInterrupt
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m uavwind", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -99,6 +95,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
                   f"{e.notebook}")
         return 0
+    if "all" in args.experiments and len(args.experiments) > 1:
+        parser.error(f"'all' means every experiment: give it alone, not with "
+                     f"{', '.join(e for e in args.experiments if e != 'all')}")
     ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
     try:
         for i in ids:  # validate every name before any work starts
@@ -114,8 +113,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
             parser.error(f"--times must name a file in an existing, writable folder, got "
                          f"{args.times!r}")
-    if _in_main_thread():
-        signal.signal(signal.SIGTERM, _terminate)
+    stop = threading.Event()
+    previous = _on_signals(stop) if _in_main_thread() else {}
     kw = {} if args.seed is None else {"seed": args.seed}
     readings = list(READINGS) if args.reading == "all" else [args.reading]
     t0 = time.perf_counter()
@@ -123,15 +122,27 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                           readings=[r for r in readings if r is not None] or None,
-                          progress=not args.no_progress, times=records, **kw)
+                          progress=not args.no_progress, times=records, stop=stop, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
         if times is not None:
-            _write_times(times, args, t0, records, complete=False)
+            _write_times(times, args, t0, records, complete=False, error="interrupted")
         return 130
     except ValueError as exc:  # e.g. a results folder that cannot be written
         print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
+        if times is not None:
+            _write_times(times, args, t0, records, complete=False, error=str(exc))
         return 2
+    except Exception as exc:  # a full disk, a killed worker: say so, keep the record
+        print(f"python -m uavwind run: error: {type(exc).__name__}: {exc}; finished chunks are "
+              f"kept, a rerun resumes", file=sys.stderr)
+        if times is not None:
+            _write_times(times, args, t0, records, complete=False,
+                         error=f"{type(exc).__name__}: {exc}")
+        return 1
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
           f"{done['computed']} computed ({done['rows_computed']} loops or CEM samples) in "
           f"{time.perf_counter() - t0:.1f} s")
@@ -152,12 +163,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _write_times(path, args, t0, records, complete):
+def _on_signals(stop: threading.Event) -> dict:
+    """SIGINT and SIGTERM ask the fill to stop after the entries under way (it checks between
+    entries, never inside a kernel); a second one stops at once. Returns the handlers they
+    replace."""
+    def request(signum, frame):
+        if stop.is_set():
+            raise KeyboardInterrupt
+        stop.set()
+        print(f"\n{signal.Signals(signum).name}: stopping after the entries under way "
+              f"(again to stop now)", file=sys.stderr)
+    return {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _write_times(path, args, t0, records, complete, error=None):
     """The ``--times`` file, written atomically: the run's wall seconds and one record per
     computed entry (``complete`` is false after an interrupt)."""
     text = json.dumps({"profile": args.profile, "jobs": args.jobs, "complete": complete,
-                       "wall_seconds": time.perf_counter() - t0, "entries": records},
-                      indent=1)
+                       "wall_seconds": time.perf_counter() - t0, "entries": records,
+                       **({"error": error} if error else {})}, indent=1)
     try:
         atomic_write(path, text, name="--times")
     except (OSError, ValueError) as exc:

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..core.checks import check_instance
+from ..core.checks import check_instance, check_scalar
 from ..core.stats import N_BOOT, SEED, correct_share, summarise
 from ..method.search import random_search
 from ..sim.setting import Setting
@@ -83,9 +83,14 @@ def fit_ratio(ratios: ArrayLike, scores: ArrayLike, target: float) -> float:
     """
     r = np.asarray(ratios, dtype=float)
     sc = np.asarray(scores, dtype=float)
-    if r.ndim != 1 or sc.shape[0] != r.size or r.size < 2 or np.any(np.diff(r) <= 0) or r[0] <= 0:
-        raise ValueError("ratios must be an increasing 1-D grid of > 0 values with one row of "
-                         f"scores each; got ratios {r.shape}, scores {sc.shape}")
+    if (r.ndim != 1 or sc.shape[0] != r.size or r.size < 2 or not np.all(np.isfinite(r))
+            or np.any(np.diff(r) <= 0) or r[0] <= 0):
+        raise ValueError("ratios must be an increasing 1-D grid of finite values > 0 with one "
+                         f"row of scores each; got ratios {r.shape}, scores {sc.shape}")
+    if sc.size == 0 or not np.all(np.isfinite(sc)):
+        raise ValueError("scores must be finite (a NaN or inf score has no place on the "
+                         "curve), with at least one loop per ratio")
+    target = check_scalar(target, "target")
     curve = np.maximum.accumulate(sc.reshape(r.size, -1).mean(axis=1))
     if target > curve[-1]:
         return float("inf")

@@ -41,6 +41,10 @@ __all__ = ["estimate_wind", "baseline_metrics", "two_means", "WIND_MODELS", "BAS
 
 #: The wind models :func:`estimate_wind` fits.
 WIND_MODELS = ("constant", "path")
+#: Largest position coordinate accepted [m] (as :func:`~uavwind.method.clustering.score_loop`).
+MAX_COORDINATE = 1e9
+#: Longest step between positions accepted [s].
+MAX_DT = 10.0
 #: Part of the cache key of every loop that runs the baseline: bump when its numbers change.
 BASELINE_VERSION = "2"
 
@@ -85,12 +89,15 @@ def estimate_wind(positions: ArrayLike, thrust: ThrustSequence, uav: UAV | None 
     p = check_array(positions, "positions", ndim=3)
     if p.shape[2] != 3 or p.shape[1] < 1 or p.shape[0] < 1:
         raise ValueError(f"positions must have shape (n_env, n_steps, 3), got {p.shape}")
+    if np.abs(p).max() > MAX_COORDINATE:
+        raise ValueError(f"positions must stay within +-{MAX_COORDINATE:g} m, got "
+                         f"{np.abs(p).max():g}")
     if not isinstance(thrust, ThrustSequence):
         raise TypeError(f"thrust must be a ThrustSequence, got {type(thrust).__name__}")
     uav = UAV() if uav is None else uav
     if not isinstance(uav, UAV):
         raise TypeError(f"uav must be a UAV, got {type(uav).__name__}")
-    dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False)
+    dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False, high=MAX_DT)
     if model not in WIND_MODELS:
         raise ValueError(f"model must be one of {list(WIND_MODELS)}, got {model!r}")
     start = (np.array([0.0, 0.0, 10.0]) if start_position is None
@@ -115,7 +122,10 @@ def two_means(points: ArrayLike, max_iter: int = 100) -> np.ndarray:
     >>> two_means(np.array([[0.0], [0.1], [5.0], [5.2]])).tolist()
     [0, 0, 1, 1]
     """
-    x = np.asarray(points, dtype=float)
+    x = check_array(points, "points", ndim=2)
+    if x.shape[0] < 2:
+        raise ValueError(f"points must hold at least 2 rows to split in two, got {x.shape[0]}")
+    max_iter = check_scalar(max_iter, "max_iter", low=1, high=10 ** 6, integer=True)
     d2 = ((x[:, None] - x[None]) ** 2).sum(axis=2)
     i, j = np.unravel_index(np.argmax(d2), d2.shape)
     centres = x[[i, j]]

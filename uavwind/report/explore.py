@@ -12,12 +12,14 @@ from __future__ import annotations
 import hashlib
 import html
 import json
+import re
 import os
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.checks import check_scalar
 from ..core.io import atomic_write
 from ..method.clustering import score_loop
 from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
@@ -116,6 +118,10 @@ def explore_grid(pairs: Sequence[tuple[str, str]] = EXPLORE_PAIRS,
     environment, every ``every``-th sample, cm resolution), ``"groups"``, ``"score"``,
     ``"correct"``}). Turbulence uses the loop's reading and ``seed``.
     """
+    every = check_scalar(every, "every", low=1, high=10 ** 4, integer=True)
+    for name, value in (("pairs", pairs), ("n_per_group", n_per_group), ("layouts", layouts)):
+        if isinstance(value, str) or not len(value):
+            raise ValueError(f"{name} must be a non-empty sequence, got {value!r}")
     thrusts = explore_thrusts()
     loops = {}
     for key, s in _grid_settings(pairs, n_per_group, layouts):
@@ -165,6 +171,13 @@ def cached_grid(folder: os.PathLike | str | None = None, **kwargs: Any) -> dict:
         return grid
 
 
+def _script_json(value) -> str:
+    """``value`` as JSON that cannot end the ``<script>`` it sits in (``</script>``, ``<!--``)
+    or break out of it: ``<``, ``>`` and ``&`` written as unicode escapes."""
+    return (json.dumps(value, separators=(",", ":")).replace("<", "\\u003c")
+            .replace(">", "\\u003e").replace("&", "\\u0026"))
+
+
 def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/plotly.min.js",
                   element_id: str = "uw-explorer") -> str:
     """A self-contained HTML widget over ``grid`` (:func:`explore_grid`): four selects, a
@@ -175,9 +188,14 @@ def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/
     """
 
     c = grid["controls"]
+    if not isinstance(element_id, str) or not re.fullmatch(r"[A-Za-z][\w-]*", element_id):
+        raise ValueError(f"element_id must be an HTML id (a letter, then letters, digits, _ "
+                         f"or -), got {element_id!r}")
+    plotly_src = html.escape(str(plotly_src), quote=True)
 
     def select(name, options, label):
-        opts = "".join(f'<option value="{v}">{html.escape(str(t))}</option>' for v, t in options)
+        opts = "".join(f'<option value="{html.escape(str(v), quote=True)}">'
+                       f'{html.escape(str(t))}</option>' for v, t in options)
         return (f'<label style="margin-right:1em">{label} <select data-control="{name}">'
                 f"{opts}</select></label>")
     controls = "".join([
@@ -185,7 +203,7 @@ def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/
         select("n", [(n, n) for n in c["n"]], "environments per group"),
         select("thrust", list(enumerate(c["thrust"])), "thrust sequence"),
         select("layout", [(v, v) for v in c["layout"]], "reading")])
-    data = json.dumps(grid["loops"], separators=(",", ":"))
+    data = _script_json(grid["loops"])
     return f"""<div id="{element_id}" class="uw-explorer">
 <div style="margin-bottom:0.5em">{controls}</div>
 <div class="uw-score" style="font-weight:bold;margin:0.3em 0"></div>
@@ -198,7 +216,7 @@ def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/
   var loops = {data};
   var selects = root.querySelectorAll("select");
   var colours = ["#1f77b4", "#d62728"];
-  var names = {json.dumps(c["pair"])};
+  var names = {_script_json(c["pair"])};
   function key() {{
     var v = {{}};
     selects.forEach(function(s) {{ v[s.dataset.control] = s.value; }});

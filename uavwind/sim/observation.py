@@ -170,6 +170,7 @@ def observe(flight: Flight, observation: str = "position", noise: Noise | None =
         Position [m], ground velocity [m/s] or specific force [m/s^2].
     """
     check_observation(observation)
+    gravity = check_scalar(gravity, "gravity", low=0.0, high=1e3)
     if noise is not None and not isinstance(noise, Noise):
         raise TypeError(f"noise must be a Noise or None, got {type(noise).__name__}")
     noise = noise or Noise()

@@ -17,10 +17,12 @@ from __future__ import annotations
 
 import os
 import sys
+import threading
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import pandas as pd
 
 from ..core.parallel import check_jobs, pin_threads, stop_workers
@@ -117,7 +119,8 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
                n_jobs: int | None = None, engine: str | None = None,
                results: os.PathLike | str | None = None,
                readings: str | Iterable[str | Reading] | None = None, progress: bool = True,
-               times: list[dict] | None = None, **params: float | str) -> dict:
+               times: list[dict] | None = None, stop: threading.Event | None = None,
+               **params: float | str) -> dict:
     """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
@@ -143,6 +146,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
     times : list, optional
         Where to append the records of ``times`` (below) as entries finish, so that a caller
         keeps them when the run is interrupted.
+    stop : threading.Event, optional
+        Checked between entries: once set, the workers stop and ``KeyboardInterrupt`` is
+        raised, every finished entry on disk and recorded (the command line sets it on
+        SIGINT or SIGTERM, so an interrupt never lands inside a kernel).
 
     Returns
     -------
@@ -199,6 +206,8 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
                     "rows": n_rows, "cpu_seconds": cpu})
             if bar is not None:
                 bar.update(n_rows)
+            if stop is not None and stop.is_set():
+                raise KeyboardInterrupt
     except BaseException:  # interrupted or failed: finished entries are on disk
         stop_workers()
         raise
@@ -235,6 +244,16 @@ def time_by_experiment(times: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
         return pd.DataFrame(columns=cols, index=pd.MultiIndex.from_tuples(
             [], names=["experiment", "reading"]))
     df = pd.DataFrame(list(times))
+    for col in ("experiment", "reading", "rows", "cpu_seconds"):
+        if col not in df.columns:
+            raise ValueError(f"times records must each have {col!r}; a record lacks it")
+    for col in ("rows", "cpu_seconds"):
+        v = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
+        bad = ~np.isfinite(v) | (v < 0)
+        if bad.any():
+            raise ValueError(f"times record {int(np.argmax(bad))} has {col} = "
+                             f"{df[col].iloc[int(np.argmax(bad))]!r}: must be a finite "
+                             f"number >= 0")
     out = df.groupby(["experiment", "reading"]).agg(
         entries=("rows", "size"), rows=("rows", "sum"), cpu_seconds=("cpu_seconds", "sum"))
     out["share"] = 100 * out["cpu_seconds"] / out["cpu_seconds"].sum()

@@ -69,6 +69,9 @@ class Layout:
         object.__setattr__(self, "gap", check_scalar(self.gap, "gap", low=0.0, high=1.0,
                                                      high_inclusive=False))
         if self.gap_ratio is not None:
+            if self.gap:
+                raise ValueError(f"gap applies to cell layouts, gap_ratio to lattice layouts: "
+                                 f"give one, got gap={self.gap:g} and gap_ratio={self.gap_ratio!r}")
             object.__setattr__(self, "gap_ratio", check_scalar(
                 self.gap_ratio, "gap_ratio", low=0.0, low_inclusive=False, high=1e4))
         if self.spacing is not None:
@@ -98,6 +101,12 @@ class Layout:
             step = self.spacing if self.spacing is not None else (hi - lo) / span
             a = lo + step * np.arange(n_a)
             b = lo + step * ((n_a - 1) + self.gap_ratio + np.arange(n_b))
+            if b[-1] > hi * (1 + 1e-12):
+                raise ValueError(f"layout {self.name!r}: spacing {self.spacing:g} m/s with "
+                                 f"gap_ratio {self.gap_ratio:g} puts {n_a} + {n_b} environments "
+                                 f"up to {b[-1]:.4g} m/s, beyond the class range "
+                                 f"[{lo:g}, {hi:g}] m/s; use a smaller spacing or fewer "
+                                 f"environments")
         return np.array([a, b]) if n_a == n_b else (a, b)
 
 

@@ -50,7 +50,7 @@ def turbulence_fields(turbulence: str | CitedDryden) -> tuple[str, CitedDryden |
                      f"got {turbulence!r}")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Reading:
     """A named set of answers to what the paper leaves open.
 
@@ -74,10 +74,15 @@ class Reading:
     description: str = ""
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise TypeError(f"name must be a non-empty string, got {self.name!r}")
+        if not isinstance(self.description, str):
+            raise TypeError(f"description must be a string, got {type(self.description).__name__}")
         turbulence_fields(self.turbulence)
         if not isinstance(self.layout, Layout):
             resolve_layout(self.layout, "light constant", "light constant")
-        check_scalar(self.long_run_per_group, "long_run_per_group", low=1, integer=True)
+        object.__setattr__(self, "long_run_per_group", check_scalar(
+            self.long_run_per_group, "long_run_per_group", low=2, high=1000, integer=True))
 
     @property
     def builder_kwargs(self) -> dict[str, str | Layout | CitedDryden]:
@@ -88,13 +93,13 @@ class Reading:
 
 READINGS = {
     "inferred": Reading(
-        "inferred", "inferred", INFERRED_TURBULENCE, 10,
-        "the paper reading: same-strength groups on the evenly spaced lattice of Table 3 "
+        name="inferred", layout="inferred", turbulence=INFERRED_TURBULENCE,
+        long_run_per_group=10, description="the paper reading: same-strength groups on the evenly spaced lattice of Table 3 "
         "with the gap fitted from Table 4; turbulence as the cited implementation computes "
         "it; Exp 1's 500-loop case with 10 environments per group"),
     "halves": Reading(
-        "halves", "halves", "mil-f-8785c", 5,
-        "decision 5, our first guess: same-strength groups in adjacent halves of the class "
+        name="halves", layout="halves", turbulence="mil-f-8785c", long_run_per_group=5,
+        description="decision 5, our first guess: same-strength groups in adjacent halves of the class "
         "range; MIL-F-8785C turbulence"),
 }
 
@@ -103,7 +108,7 @@ def get_reading(reading: str | Reading) -> Reading:
     """A :class:`Reading` by name (``"inferred"``, ``"halves"``) or itself."""
     if isinstance(reading, Reading):
         return reading
-    if reading not in READINGS:
+    if not isinstance(reading, str) or reading not in READINGS:
         raise ValueError(f"reading must be one of {sorted(READINGS)} or a Reading, got {reading!r}")
     return READINGS[reading]
 
