@@ -71,10 +71,29 @@ def test_inferred_layout_uses_the_fitted_ratio_per_pair():
         s = uw.make_setting(cond, cond, 5)
         a, b = np.sort(s.group_a.speeds), np.sort(s.group_b.speeds)
         assert (b[0] - a[-1]) / (a[1] - a[0]) == pytest.approx(rho)
-    # different strengths fill their own class ranges under every layout
-    x = uw.make_setting("light constant", "strong constant", 5)
-    y = uw.make_setting("light constant", "strong constant", 5, layout="halves")
-    assert x.key() == y.key()
+
+
+@pytest.mark.parametrize("a, b", [("light constant", "strong constant"),
+                                  ("light shear", "strong shear")])
+def test_mixed_pairs_take_table3s_spacing_centred_in_each_class(a, b):
+    """The inferred reading: each group's environments 0.1 m/s apart on each of x and y, as
+    in Table 3, centred on its class range; the halves reading keeps the class cells."""
+    x = uw.make_setting(a, b, 5)
+    for g, (lo, hi) in ((x.group_a, (0.45, 1.34)), (x.group_b, (11.18, 13.86))):
+        v = np.array(g.values)
+        assert np.allclose(np.diff(v, axis=0), [0.1, 0.1, 0.0], rtol=0, atol=1e-12)
+        assert g.speeds.mean() == pytest.approx(0.5 * (lo + hi))
+    y = uw.make_setting(a, b, 5, layout="halves")
+    assert np.allclose(y.group_a.speeds, 0.45 + (np.arange(5) + 0.5) * 0.89 / 5)
+    # a turbulent mixed pair keeps the cells its turbulence reading was chosen on
+    t = uw.make_setting("light constant", "strong turbulence", 5)
+    assert np.allclose(t.group_b.speeds, 11.18 + (np.arange(5) + 0.5) * 2.68 / 5)
+
+
+def test_a_mixed_lattice_refuses_speeds_at_or_below_zero():
+    lay = uw.Layout("t", mixed_spacing=0.5)
+    with pytest.raises(ValueError, match="must be > 0"):
+        uw.group_speeds("light constant", "strong constant", 5, layout=lay)
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -3,7 +3,8 @@ package was arranged into subpackages (commit f16d6b8). A move that changed a se
 key, an entry's path or a single double of a result row fails here.
 
 A deliberate change of results (a new reading, a bumped RESULTS_VERSION) updates these
-pins in the same commit, and says so.
+pins in the same commit, and says so. Changed since: the inferred reading's mixed-strength
+constant and shear pairs take Table 3's spacing (exp1-4 under "inferred", and exp1's case 1).
 """
 import hashlib
 import tempfile
@@ -17,10 +18,10 @@ from uavwind.study.fill import needed_entries
 #: profile/reading/experiment -> digest of the sorted relative paths of its cache entries
 ENTRY_PATHS = {
     "quick/inferred/example": "3b124da9fed53415",
-    "quick/inferred/exp1": "5a20719469103ca9",
-    "quick/inferred/exp2": "6dc70ba49df881f8",
-    "quick/inferred/exp3": "33978c3a213bb384",
-    "quick/inferred/exp4": "6ca0ada1de09830c",
+    "quick/inferred/exp1": "a869d0dfd34f1675",
+    "quick/inferred/exp2": "3a0cb1a05b1c1512",
+    "quick/inferred/exp3": "1194b7d11597cc56",
+    "quick/inferred/exp4": "40cb059005d144dc",
     "quick/inferred/exp5": "bdc142320cf3951f",
     "quick/inferred/exp6": "3890dd609dc3b6a2",
     "quick/inferred/exp6_raw": "628e28b0dd489eab",
@@ -28,6 +29,7 @@ ENTRY_PATHS = {
     "quick/inferred/exp8": "938fc569fdd8a7e5",
     "quick/inferred/exp9": "a19c1ac22a1095f8",
     "quick/inferred/fit_layout": "f3801fbc86dfb8b7",
+    "quick/inferred/fit_mixed": "112d11a98a089764",
     "quick/inferred/fit_turbulence": "98462edb38442c3b",
     "quick/halves/example": "3b124da9fed53415",
     "quick/halves/exp1": "2a9e96ab0379510a",
@@ -41,12 +43,13 @@ ENTRY_PATHS = {
     "quick/halves/exp8": "6ea199792bbc540e",
     "quick/halves/exp9": "aa2022438305f0ae",
     "quick/halves/fit_layout": "f3801fbc86dfb8b7",
+    "quick/halves/fit_mixed": "112d11a98a089764",
     "quick/halves/fit_turbulence": "98462edb38442c3b",
     "paper/inferred/example": "6f3e053cab478488",
-    "paper/inferred/exp1": "f3fee0392a80ec0b",
-    "paper/inferred/exp2": "6ea79a89510bc7ac",
-    "paper/inferred/exp3": "c1fa52808f9759be",
-    "paper/inferred/exp4": "9f623c971d45be3f",
+    "paper/inferred/exp1": "188170c5b4a0a1bf",
+    "paper/inferred/exp2": "6a90f2d96bb3cff1",
+    "paper/inferred/exp3": "8bf26e41ee085ce4",
+    "paper/inferred/exp4": "16c0478a2e2b75eb",
     "paper/inferred/exp5": "22b4a412a7cdd06d",
     "paper/inferred/exp6": "d00836cf68652e8a",
     "paper/inferred/exp6_raw": "6f8435c7511136c3",
@@ -54,6 +57,7 @@ ENTRY_PATHS = {
     "paper/inferred/exp8": "0df52e69bd1d0ff9",
     "paper/inferred/exp9": "f6a86d54c4959fcf",
     "paper/inferred/fit_layout": "98d979c639533209",
+    "paper/inferred/fit_mixed": "d0e7a315564174f2",
     "paper/inferred/fit_turbulence": "9f34c77cc0c7cc0a",
     "paper/halves/example": "6f3e053cab478488",
     "paper/halves/exp1": "db5bd75a41bd09d5",
@@ -67,12 +71,13 @@ ENTRY_PATHS = {
     "paper/halves/exp8": "899b6fde6de46a3b",
     "paper/halves/exp9": "f265297e3dc4e61b",
     "paper/halves/fit_layout": "98d979c639533209",
+    "paper/halves/fit_mixed": "d0e7a315564174f2",
     "paper/halves/fit_turbulence": "9f34c77cc0c7cc0a",
 }
 
 #: experiment/case/reading -> digest of the rows of that case (quick profile)
 RESULT_ROWS = {
-    "exp1/1/inferred": "28d1dcf5c6bb4c89",
+    "exp1/1/inferred": "5ecf0d578abf3932",
     "exp1/1/halves": "df423608cc0aa500",
     "exp5/1/inferred": "2fdd3e359569e1ed",
     "exp5/1/halves": "00bdb667423591e4",

@@ -50,7 +50,7 @@ if TYPE_CHECKING:
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "check_fits", "score_matrix",
            "silhouette_curves", "compare_turbulence", "check_turbulence", "out_of_sample",
-           "miss_reasons", "CLOSE", "scale_invariance", "scaled_setting", "line_silhouette"]
+           "miss_reasons", "CLOSE", "compare_mixed", "check_mixed", "scale_invariance", "scaled_setting", "line_silhouette"]
 
 
 def _paper_table4():
@@ -210,6 +210,39 @@ def check_turbulence(turbulence: pd.DataFrame) -> str:
                          f"closest candidate to Table 4 is {best!r} (mean {b['mean']:.2f}, 95% "
                          f"interval [{b['ci_low']:.2f}, {b['ci_high']:.2f}])")
     return used[0]
+
+
+def compare_mixed(mixed_results: pd.DataFrame) -> pd.DataFrame:
+    """Table 4's mixed-strength rows (S2, S5) under each spacing and placement of
+    ``fit_mixed``: ``mean`` (CI), ``max``, ``correct_rate``, the paper's values and
+    ``distance`` (the larger of the distances to the paper's mean and max); indexed by
+    scenario id, spacing and placement."""
+    paper = _paper_table4()
+    rows = []
+    keys = ["scenario_id", "spacing", "placement"]
+    for (k, spacing, place), sub in mixed_results.groupby(keys, sort=False):
+        s = summarise(sub)
+        p = paper.loc[int(k)]
+        rows.append({"scenario_id": int(k), "spacing": spacing, "placement": place,
+                     "scenario": sub["scenario"].iloc[0], "mean": s["mean"],
+                     "ci_low": s["ci_low"], "ci_high": s["ci_high"], "max": s["max"],
+                     "correct_rate": s["correct_rate"], "paper_mean": float(p["mean"]),
+                     "paper_max": float(p["maximum"]),
+                     "distance": max(abs(s["mean"] - p["mean"]), abs(s["max"] - p["maximum"])),
+                     "n_loops": s["n_loops"]})
+    return pd.DataFrame(rows).set_index(keys)
+
+
+def check_mixed(mixed: pd.DataFrame) -> str:
+    """The spacing the inferred reading uses (:data:`~uavwind.study.layouts.TABLE3_SPACING`,
+    ``"per axis"``), if it is the closer of the two to Table 4 at the centre placement, summed
+    over S2 and S5 (``distance``); else a ``ValueError`` with both sums."""
+    centre = mixed.xs("centre", level="placement")
+    total = centre.groupby(level="spacing")["distance"].sum()
+    if total.idxmin() != "per axis":
+        raise ValueError(f"the inferred reading reads Table 3's spacing per axis, but in "
+                         f"magnitude is closer to Table 4: {total.round(2).to_dict()}")
+    return "per axis"
 
 
 #: Out-of-sample rows within this many score points of the paper's mean count as close.

@@ -12,22 +12,31 @@ Under eqs 2-8 a constant (or shear) pair's silhouette depends on this geometry a
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.checks import check_scalar
+from ..core.checks import check_choice, check_scalar
 from .conditions import HORIZONTAL, WindCondition
 
-__all__ = ["Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds"]
+#: Where a mixed-strength group sits in its class range.
+PLACEMENTS = ("centre", "low", "high")
+
+__all__ = ["Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "TABLE3_SPACING", "PLACEMENTS",
+           "resolve_layout", "group_speeds"]
 
 @dataclass(frozen=True)
 class Layout:
     """Where a pair of wind conditions puts its environments (replication notes, decision 5).
 
-    Groups of different strengths (light vs strong) always take the centres of
-    ``n`` equal cells of their own class range. Groups of the same strength share
-    the class range, group A below group B:
+    Groups of different strengths (light vs strong) each sit in their own class range:
+    at the centres of ``n`` equal cells of it (``mixed_spacing=None``, decision 5), or, with
+    ``mixed_spacing`` [m/s], ``n`` environments that far apart centred on the range's middle
+    (the paper's Table 3 puts each group's environments 0.1 m/s apart on each axis: the
+    inferred reading's :data:`TABLE3_SPACING`; a group of many environments may then reach
+    beyond its class range, as Table 3's own light group does). Groups of the same strength
+    share the class range, group A below group B:
 
     * ``gap_ratio=None``: a fraction ``gap`` of the range is left empty in the
       middle and each group puts cell centres in its part (``"halves"``: gap 0,
@@ -52,6 +61,12 @@ class Layout:
         Within-group spacing [m/s], in (0, 100] (lattice only).
     direction : tuple of 3 floats
         Direction of constant and shear winds (normalised); default x = y.
+    mixed_spacing : float, optional
+        Spacing [m/s] along ``direction`` inside each group of a mixed-strength pair, in
+        (0, 100]; None: cell centres of each class range.
+    mixed_placement : {"centre", "low", "high"}
+        Where such a group sits in its class range: centred on its middle, or starting at
+        its lower end, or ending at its upper end.
 
     >>> Layout("x", gap_ratio=2.0).speeds((0.0, 1.0), 2, 2).round(2).tolist()
     [[0.0, 0.25], [0.75, 1.0]]
@@ -62,6 +77,8 @@ class Layout:
     gap_ratio: float | None = None
     spacing: float | None = None
     direction: tuple = HORIZONTAL
+    mixed_spacing: float | None = None
+    mixed_placement: str = "centre"
 
     def __post_init__(self):
         if not isinstance(self.name, str):
@@ -79,6 +96,10 @@ class Layout:
                 raise ValueError("spacing applies to lattice layouts only: give gap_ratio too")
             object.__setattr__(self, "spacing", check_scalar(
                 self.spacing, "spacing", low=0.0, low_inclusive=False, high=100.0))
+        if self.mixed_spacing is not None:
+            object.__setattr__(self, "mixed_spacing", check_scalar(
+                self.mixed_spacing, "mixed_spacing", low=0.0, low_inclusive=False, high=100.0))
+        check_choice(self.mixed_placement, "mixed_placement", PLACEMENTS)
         d = np.asarray(self.direction, dtype=float)
         if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:
             raise ValueError(f"direction must be a finite, non-zero 3-vector, got {self.direction!r}")
@@ -109,6 +130,31 @@ class Layout:
                                  f"environments")
         return np.array([a, b]) if n_a == n_b else (a, b)
 
+    def group_speeds(self, speed_range: tuple[float, float], n: int) -> np.ndarray:
+        """Speeds [m/s] of one group of a mixed-strength pair in its class ``speed_range``:
+        cell centres, or ``n`` speeds ``mixed_spacing`` apart placed by ``mixed_placement``
+        (all > 0; ``ValueError`` otherwise).
+
+        >>> Layout("t3", mixed_spacing=0.1).group_speeds((0.45, 1.34), 3).round(3).tolist()
+        [0.795, 0.895, 0.995]
+        """
+        lo, hi = speed_range
+        if self.mixed_spacing is None:
+            return _cell_centres(lo, hi, n)
+        steps = self.mixed_spacing * np.arange(n)
+        if self.mixed_placement == "centre":
+            out = 0.5 * (lo + hi) + self.mixed_spacing * (np.arange(n) - 0.5 * (n - 1))
+        elif self.mixed_placement == "low":
+            out = lo + steps
+        else:
+            out = hi - steps[::-1]
+        if out[0] <= 0:
+            raise ValueError(f"layout {self.name!r}: {n} environments {self.mixed_spacing:g} "
+                             f"m/s apart centred on {0.5 * (lo + hi):g} m/s reach "
+                             f"{out[0]:.3g} m/s; a wind speed must be > 0: use a smaller "
+                             f"mixed_spacing or fewer environments")
+        return out
+
 
 #: The fixed named layouts (``"inferred"`` is resolved per pair by :func:`resolve_layout`).
 LAYOUTS = {"halves": Layout("halves"), "gap": Layout("gap", gap=1 / 3)}
@@ -129,6 +175,12 @@ INFERRED_GAP_RATIOS = {
 }
 
 
+#: The paper reading of the mixed-strength pairs: Table 3's spacing inside a group, 0.1 m/s
+#: on each of the x and y axes, i.e. 0.1 sqrt(2) m/s along the x = y direction [m/s]. Chosen
+#: over 0.1 m/s in magnitude by Table 4's S2 and S5 rows (the replication notes give both).
+TABLE3_SPACING = 0.1 * math.sqrt(2.0)
+
+
 def resolve_layout(layout: Layout | str, condition_a: str | WindCondition,
                    condition_b: str | WindCondition) -> Layout:
     """The :class:`Layout` that ``layout`` (a Layout or a name) means for this pair."""
@@ -144,7 +196,11 @@ def resolve_layout(layout: Layout | str, condition_a: str | WindCondition,
                          f"got {layout!r}")
     ca, cb = WindCondition.parse(condition_a), WindCondition.parse(condition_b)
     if ca.strength != cb.strength:
-        return Layout("inferred")
+        # constant and shear pairs: Table 3's spacing; a turbulent pair keeps the class cells
+        # its turbulence reading was chosen on (W20 speeds are not Table 3's velocities)
+        if "turbulence" in (ca.kind, cb.kind):
+            return Layout("inferred")
+        return Layout("inferred", mixed_spacing=TABLE3_SPACING)
     # the ratio of group A's condition; a turbulent group A takes group B's (the paper
     # fitted no turbulent same-strength pair)
     for c in (ca, cb):
@@ -178,4 +234,4 @@ def group_speeds(condition_a: str | WindCondition, condition_b: str | WindCondit
     if ca.strength == cb.strength:
         out = lay.speeds(ca.speed_range, n_a, n_b)
         return out[0], out[1]
-    return _cell_centres(*ca.speed_range, n_a), _cell_centres(*cb.speed_range, n_b)
+    return lay.group_speeds(ca.speed_range, n_a), lay.group_speeds(cb.speed_range, n_b)

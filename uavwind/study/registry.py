@@ -28,14 +28,14 @@ from ..sim.setting import Setting
 from .builders import (direction_settings, environment_count_settings, make_setting,
                        range_similarity_settings)
 from .conditions import PAPER_SCENARIOS, WindCondition, table3_setting
-from .layouts import Layout
+from .layouts import PLACEMENTS, TABLE3_SPACING, Layout
 from .readings import DEFAULT_READING, TURBULENCE_CANDIDATES, get_reading
 
 if TYPE_CHECKING:
     from .readings import Reading
 
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
-           "FIT_RATIOS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "FIT_RATIOS", "MIXED_SPACINGS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
            "column_names"]
 
 
@@ -213,6 +213,27 @@ def _fit_turbulence(reading):
             for name, t in TURBULENCE_CANDIDATES.items()]
 
 
+#: The mixed-strength layouts ``fit_mixed`` compares: Table 3's 0.1 m/s on each of x and y
+#: (0.1 sqrt(2) along x = y), and 0.1 m/s in magnitude [m/s].
+MIXED_SPACINGS = {"per axis": TABLE3_SPACING, "magnitude": 0.1}
+
+
+def _fit_mixed(reading):
+    """Table 4's mixed-strength constant and shear pairs (S2, S5), 5 per group, under Table
+    3's spacing read per axis and in magnitude, each group at the low end, the centre and the
+    high end of its class range."""
+    cases = []
+    for k in (2, 5):
+        a, b = PAPER_SCENARIOS[k]
+        for label, spacing in MIXED_SPACINGS.items():
+            for place in PLACEMENTS:
+                lay = Layout("fit", mixed_spacing=spacing, mixed_placement=place)
+                cases.append(Case(setting=make_setting(a, b, 5, layout=lay),
+                                  labels={"scenario": _scenario_label(a, b), "scenario_id": k,
+                                          "spacing": label, "placement": place}, fit=True))
+    return cases
+
+
 #: Exp 7's white position-noise levels [m] (0.02: RTK) and bias levels [m] (on 0.1 m white).
 NOISE_LEVELS = (0.0, 0.02, 0.1, 0.3, 0.5, 1.0, 2.0, 5.0)
 
@@ -321,6 +342,12 @@ EXPERIMENTS = {e.id: e for e in [
         question="Which gap between same-strength groups gives Table 4's scores?",
         paper_table="Table 4 (fit)", build=_fit_layout,
         group_by=("scenario_id", "scenario", "gap_ratio"), columns={"gap_ratio": "gap / spacing"}),
+    Experiment(
+        id="fit_mixed", title="Mixed-strength layout", notebook="inference.md",
+        question="Does Table 3's spacing, read per axis or in magnitude, give Table 4's "
+                 "mixed-strength rows, wherever the groups sit in their class ranges?",
+        paper_table="Table 4 (scenarios 2, 5)", build=_fit_mixed,
+        group_by=("scenario_id", "scenario", "spacing", "placement")),
     Experiment(
         id="fit_turbulence", title="Turbulence reading", notebook="inference.md",
         question="Which reading of the cited Dryden implementation gives Table 4's turbulence "
