@@ -13,6 +13,7 @@ import pandas as pd
 from sklearn.metrics import silhouette_score
 
 import uavwind as uw
+from uavwind.sim.dryden import FEET
 from uavwind.study.paper import PAPER_FILES, load_paper_values
 
 NOTES = Path(__file__).resolve().parents[1] / "book" / "replication_notes.md"
@@ -41,13 +42,15 @@ def _allowed():
     ok |= {0.143, 0.5, 0.1, 0.177, 0.000823, 0.4, 1.2, 0.2, 0.305, 0.33, 1.1, 1.5,
            1.225, 2.1}                             # model constants quoted with their equations
     p = uw.dryden_parameters(12.0, 10.0)           # L_u at 10 m, exponent 1.2 and 0.2
-    h = 10.0 / uw.dryden.FEET
-    ok |= {round(p["L_u"], 1), round(h / (0.177 + 0.000823 * h) ** 0.2 * uw.dryden.FEET, 1),
+    h = 10.0 / FEET
+    ok |= {round(p["L_u"], 1), round(h / (0.177 + 0.000823 * h) ** 0.2 * FEET, 1),
            round(h, 1), round(p["L_u"] / 12.5, 1), 12.5}
     ok |= {_line_silhouette(5), _line_silhouette(10)}   # decision 5's caps
     speeds = np.linalg.norm([[1.1, 1.1], [1.5, 1.5]], axis=1)  # Table 3's light winds
     ok |= {round(s, 2) for s in speeds}
     ok |= {1.2}  # million probe points of the engine's libm self-check
+    from uavwind.study.layouts import TABLE3_SPACING
+    ok |= {round(TABLE3_SPACING, 2)}  # Table 3's spacing along x = y
     return ok
 
 

@@ -286,7 +286,8 @@ def out_of_sample(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     pandas.DataFrame
         One row per paper row: ``paper_mean``, ``mean`` (predicted) with
         ``ci_low``/``ci_high``, ``paper_max``, ``max``, ``difference`` (predicted minus
-        paper mean), ``paper_in_ci``, ``correct_rate`` and ``geometry_alone``
+        paper mean), ``paper_in_ci``, ``correct_rate``, ``pair`` (``"mixed"`` strengths or
+        ``"same strength"``) and ``geometry_alone``
         (:func:`line_silhouette` x 100: the score the layout's speeds would get as
         points on a line).
     """
@@ -302,14 +303,22 @@ def out_of_sample(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         c = comparison_table(df).reset_index()
         cases = EXPERIMENTS[exp].cases(df["reading"].iloc[0])
         geometry = [line_silhouette(cases[int(k)].setting) for k in c["case"]]
+        mixed = [_strength(cases[int(k)].setting.group_a) != _strength(
+            cases[int(k)].setting.group_b) for k in c["case"]]
         frames.append(pd.DataFrame({
             "table": label, "row": c["row"], "paper_mean": c["paper_mean"], "mean": c["mean"],
             "ci_low": c["ci_low"], "ci_high": c["ci_high"], "paper_max": c["paper_max"],
             "max": c["max"], "difference": c["mean"] - c["paper_mean"],
             "paper_in_ci": (c["ci_low"] <= c["paper_mean"]) & (c["paper_mean"] <= c["ci_high"]),
             "correct_rate": c["correct_rate"],
-            "geometry_alone": [100 * g for g in geometry], "n_loops": c["n_loops"]}))
+            "geometry_alone": [100 * g for g in geometry],
+            "pair": ["mixed" if m else "same strength" for m in mixed],
+            "n_loops": c["n_loops"]}))
     return pd.concat(frames, ignore_index=True).set_index(["table", "row"])
+
+
+def _strength(group):
+    return group.label.split()[0] if group.label else ""
 
 
 def line_silhouette(setting: Setting) -> float:

@@ -35,7 +35,7 @@ from ..sim.wind import ConstantWind
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from ..sim.dynamics import Flight
+    from ..sim.flight import Flight
 
 __all__ = ["estimate_wind", "baseline_metrics", "two_means", "WIND_MODELS", "BASELINE_VERSION"]
 

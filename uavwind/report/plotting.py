@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from ..sim.dryden import DrydenWind
-    from ..sim.dynamics import Flight
+    from ..sim.flight import Flight
 
 __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",

@@ -27,6 +27,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .actions import ThrustSequence
+from .flight import Flight
+from .multirotor import Multirotor
 from ..core.checks import check_array, check_scalar
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindModel
@@ -34,43 +36,7 @@ from .wind import WindModel
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["simulate", "simulate_flight", "Flight"]
-
-
-@dataclass(frozen=True)
-class Flight:
-    """Everything recorded along one simulated flight.
-
-    Attributes
-    ----------
-    times : ndarray, shape (n_steps,)
-        Sample times [s]: ``dt, 2 dt, ..., duration``.
-    positions : ndarray, shape (n_env, n_steps, 3)
-        Position after each step [m].
-    ground_velocities : ndarray, shape (n_env, n_steps, 3)
-        Velocity over ground used during each step [m/s].
-    air_velocities : ndarray, shape (n_env, n_steps, 3)
-        Velocity relative to the air during each step [m/s].
-    winds : ndarray, shape (n_env, n_steps, 3)
-        Wind velocity met during each step, at the position where the step
-        started [m/s].
-    thrust : ndarray, shape (n_steps, 3)
-        Thrust applied during each step [N].
-    start : ndarray, shape (3,)
-        Initial position [m].
-    """
-
-    times: np.ndarray
-    positions: np.ndarray
-    ground_velocities: np.ndarray
-    air_velocities: np.ndarray
-    winds: np.ndarray
-    thrust: np.ndarray
-    start: np.ndarray
-
-    @property
-    def n_env(self) -> int:
-        return self.positions.shape[0]
+__all__ = ["simulate", "simulate_flight", "Flight", "max_stable_dt"]
 
 
 def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
@@ -78,8 +44,8 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
         raise TypeError(f"thrust must be a ThrustSequence, got {type(thrust).__name__}")
     if not isinstance(wind, WindModel):
         raise TypeError(f"wind must be a WindModel, got {type(wind).__name__}")
-    if not isinstance(uav, UAV):
-        raise TypeError(f"uav must be a UAV, got {type(uav).__name__}")
+    if not isinstance(uav, (UAV, Multirotor)):
+        raise TypeError(f"uav must be a UAV or a Multirotor, got {type(uav).__name__}")
     dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
     duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
     if duration / dt > MAX_STEPS:
@@ -89,7 +55,11 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     n = _n_steps(dt, duration)
     thrust.check_within(duration)
     _check_thrust_grid(thrust, dt, n)
-    _check_drag_stability(thrust, uav, dt, duration)
+    if isinstance(uav, Multirotor):
+        uav.check_grid(dt)
+        uav.check_thrust(thrust)
+    else:
+        _check_drag_stability(thrust, uav, dt, duration)
     if start_position is None:
         start = np.array([0.0, 0.0, check_scalar(start_altitude, "start_altitude")])
     else:
@@ -197,9 +167,18 @@ def _integrate(wind, uav, dt, n, t_start, forces, start, record_all):
     return positions
 
 
-def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None, dt: float = 0.1,
-             duration: float = 12.0, start_altitude: float = 10.0,
-             start_position: ArrayLike | None = None) -> np.ndarray:
+def _vehicle(uav, vehicle):
+    if vehicle is not None:
+        if uav is not None:
+            raise TypeError("give the vehicle once: uav= or vehicle=, not both")
+        return vehicle
+    return UAV() if uav is None else uav
+
+
+def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | None = None,
+             dt: float = 0.1, duration: float = 12.0, start_altitude: float = 10.0,
+             start_position: ArrayLike | None = None,
+             vehicle: UAV | Multirotor | None = None) -> np.ndarray:
     """Fly one thrust sequence through every environment of ``wind``.
 
     Parameters
@@ -208,8 +187,10 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None, dt
         The open-loop action, shared by all environments.
     wind : WindModel
         ``n_env`` environments (e.g. a :class:`~uavwind.wind.CombinedWind`).
-    uav : UAV, optional
-        The vehicle; default ``UAV()`` (paper Table 4a).
+    uav : UAV or Multirotor, optional
+        The vehicle; default ``UAV()`` (paper Table 4a). A
+        :class:`~uavwind.sim.multirotor.Multirotor` flies the same commands with RotorPy's
+        physics. ``vehicle=`` is the same argument under its other name.
     dt : float
         Time step [s], > 0. Default 0.1 s.
     duration : float
@@ -230,19 +211,26 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None, dt
     >>> simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]])).shape
     (1, 120, 3)
     """
-    uav = UAV() if uav is None else uav
+    uav = _vehicle(uav, vehicle)
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
+    if isinstance(uav, Multirotor):
+        return uav.fly(thrust, wind, float(dt), n, start)
     return _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=False)
 
 
-def simulate_flight(thrust: ThrustSequence, wind: WindModel, uav: UAV | None = None,
-                    dt: float = 0.1, duration: float = 12.0, start_altitude: float = 10.0,
-                    start_position: ArrayLike | None = None) -> Flight:
-    """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too."""
-    uav = UAV() if uav is None else uav
+def simulate_flight(thrust: ThrustSequence, wind: WindModel,
+                    uav: UAV | Multirotor | None = None, dt: float = 0.1,
+                    duration: float = 12.0, start_altitude: float = 10.0,
+                    start_position: ArrayLike | None = None,
+                    vehicle: UAV | Multirotor | None = None) -> Flight:
+    """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too (and,
+    for a multirotor, its attitudes, body rates, rotor speeds and specific forces)."""
+    uav = _vehicle(uav, vehicle)
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
+    if isinstance(uav, Multirotor):
+        return uav.fly(thrust, wind, float(dt), n, start, record_all=True)
     pos, vg, va, w = _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=True)
     return Flight(times=t_start + dt, positions=pos, ground_velocities=vg, air_velocities=va,
                   winds=w, thrust=forces, start=start)

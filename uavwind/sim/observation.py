@@ -39,7 +39,7 @@ from ..core.checks import check_scalar
 from ..core.seeding import child_seed
 
 if TYPE_CHECKING:
-    from .dynamics import Flight
+    from .flight import Flight
 
 __all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
            "check_observation", "noise_seed"]

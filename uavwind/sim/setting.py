@@ -27,12 +27,13 @@ from .actions import SAMPLERS
 from .dryden import VARIANTS, CitedDryden, DrydenWind
 from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
+from .multirotor import Multirotor
 from .vehicle import UAV
 from .wind import CombinedWind, ConstantWind, ShearWind
 
 if TYPE_CHECKING:
     from .actions import ThrustSequence
-    from .dynamics import Flight
+    from .flight import Flight
 
 __all__ = ["KINDS", "EnvironmentGroup", "Setting"]
 
@@ -150,7 +151,9 @@ class Setting:
         Thrust changes after t = 0 drawn by the sampler. Paper: 6.
     sampler : {"paper", "continuous"}
         Thrust sampler (see :mod:`uavwind.actions`).
-    uav : UAV
+    uav : UAV or Multirotor
+        The vehicle: the paper's point mass, or RotorPy's quadrotor
+        (:class:`~uavwind.sim.multirotor.Multirotor`); part of the key.
     dt, duration, start_altitude : float
         Time step [s], flight time [s], initial height [m].
     name : str
@@ -169,7 +172,7 @@ class Setting:
     group_b: EnvironmentGroup
     n_changes: int = 6
     sampler: str = "paper"
-    uav: UAV = field(default_factory=UAV)
+    uav: UAV | Multirotor = field(default_factory=UAV)
     dt: float = 0.1
     duration: float = 12.0
     start_altitude: float = 10.0
@@ -191,8 +194,8 @@ class Setting:
             raise ValueError(f"sampler must be one of {sorted(SAMPLERS)}, got {self.sampler!r}")
         object.__setattr__(self, "n_changes", check_scalar(self.n_changes, "n_changes", low=0,
                                                            integer=True))
-        if not isinstance(self.uav, UAV):
-            raise TypeError(f"uav must be a UAV, got {type(self.uav).__name__}")
+        if not isinstance(self.uav, (UAV, Multirotor)):
+            raise TypeError(f"uav must be a UAV or a Multirotor, got {type(self.uav).__name__}")
         if self.n_env < 3:
             raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
                              f"with two members, for a silhouette), got {self.group_a.n_env} + "
@@ -264,6 +267,8 @@ class Setting:
         for k, default in (("observation", "position"), ("noise", None), ("baseline", False)):
             if fields[k] == default:  # the paper's loop keeps its earlier keys
                 del fields[k]
+        if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
+            fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

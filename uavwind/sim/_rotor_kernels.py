@@ -1,0 +1,272 @@
+"""Numba kernels of the multirotor: RotorPy 3.0.0's ``Multirotor`` physics, one environment at a
+time, batched by a loop (the same formulas as ``rotorpy/vehicles/multirotor.py``; the tests hold
+them to RotorPy's own methods, 1e-12 of each block's scale).
+
+State, one row per environment, exactly ``Multirotor._pack_state``'s layout (20 numbers)::
+
+    s[0:3]   x      position, world frame, z up                          [m]
+    s[3:6]   v      velocity over ground, world frame                    [m/s]
+    s[6:10]  q      attitude quaternion [i, j, k, w] (scalar last), body -> world
+    s[10:13] w      body rates, body frame                               [rad/s]
+    s[13:16] wind   wind velocity, world frame (held over a control step) [m/s]
+    s[16:20] rotor speeds                                                 [rad/s]
+
+Parameter vector ``P`` (:func:`uavwind.sim.multirotor.Multirotor.packed`)::
+
+    0 mass, 1 g, 2:11 inertia (row-major), 11:20 inverse inertia, 20:23 c_Dx, c_Dy, c_Dz,
+    23 k_eta, 24 k_m, 25 k_d, 26 k_z, 27 k_h, 28 k_flap, 29 tau_m, 30 rotor speed min,
+    31 rotor speed max, 32:44 rotor positions (4 x 3, body frame), 44:48 rotor directions,
+    48:64 thrust-and-moments to rotor forces (4 x 4), 64 k_w, 65 kp_att, 66 kd_att, 67 aero
+
+One :func:`control_step` is ``Multirotor.step`` with a fixed-step integrator: the command is
+mapped to motor speeds from the state at the start of the step and clipped, then held (with
+the wind) for ``n_sub`` classical RK4 substeps, and the quaternion is renormalised.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+_NB = dict(cache=True, nogil=True, error_model="numpy")
+
+
+@njit(**_NB)
+def _rotmat(q, R):
+    """scipy ``Rotation.from_quat(q).as_matrix()`` (normalising), written into R (3, 3)."""
+    nrm = math.sqrt((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]) + q[3] * q[3])
+    x = q[0] / nrm
+    y = q[1] / nrm
+    z = q[2] / nrm
+    w = q[3] / nrm
+    x2 = x * x
+    y2 = y * y
+    z2 = z * z
+    w2 = w * w
+    xy = x * y
+    zw = z * w
+    xz = x * z
+    yw = y * w
+    yz = y * z
+    xw = x * w
+    R[0, 0] = x2 - y2 - z2 + w2
+    R[1, 0] = 2 * (xy + zw)
+    R[2, 0] = 2 * (xz - yw)
+    R[0, 1] = 2 * (xy - zw)
+    R[1, 1] = - x2 + y2 - z2 + w2
+    R[2, 1] = 2 * (yz + xw)
+    R[0, 2] = 2 * (xz + yw)
+    R[1, 2] = 2 * (yz - xw)
+    R[2, 2] = - x2 - y2 + z2 + w2
+
+
+@njit(**_NB)
+def _sdot(P, s, u, out, R):
+    """``Multirotor._s_dot_fn`` for one environment: s, out (20,), u clipped motor speeds (4,)."""
+    m = P[0]
+    _rotmat(s[6:10], R)
+    for i in range(3):
+        out[i] = s[3 + i]                                   # x_dot = v
+    inv_tau = 1 / P[29]
+    for k in range(4):
+        out[16 + k] = inv_tau * (u[k] - s[16 + k])          # first-order motors
+    q0, q1, q2, q3 = s[6], s[7], s[8], s[9]
+    w0, w1, w2 = s[10], s[11], s[12]
+    out[6] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)            # quaternion rate (raw q)
+    out[7] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
+    out[8] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
+    out[9] = 0.5 * (-q0 * w0 - q1 * w1 - q2 * w2)
+    d0 = s[3] - s[13]
+    d1 = s[4] - s[14]
+    d2 = s[5] - s[15]
+    va0 = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2        # body airspeed R^T (v - wind)
+    va1 = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
+    va2 = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
+    aero = P[67] != 0.0
+    k_eta, k_m, k_d, k_z, k_h, k_flap = P[23], P[24], P[25], P[26], P[27], P[28]
+    F0 = 0.0
+    F1 = 0.0
+    F2 = 0.0
+    M0 = 0.0
+    M1 = 0.0
+    M2 = 0.0
+    Mr0 = 0.0
+    Mr1 = 0.0
+    Mr2 = 0.0
+    for k in range(4):
+        rx, ry, rz = P[32 + 3 * k], P[33 + 3 * k], P[34 + 3 * k]
+        om = s[16 + k]
+        om2 = om * om
+        Tz = k_eta * om2
+        Hx = 0.0
+        Hy = 0.0
+        Mf0 = 0.0
+        Mf1 = 0.0
+        if aero:
+            la0 = va0 + (-w2 * ry + w1 * rz)                # local airspeed va + w x r_k
+            la1 = va1 + (w2 * rx - w0 * rz)
+            la2 = va2 + (-w1 * rx + w0 * ry)
+            Tz = Tz + k_h * (la0 * la0 + la1 * la1)          # translational lift
+            Hx = -om * (k_d * la0)                          # rotor drag (H-force)
+            Hy = -om * (k_d * la1)
+            Tz = Tz + -om * (k_z * la2)
+            kf = -k_flap * om                               # flapping moment
+            Mf0 = kf * la1
+            Mf1 = kf * -la0
+        F0 += Hx
+        F1 += Hy
+        F2 += Tz
+        M0 += ry * Tz - rz * Hy                             # r_k x F_k
+        M1 += rz * Hx - rx * Tz
+        M2 += rx * Hy - ry * Hx
+        Mr0 += Mf0
+        Mr1 += Mf1
+        Mr2 += P[44 + k] * (k_m * om2)                      # rotor yaw torque
+    if aero:
+        vn = math.sqrt(va0 * va0 + va1 * va1 + va2 * va2)
+        F0 = F0 + (-vn * P[20]) * va0                       # quadratic frame drag
+        F1 = F1 + (-vn * P[21]) * va1
+        F2 = F2 + (-vn * P[22]) * va2
+    M0 = M0 + Mr0
+    M1 = M1 + Mr1
+    M2 = M2 + Mr2
+    for i in range(3):                                      # v_dot = (weight + R F) / m
+        Fi = R[i, 0] * F0 + R[i, 1] * F1 + R[i, 2] * F2
+        out[3 + i] = ((-m * P[1] if i == 2 else 0.0) + Fi) / m
+    I = P[2:11]
+    Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
+    Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
+    Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
+    g0 = M0 - (w1 * Iw2 - w2 * Iw1)                          # M - w x I w
+    g1 = M1 - (w2 * Iw0 - w0 * Iw2)
+    g2 = M2 - (w0 * Iw1 - w1 * Iw0)
+    Ji = P[11:20]
+    out[10] = Ji[0] * g0 + Ji[1] * g1 + Ji[2] * g2
+    out[11] = Ji[3] * g0 + Ji[4] * g1 + Ji[5] * g2
+    out[12] = Ji[6] * g0 + Ji[7] * g1 + Ji[8] * g2
+    for i in range(13, 16):
+        out[i] = 0.0                                        # the wind is held
+
+
+@njit(**_NB)
+def _speeds(P, T, M0, M1, M2, u):
+    """Collective thrust and body moments -> signed motor speeds ``sign(f) sqrt(|f| / k_eta)``."""
+    for k in range(4):
+        f = P[48 + 4 * k] * T + P[49 + 4 * k] * M0 + P[50 + 4 * k] * M1 + P[51 + 4 * k] * M2
+        sp = f / P[23]
+        r = math.sqrt(abs(sp))
+        u[k] = -r if sp < 0 else (r if sp > 0 else (0.0 if sp == 0 else sp))
+
+
+@njit(**_NB)
+def _cmd_ctatt(P, s, T, qd, u, R, Rd):
+    """``cmd_ctatt``: collective thrust T [N] and attitude qd -> unclipped motor speeds u."""
+    _rotmat(s[6:10], R)
+    _rotmat(qd, Rd)
+    S = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            a = Rd[0, i] * R[0, j] + Rd[1, i] * R[1, j] + Rd[2, i] * R[2, j]
+            b = R[0, i] * Rd[0, j] + R[1, i] * Rd[1, j] + R[2, i] * Rd[2, j]
+            S[i, j] = 0.5 * (a - b)
+    e0, e1, e2 = -S[1, 2], S[0, 2], -S[0, 1]
+    w0, w1, w2 = s[10], s[11], s[12]
+    kp, kd = P[65], P[66]
+    a0 = -kp * e0 - kd * w0
+    a1 = -kp * e1 - kd * w1
+    a2 = -kp * e2 - kd * w2
+    I = P[2:11]
+    Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
+    Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
+    Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
+    M0 = I[0] * a0 + I[1] * a1 + I[2] * a2 + (w1 * Iw2 - w2 * Iw1)
+    M1 = I[3] * a0 + I[4] * a1 + I[5] * a2 + (w2 * Iw0 - w0 * Iw2)
+    M2 = I[6] * a0 + I[7] * a1 + I[8] * a2 + (w0 * Iw1 - w1 * Iw0)
+    _speeds(P, T, M0, M1, M2, u)
+
+
+@njit(**_NB)
+def _cmd_ctbr(P, s, T, wd, u):
+    """``cmd_ctbr``: collective thrust T [N] and body rates wd -> unclipped motor speeds u."""
+    kw = P[64]
+    a0 = -kw * (s[10] - wd[0])
+    a1 = -kw * (s[11] - wd[1])
+    a2 = -kw * (s[12] - wd[2])
+    I = P[2:11]
+    _speeds(P, T, I[0] * a0 + I[1] * a1 + I[2] * a2, I[3] * a0 + I[4] * a1 + I[5] * a2,
+            I[6] * a0 + I[7] * a1 + I[8] * a2, u)
+
+
+@njit(**_NB)
+def control_step(P, S, T, C, mode, n_sub, h, clipped):
+    """Advance every environment by one control step of ``n_sub * h`` [s], in place.
+
+    ``S`` (n, 20) states, wind columns already set for this step; ``T`` (n,) collective
+    thrust [N]; ``C`` (n, 4) attitude quaternions (``mode`` 0, ``cmd_ctatt``) or (n, 3) body
+    rates (``mode`` 1, ``cmd_ctbr``); ``clipped`` (n,) counts the steps in which a motor
+    command was clipped to the motors' range.
+    """
+    n = S.shape[0]
+    R = np.empty((3, 3))
+    Rd = np.empty((3, 3))
+    u = np.empty(4)
+    k1 = np.empty(20)
+    k2 = np.empty(20)
+    k3 = np.empty(20)
+    k4 = np.empty(20)
+    tmp = np.empty(20)
+    for i in range(n):
+        s = S[i]
+        if mode == 0:
+            _cmd_ctatt(P, s, T[i], C[i], u, R, Rd)
+        else:
+            _cmd_ctbr(P, s, T[i], C[i], u)
+        hit = False
+        for k in range(4):                                   # np.clip(cmd, min, max)
+            c = min(max(u[k], P[30]), P[31])
+            if c != u[k]:
+                hit = True
+            u[k] = c
+        if hit:
+            clipped[i] += 1
+        for _ in range(n_sub):
+            _sdot(P, s, u, k1, R)
+            for j in range(20):
+                tmp[j] = s[j] + (0.5 * h) * k1[j]
+            _sdot(P, tmp, u, k2, R)
+            for j in range(20):
+                tmp[j] = s[j] + (0.5 * h) * k2[j]
+            _sdot(P, tmp, u, k3, R)
+            for j in range(20):
+                tmp[j] = s[j] + h * k3[j]
+            _sdot(P, tmp, u, k4, R)
+            for j in range(20):
+                s[j] = s[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+        qn = math.sqrt(s[6] * s[6] + s[7] * s[7] + s[8] * s[8] + s[9] * s[9])
+        for j in range(6, 10):
+            s[j] = s[j] / qn
+
+
+@njit(**_NB)
+def state_derivative(P, S, U):
+    """``Multirotor._s_dot_fn`` for a batch (n, 20) with clipped motor speeds U (n, 4)."""
+    out = np.empty_like(S)
+    R = np.empty((3, 3))
+    for i in range(S.shape[0]):
+        _sdot(P, S[i], U[i], out[i], R)
+    return out
+
+
+@njit(**_NB)
+def motor_commands(P, S, T, C, mode):
+    """Unclipped motor speeds (n, 4) of ``cmd_ctatt`` (``mode`` 0) or ``cmd_ctbr`` (1)."""
+    n = S.shape[0]
+    out = np.empty((n, 4))
+    R = np.empty((3, 3))
+    Rd = np.empty((3, 3))
+    for i in range(n):
+        if mode == 0:
+            _cmd_ctatt(P, S[i], T[i], C[i], out[i], R, Rd)
+        else:
+            _cmd_ctbr(P, S[i], T[i], C[i], out[i])
+    return out
