@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 import uavwind as uw
+from uavwind.sim.dynamics import max_stable_dt
 
 
 def still(n=1):
@@ -132,11 +133,11 @@ def test_unstable_drag_is_refused_with_a_step_that_works():
     with pytest.raises(ValueError, match=r"dt = 0.1 s .*mass = 0.1 kg.*use dt <") as err:
         uw.simulate(_push(), wind, uav=light, dt=0.1, duration=1.0)
     ok = float(str(err.value).split("e.g. dt = ")[1].split(" s")[0])  # the suggested step
-    assert ok < uw.dynamics.max_stable_dt(_push(), light)
+    assert ok < max_stable_dt(_push(), light)
     pos = uw.simulate(_push(), wind, uav=light, dt=ok, duration=1.0)
     assert np.all(np.isfinite(pos))
     # the paper's UAV is far inside the stable range
-    assert uw.dynamics.max_stable_dt(_push(), uw.UAV()) > 1.0
+    assert max_stable_dt(_push(), uw.UAV()) > 1.0
 
 
 def test_off_grid_and_late_thrust_changes_warn():

@@ -1,7 +1,7 @@
 """What the paper's own numbers reveal: its unstated setup, recovered and tested.
 
 This module owns the inference behind the ``"inferred"`` reading
-(:data:`uavwind.scenarios.READINGS`) and the book page "What the paper's numbers
+(:data:`uavwind.study.readings.READINGS`) and the book page "What the paper's numbers
 reveal":
 
 * :func:`fit_layouts` -- for each same-strength scenario of Table 2, the gap between
@@ -134,7 +134,7 @@ def fit_layouts(fit_results: pd.DataFrame, n_boot: int = N_BOOT,
     pandas.DataFrame
         One row per scenario: ``paper_mean``, ``ratio`` (fitted), ``ci_low``,
         ``ci_high`` (95% percentile bootstrap over loops; ``inf`` = above the grid),
-        ``in_use`` (:data:`~uavwind.scenarios.INFERRED_GAP_RATIOS`), ``in_ci`` and
+        ``in_use`` (:data:`~uavwind.study.layouts.INFERRED_GAP_RATIOS`), ``in_ci`` and
         ``n_loops``.
     """
     paper = _paper_table4()

@@ -11,8 +11,8 @@ Engines compute the same clustering in different ways:
 * ``"tslearn"`` -- the reference: ``tslearn.clustering.TimeSeriesKMeans`` and
   ``tslearn.clustering.silhouette_score``, exactly as the paper (and the Causal
   Curiosity reference code) call them;
-* ``"fast"`` (default) -- :class:`uavwind.softdtw.SoftDTWKMeans` and
-  :func:`uavwind.softdtw.silhouette_score`, a numba re-implementation of the same
+* ``"fast"`` (default) -- :class:`uavwind.method.softdtw.SoftDTWKMeans` and
+  :func:`uavwind.method.softdtw.silhouette_score`, a numba re-implementation of the same
   algorithm that gives the same labels and scores (tested with ``==`` against tslearn).
 
 Both are driven by one adapter: an estimator with tslearn's interface and a silhouette.
@@ -145,7 +145,7 @@ class LoopResult:
         """The paper's "Simulation parameters and outputs after one simulation loop" table.
 
         Returns a one-column ``pandas.DataFrame``; pass the loop's
-        :class:`~uavwind.actions.ThrustSequence` to add its rows.
+        :class:`~uavwind.sim.actions.ThrustSequence` to add its rows.
         """
         import pandas as pd
 

@@ -74,7 +74,7 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
     wind_seeds : sequence of SeedSequence
         Turbulence seed of each loop (same length as ``thrusts``).
     engine : str, optional
-        Clustering engine (see :func:`uavwind.clustering.score_loop`).
+        Clustering engine (see :func:`uavwind.method.clustering.score_loop`).
     n_jobs : int, optional
         Worker processes (joblib); -1 or None = all cores, 1 = in this process.
     progress : bool
@@ -154,7 +154,7 @@ def random_search(setting: Setting, n_loops: int = 50,
     loop_offset : int
         Index of the first loop (to extend a run: loops ``offset .. offset+n-1``).
     **params
-        Clustering parameters (see :func:`uavwind.clustering.score_loop`).
+        Clustering parameters (see :func:`uavwind.method.clustering.score_loop`).
 
     Returns
     -------
@@ -262,7 +262,7 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
         ``f(samples (n, dim)) -> scores (n,)`` replacing the simulation (for tests
         and other uses); the setting then only provides the change times.
     clustering : dict, optional
-        Clustering parameters of every loop (see :func:`uavwind.clustering.score_loop`);
+        Clustering parameters of every loop (see :func:`uavwind.method.clustering.score_loop`);
         the k-means cap goes here, ``clustering={"max_iter": 50}``, since ``max_iter``
         is this search's own cap. Other clustering parameters may also be given as
         keyword arguments.

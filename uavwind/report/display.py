@@ -66,7 +66,7 @@ def group_name(setting: Setting, group: int) -> str:
 def claims_markdown(verdicts: pd.DataFrame,
                     readings: Sequence[str] = ("inferred", "halves")) -> str:
     """The claims page's evidence: per claim, the verdict and evidence under each reading,
-    what the difference teaches and the rule (from :func:`uavwind.claims.compare_readings`)."""
+    what the difference teaches and the rule (from :func:`uavwind.analysis.claims.compare_readings`)."""
     names = {"inferred": "Inferred reading", "halves": "Halves (decision 5)"}
     parts = []
     for cid, row in verdicts.iterrows():

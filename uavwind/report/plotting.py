@@ -273,7 +273,7 @@ def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
 # --------------------------------------------------------------------------- #
 def dryden_spectrum(wind: DrydenWind, n_samples: int = 4096, nperseg: int = 512) -> Figure:
     """Simulated gust spectra (Welch, averaged over environments) over the analytic
-    MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.dryden.DrydenWind`
+    MIL-F-8785C spectra, for the u, v, w axes of a :class:`~uavwind.sim.dryden.DrydenWind`
     whose environments share one W20."""
     from scipy.signal import welch
 
@@ -299,7 +299,7 @@ def dryden_spectrum(wind: DrydenWind, n_samples: int = 4096, nperseg: int = 512)
 def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
                          title: str | None = None) -> Figure:
     """Bar chart of reported vs regenerated values: ``table`` has an index of row labels
-    and columns ``paper_max, max, paper_mean, mean`` (:func:`~uavwind.experiments.comparison_table`)."""
+    and columns ``paper_max, max, paper_mean, mean`` (:func:`~uavwind.analysis.tables.comparison_table`)."""
     plt = _plt()
     n = len(table)
     fig, ax = plt.subplots(figsize=(8, 0.45 * n + 1.5), constrained_layout=True)
@@ -323,7 +323,7 @@ def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
 # --------------------------------------------------------------------------- #
 def silhouette_vs_ratio(curves: pd.DataFrame, fits: pd.DataFrame | None = None) -> Figure:
     """Mean score against the gap-to-spacing ratio, one line per scenario (log x axis);
-    with ``fits`` (:func:`uavwind.inference.fit_layouts`) the paper's Table 4 mean as a
+    with ``fits`` (:func:`uavwind.analysis.inference.fit_layouts`) the paper's Table 4 mean as a
     horizontal line and the fitted ratio with its 95% interval as a shaded band."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(7, 4.2), constrained_layout=True)
@@ -348,7 +348,7 @@ def silhouette_vs_ratio(curves: pd.DataFrame, fits: pd.DataFrame | None = None) 
 
 def predicted_vs_paper(table: pd.DataFrame) -> Figure:
     """Out-of-sample check: the paper's mean against the predicted mean (95% CI), one
-    point per row of ``table`` (:func:`uavwind.inference.out_of_sample`), by table."""
+    point per row of ``table`` (:func:`uavwind.analysis.inference.out_of_sample`), by table."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.2, 5), constrained_layout=True)
     for (label, sub), m in zip(table.groupby(level="table", sort=False), "osD^v"):

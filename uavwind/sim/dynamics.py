@@ -2,8 +2,8 @@
 
 This module owns :func:`simulate` (positions only, the input of clustering) and
 :func:`simulate_flight` (positions plus the velocities and winds along the path,
-for figures). Both fly one open-loop :class:`~uavwind.actions.ThrustSequence`
-through every environment of a :class:`~uavwind.wind.WindModel` at once: the
+for figures). Both fly one open-loop :class:`~uavwind.sim.actions.ThrustSequence`
+through every environment of a :class:`~uavwind.sim.wind.WindModel` at once: the
 only Python loop is over time steps; environments are a NumPy axis.
 
 One step of length ``dt`` from time ``t_k = k dt`` (replication notes, decision 1)::
@@ -185,7 +185,7 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | No
     thrust : ThrustSequence
         The open-loop action, shared by all environments.
     wind : WindModel
-        ``n_env`` environments (e.g. a :class:`~uavwind.wind.CombinedWind`).
+        ``n_env`` environments (e.g. a :class:`~uavwind.sim.wind.CombinedWind`).
     uav : UAV or Multirotor, optional
         The vehicle; default ``UAV()`` (paper Table 4a). A
         :class:`~uavwind.sim.multirotor.Multirotor` flies the same commands with RotorPy's

@@ -10,7 +10,7 @@ This module owns the observation side of a loop:
   each channel, plus an optional first-order Gauss-Markov bias on positions (as
   GNSS receivers show);
 * :func:`gauss_markov` and :func:`observe` -- the noise and the channels applied to a
-  :class:`~uavwind.dynamics.Flight`.
+  :class:`~uavwind.sim.flight.Flight`.
 
 Noise draws come from a ``numpy.random.SeedSequence`` that the loop derives from
 its own seed (spawn key ``(..., 2)`` beside the turbulence's ``0`` and ``1``), so

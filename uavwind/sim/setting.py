@@ -54,9 +54,9 @@ class EnvironmentGroup:
     label : str
         Human-readable name, e.g. ``"light constant"``.
     alpha, reference_height, floor : float
-        Shear profile (see :class:`~uavwind.wind.ShearWind`).
+        Shear profile (see :class:`~uavwind.sim.wind.ShearWind`).
     altitude : float
-        Altitude of the Dryden parameters [m] (see :class:`~uavwind.dryden.DrydenWind`).
+        Altitude of the Dryden parameters [m] (see :class:`~uavwind.sim.dryden.DrydenWind`).
     variant : {"mil-f-8785c", "cited"}
         Dryden variant of a turbulence group.
     cited : CitedDryden, optional
@@ -108,7 +108,7 @@ class EnvironmentGroup:
 
     def wind(self, seed: int | np.random.SeedSequence | None = None,
              ) -> ConstantWind | ShearWind | DrydenWind:
-        """The :class:`~uavwind.wind.WindModel` of this group (``seed`` for turbulence)."""
+        """The :class:`~uavwind.sim.wind.WindModel` of this group (``seed`` for turbulence)."""
         if self.kind == "constant":
             return ConstantWind(self.values)
         if self.kind == "shear":
@@ -150,7 +150,7 @@ class Setting:
     n_changes : int
         Thrust changes after t = 0 drawn by the sampler. Paper: 6.
     sampler : {"paper", "continuous"}
-        Thrust sampler (see :mod:`uavwind.actions`).
+        Thrust sampler (see :mod:`uavwind.sim.actions`).
     uav : UAV or Multirotor
         The vehicle: the paper's point mass, or RotorPy's quadrotor
         (:class:`~uavwind.sim.multirotor.Multirotor`); part of the key.
@@ -159,12 +159,12 @@ class Setting:
     name : str
         Short label for tables.
     observation : str
-        What the loop clusters (:data:`uavwind.observation.OBSERVATIONS`); the paper:
+        What the loop clusters (:data:`uavwind.sim.observation.OBSERVATIONS`); the paper:
         ``"position"``.
     noise : Noise, optional
-        Observation noise (:class:`uavwind.observation.Noise`); the paper: none.
+        Observation noise (:class:`uavwind.sim.observation.Noise`); the paper: none.
     baseline : bool
-        Also run the physics baseline (:func:`uavwind.baseline.baseline_metrics`) on
+        Also run the physics baseline (:func:`uavwind.method.baseline.baseline_metrics`) on
         the observed positions of every loop (Exp 9).
     """
 
@@ -220,7 +220,7 @@ class Setting:
         return "turbulence" in (self.group_a.kind, self.group_b.kind)
 
     def wind(self, seed: int | np.random.SeedSequence | None = None) -> CombinedWind:
-        """A :class:`~uavwind.wind.CombinedWind` of both groups.
+        """A :class:`~uavwind.sim.wind.CombinedWind` of both groups.
 
         ``seed`` (int or SeedSequence) seeds the turbulence; each group draws
         from its own child, so the groups' gusts are independent.
@@ -243,7 +243,7 @@ class Setting:
                 ) -> tuple[np.ndarray, Flight, np.ndarray | None]:
         """``(observations, flight, positions)`` of one loop: the observed channel with
         its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
-        :class:`~uavwind.dynamics.Flight`, and the noisy positions (what the baseline sees)."""
+        :class:`~uavwind.sim.flight.Flight`, and the noisy positions (what the baseline sees)."""
         flight = simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                                  duration=self.duration, start_altitude=self.start_altitude)
         ns = noise_seed(seed)

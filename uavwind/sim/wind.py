@@ -8,7 +8,7 @@ This module owns every wind field the UAV can fly through (paper section
 * :class:`DrydenWind` -- Dryden turbulence (eqs 10-12), as MIL-F-8785C specifies it
   (``variant="mil-f-8785c"``) or as the implementation the paper cites computes it
   (``variant="cited"``, every quirk a field of :class:`CitedDryden`); defined in
-  :mod:`uavwind.dryden` (and exported as ``uavwind.DrydenWind``);
+  :mod:`uavwind.sim.dryden` (and exported as ``uavwind.DrydenWind``);
 * :class:`CombinedWind` -- several models side by side, one group of
   environments each, so one :func:`uavwind.simulate` call flies a whole loop.
 

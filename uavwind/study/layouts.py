@@ -48,7 +48,7 @@ class Layout:
       given; then group A starts at the lower end of the range.
 
     Under eqs 2-8 a constant (or shear) pair's silhouette depends on this
-    geometry through ``rho`` almost alone (see :mod:`uavwind.inference`).
+    geometry through ``rho`` almost alone (see :mod:`uavwind.analysis.inference`).
 
     Parameters
     ----------
@@ -162,7 +162,7 @@ LAYOUTS = {"halves": Layout("halves"), "gap": Layout("gap", gap=1 / 3)}
 
 #: The paper reading of the same-strength pairs: the gap between the groups, in
 #: within-group spacings, fitted from Table 4 alone by
-#: :func:`uavwind.inference.fit_layouts` (paper profile; the book's "What the
+#: :func:`uavwind.analysis.inference.fit_layouts` (paper profile; the book's "What the
 #: paper's numbers reveal" page refits them and fails if these values leave the
 #: fit's 95% interval). Keyed by group A's condition: a mixed same-strength pair
 #: (Exp 5's light constant vs light shear) takes group A's ratio, a turbulent group A

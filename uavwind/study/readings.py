@@ -23,7 +23,7 @@ __all__ = ["INFERRED_TURBULENCE", "TURBULENCE_CANDIDATES", "Reading", "READINGS"
 #: The paper reading of its turbulence: the cited implementation as its packaged
 #: derivative runs it -- the level taken from each environment's W20, a seed per
 #: environment, and the W20 as a base wind under the gusts ("strong turbulence" = a
-#: strong wind with gusts). Chosen by :func:`uavwind.inference.compare_turbulence` as
+#: strong wind with gusts). Chosen by :func:`uavwind.analysis.inference.compare_turbulence` as
 #: the candidate closest to Table 4's light constant vs strong turbulence row.
 INFERRED_TURBULENCE = CitedDryden(turbulence_level=None, seeds=None, base_direction=HORIZONTAL)
 

@@ -5,7 +5,7 @@ Each kernel computes tslearn 0.10.0's arithmetic operation for operation (cells 
 product, DTW's cost recursion), so its results are the same doubles; what differs is
 the schedule: cells that cannot change a rounded sum skip their ``exp``/``log``, the
 gradient visits only its non-zero band, and batches run serially or over numba threads
-(``prange``) in a fixed order. Only :mod:`uavwind.softdtw.metrics` calls them.
+(``prange``) in a fixed order. Only :mod:`uavwind.method.softdtw.metrics` calls them.
 """
 
 import math

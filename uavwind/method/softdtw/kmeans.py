@@ -4,7 +4,7 @@ The estimator follows scikit-learn's conventions (parameters stored as given in
 ``__init__``, fitted attributes ending in ``_``) and reproduces
 ``tslearn.clustering.TimeSeriesKMeans(metric="softdtw")`` exactly: k-means++ from the
 same ``RandomState`` stream, assignments by soft-DTW, centres as soft-DTW barycentres
-(:mod:`uavwind.softdtw._lbfgsb`), tslearn's stopping rule and empty-cluster handling.
+(:mod:`uavwind.method.softdtw._lbfgsb`), tslearn's stopping rule and empty-cluster handling.
 """
 
 from __future__ import annotations
