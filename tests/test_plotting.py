@@ -93,6 +93,11 @@ CALLS = {
     "baseline_vs_clustering": lambda f: plotting.baseline_vs_clustering(beyond.baseline_table(
         _loops(scenario=["a"], noise_sigma=[0.0, 1.0], noise_bias=[0.0]))),
     "stamp": lambda f: plotting.stamp(plotting.fig2_flowcharts(), _loops(scenario=["a"])),
+    "vehicle_trajectories": lambda f: plotting.vehicle_trajectories(
+        {"point mass": f, "multirotor": f.positions + 1.0}, uw.table3_setting().groups),
+    "vehicle_scores": lambda f: plotting.vehicle_scores(beyond.vehicle_table(
+        _loops(scenario_id=[1, 2], vehicle=["point mass", "multirotor"]).assign(
+            scenario=lambda d: "S" + d["scenario_id"].astype(str)))),
 }
 
 

@@ -121,7 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     records = []
     try:
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
-                          readings=[r for r in readings if r is not None] or None,
+                          readings="all" if args.reading == "all" else args.reading,
                           progress=not args.no_progress, times=records, stop=stop, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
@@ -156,6 +156,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     for reading in readings:
         for i in ids:
+            if args.reading == "all" and reading not in get_experiment(i).readings:
+                continue  # the book runs it under its own readings only
             df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                                 progress=False, reading=reading, **kw)
             print(f"{i} ({df.attrs['reading']} reading): {len(df)} rows")

@@ -22,7 +22,7 @@ import pandas as pd
 from ..core.stats import bootstrap_ci, summarise
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
-           "observation_table", "best_observation", "baseline_table"]
+           "observation_table", "best_observation", "baseline_table", "vehicle_table"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -105,6 +105,20 @@ def best_observation(df: pd.DataFrame, noise: str = "none") -> pd.DataFrame:
     idx = t.groupby("scenario", sort=False)["mean"].idxmax()
     return t.loc[idx].set_index("scenario")[["observation", "mean", "ci_low", "ci_high",
                                              "correct_rate"]]
+
+
+def vehicle_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Exp 10: per scenario, vehicle (and noise), score and correct share with 95% intervals, and for
+    the multirotor the mean share of control steps in which its tilt limit and its motor
+    limits bound (``tilt_limited``, ``motor_limited``; NaN for the point mass)."""
+    keys = [k for k in ("scenario_id", "scenario", "vehicle", "noise") if k in df.columns]
+    out = _summary(df, tuple(keys))
+    for col in ("tilt_limited", "motor_limited"):
+        if col in df.columns:
+            means = df.groupby(keys, sort=False)[col].mean()
+            out[col] = [means.get(tuple(k), np.nan) for k in
+                        out[keys].itertuples(index=False)]
+    return out
 
 
 def baseline_table(df: pd.DataFrame) -> pd.DataFrame:

@@ -21,7 +21,7 @@ from ..study.registry import EXPERIMENTS
 from .beyond import breaking_level, noise_table
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
-           "LESSONS", "compare_readings", "needed_experiments"]
+           "LESSONS", "compare_readings", "needed_experiments", "c1_by_vehicle"]
 
 def _fmt(ci):
     est, lo, hi = ci
@@ -78,6 +78,19 @@ def claim_c1(r: Mapping[str, pd.DataFrame]) -> Verdict:
                    "reproduced: S1 and S4 have the two lowest means and both paired differences "
                    "to the lowest other scenario have 95% CIs below 0; partly: one of them is "
                    "among the two lowest", ev, verdict)
+
+
+def c1_by_vehicle(exp10: pd.DataFrame) -> pd.DataFrame:
+    """Claim C1 judged on each vehicle of Exp 10, with and without noise (its Table 2
+    scenarios; the worked example left out), with the rule of :func:`claim_c1`: one row per
+    vehicle and noise with ``verdict`` and ``evidence``."""
+    rows = []
+    keys = [k for k in ("vehicle", "noise") if k in exp10.columns]
+    for key, sub in exp10[exp10["scenario_id"] > 0].groupby(keys, sort=False):
+        v = claim_c1({"exp1": sub})
+        key = key if isinstance(key, tuple) else (key,)
+        rows.append({**dict(zip(keys, key)), "verdict": v.verdict, "evidence": v.evidence})
+    return pd.DataFrame(rows).set_index(keys)
 
 
 def claim_c2(r: Mapping[str, pd.DataFrame]) -> Verdict:

@@ -20,7 +20,7 @@ from .._version import __version__
 from ..core.stats import summarise
 from ..study.paper import load_paper_values
 from ..study.registry import EXPERIMENTS, get_experiment
-from .beyond import baseline_table
+from .beyond import baseline_table, vehicle_table
 
 __all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFERENCES",
            "maxmean_table", "cem_table"]
@@ -55,6 +55,7 @@ SUMMARIES = {
     "maxmean": lambda exp, df: maxmean_table(df, exp.group_by),
     "cem": lambda exp, df: cem_table(df),
     "baseline": lambda exp, df: baseline_table(df),
+    "vehicle": lambda exp, df: vehicle_table(df),
 }
 
 

@@ -34,6 +34,7 @@ from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..core.stats import summarise
 from ..sim.actions import MAX_THRUST, ThrustSequence
+from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .baseline import baseline_metrics
 from .clustering import ClusteringParams, check_engine, score_loop
@@ -49,16 +50,19 @@ __all__ = ["evaluate", "random_search", "cem", "CEMResult", "cem_step"]
 def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     if pin:  # inside a worker process: do not oversubscribe the cores
         pin_threads()
-    if setting.plain:
+    multirotor = isinstance(setting.uav, Multirotor)
+    if setting.plain and not multirotor:
         traj = setting.simulate(thrust, seed=wind_seed)
         return score_loop(traj, setting.groups, engine=engine, **params)
     obs, flight, positions = setting.observe(thrust, seed=wind_seed)
     res = score_loop(obs, setting.groups, engine=engine, **params)
+    metrics = {}
+    if multirotor:  # how often the vehicle's limits bound in this loop
+        metrics.update(tilt_limited=flight.tilt_limited, motor_limited=flight.motor_limited)
     if setting.baseline:
-        metrics = baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
-                                   setting.groups, start_position=flight.start)
-        res = replace(res, metrics=metrics)
-    return res
+        metrics.update(baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
+                                        setting.groups, start_position=flight.start))
+    return replace(res, metrics=metrics) if metrics else res
 
 
 def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],

@@ -435,3 +435,53 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     axes[0].legend(fontsize=7)
     axes[1].legend(fontsize=6, loc="lower left")
     return fig
+
+
+# --------------------------------------------------------------------------- #
+# on a multirotor (Exp 10)
+# --------------------------------------------------------------------------- #
+def vehicle_trajectories(flights: dict, groups, group_labels=("group 0", "group 1"),
+                         ncols: int = 3) -> Figure:
+    """One loop flown by several vehicles: a 3-D panel per vehicle (``flights``: label ->
+    positions (n_env, n_steps, 3) [m] or a :class:`~uavwind.sim.flight.Flight`), the
+    environments coloured by group."""
+    plt = _plt()
+    n = len(flights)
+    ncols = min(ncols, n)
+    nrows = math.ceil(n / ncols)
+    fig = plt.figure(figsize=(4.6 * ncols, 4.0 * nrows), constrained_layout=True)
+    g = np.asarray(groups)
+    for i, (label, f) in enumerate(flights.items()):
+        pos = f.positions if hasattr(f, "positions") else np.asarray(f)
+        ax = fig.add_subplot(nrows, ncols, i + 1, projection="3d")
+        for k, (c, lab) in enumerate(zip(GROUP_COLOURS, group_labels)):
+            for j, tr in enumerate(pos[g == k]):
+                ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], color=c, lw=0.9,
+                        label=lab if j == 0 else None)
+        ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=label)
+        ax.title.set_fontsize(9)
+        if i == 0:
+            ax.legend(fontsize=7)
+    return fig
+
+
+def vehicle_scores(table) -> Figure:
+    """Exp 10: mean score (95% CI) per scenario, one bar per vehicle (``table``:
+    :func:`uavwind.analysis.beyond.vehicle_table`)."""
+    plt = _plt()
+    scen = list(dict.fromkeys(table["scenario"]))
+    vehicles = list(dict.fromkeys(table["vehicle"]))
+    fig, ax = plt.subplots(figsize=(10, 0.55 * len(scen) * len(vehicles) / 2 + 2),
+                           constrained_layout=True)
+    h = 0.8 / len(vehicles)
+    y = np.arange(len(scen))
+    for j, v in enumerate(vehicles):
+        s = table[table["vehicle"] == v].set_index("scenario").reindex(scen)
+        err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
+        ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h, xerr=err, capsize=2,
+                label=v)
+    ax.set_yticks(y, scen, fontsize=8)
+    ax.invert_yaxis()
+    ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
+    ax.legend(fontsize=7, loc="lower right")
+    return fig

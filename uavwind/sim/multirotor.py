@@ -246,6 +246,18 @@ class Multirotor:
         """Rotor speed whose thrust holds the vehicle in still air [rad/s]."""
         return math.sqrt(self.weight / (4 * self.packed[23]))
 
+    def drag_force(self, airspeed: float) -> float:
+        """Horizontal aerodynamic force [N] on the vehicle hovering level (rotors at hover
+        speed) in a horizontal airspeed of ``airspeed`` [m/s], opposing it: what couples a
+        hovering multirotor to the wind (``F(1 m/s)`` is the per-speed coupling of the rotor
+        drag, which is linear; the frame drag is quadratic)."""
+        from ._rotor_kernels import state_derivative
+
+        S = self.initial_states(np.zeros(3), np.zeros((1, 3)))
+        S[0, 13] = check_scalar(airspeed, "airspeed", low=0.0, high=1e3)  # wind along x
+        U = np.full((1, 4), self.hover_speed)
+        return float(state_derivative(self.packed, S, U)[0, 3] * self.mass)
+
     def quad_params(self) -> dict:
         """This vehicle as RotorPy's ``quad_params`` (for ``rotorpy``'s own ``Multirotor``)."""
         return rotorpy_params(self.preset, self.mass)

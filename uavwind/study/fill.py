@@ -61,10 +61,12 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
         exp_ids = [exp_ids]
     ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
     exps = [get_experiment(i) for i in ids]
+    all_readings = False
     if readings is None:
         readings = [DEFAULT_READING]
     elif readings == "all":
         readings = list(READINGS)
+        all_readings = True
     elif isinstance(readings, str):
         readings = [readings]
     rds = [get_reading(r) for r in readings]
@@ -75,6 +77,8 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     first, users = {}, {}
     for rd in rds:
         for exp in exps:
+            if all_readings and rd.name not in exp.readings:
+                continue  # the book runs it under its own readings only
             cases = exp.cases(rd)
             for e in experiment_entries(exp, prof, rd, seed, engine, folder, params,
                                         range(len(cases))):

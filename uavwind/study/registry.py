@@ -24,7 +24,9 @@ from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
 from ..sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise
+from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
+from ..sim.vehicle import UAV
 from .builders import (direction_settings, environment_count_settings, make_setting,
                        range_similarity_settings)
 from .conditions import PAPER_SCENARIOS, WindCondition, table3_setting
@@ -35,7 +37,8 @@ if TYPE_CHECKING:
     from .readings import Reading
 
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
-           "FIT_RATIOS", "MIXED_SPACINGS", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "FIT_RATIOS", "MIXED_SPACINGS", "VEHICLES",
+           "NOISY_VEHICLES", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
            "column_names"]
 
 
@@ -80,14 +83,17 @@ class Experiment:
         (empty: the paper reports nothing to compare with).
     summary : str
         The name of its summary in :data:`uavwind.analysis.tables.SUMMARIES`: ``"maxmean"``
-        (max, mean with its CI, correct rate per ``group_by``), ``"cem"`` (per iteration) or
-        ``"baseline"`` (Exp 9).
+        (max, mean with its CI, correct rate per ``group_by``), ``"cem"`` (per iteration),
+        ``"baseline"`` (Exp 9) or ``"vehicle"`` (Exp 10).
     reference : str
         Where the paper's rows come from: ``"paper"`` (the experiment's table in
         :mod:`uavwind.study.paper`) or ``"example"`` (the worked example's one loop).
     columns : dict
         Display names of its label columns (``{"noise_sigma": "noise sigma (m)"}``), for
         the pages.
+    readings : tuple of str
+        The readings the book runs it under (``make results``); any reading can still be
+        asked for by name.
     """
 
     id: str
@@ -104,10 +110,11 @@ class Experiment:
     summary: str = "maxmean"
     reference: str = "paper"
     columns: Mapping = field(default_factory=dict, hash=False, compare=False)
+    readings: tuple = ("inferred", "halves")
 
     def __post_init__(self):
         check_choice(self.search, "search", ("random", "cem"))
-        check_choice(self.summary, "summary", ("maxmean", "cem", "baseline"))
+        check_choice(self.summary, "summary", ("maxmean", "cem", "baseline", "vehicle"))
         check_choice(self.reference, "reference", ("paper", "example"))
         check_kwargs(self.search_options, ("rank_by",), f"experiment {self.id!r} search_options")
 
@@ -211,6 +218,45 @@ def _fit_turbulence(reading):
     return [Case(setting=make_setting(a, b, 5, layout=reading.layout, turbulence=t),
                  labels={"scenario": _scenario_label(a, b), "scenario_id": 7, "candidate": name})
             for name, t in TURBULENCE_CANDIDATES.items()]
+
+
+#: The vehicles Exp 10 flies: the paper's point mass, and RotorPy's quadrotor with its own
+#: drag from each start and with the paper's drag from a hover (with the paper's drag from a
+#: drifting start it is the point mass with attitude dynamics; tried, it scores as the point
+#: mass does) (label -> vehicle).
+VEHICLES = {
+    "point mass": UAV(),
+    "multirotor, RotorPy drag, drifting": Multirotor(preset="rotorpy", start="drifting"),
+    "multirotor, RotorPy drag, hover": Multirotor(preset="rotorpy", start="hover"),
+    "multirotor, paper drag, hover": Multirotor(preset="paper", start="hover"),
+}
+#: Exp 10's vehicles also flown with consumer-grade GNSS position noise.
+NOISY_VEHICLES = ("point mass", "multirotor, RotorPy drag, hover")
+
+
+def _exp10(reading):
+    """The worked example and the seven Table 2 scenarios (5 per group, as Exp 1) on each
+    vehicle of :data:`VEHICLES`, and those of :data:`NOISY_VEHICLES` again with
+    :data:`~uavwind.sim.observation.CONSUMER_NOISE` on the positions; the noise-free
+    point-mass cases are Exp 1's own settings."""
+    cases = []
+    pairs = [(0, None, None)] + [(k, a, b) for k, (a, b) in PAPER_SCENARIOS.items()]
+    for noise_label, noise in (("none", None), ("consumer", CONSUMER_NOISE)):
+        for k, a, b in pairs:
+            for label, vehicle in VEHICLES.items():
+                if noise is not None and label not in NOISY_VEHICLES:
+                    continue
+                if k == 0:
+                    s = table3_setting(uav=vehicle, noise=noise)
+                    scen = "Strong shear vs light constant (Table 3)"
+                else:
+                    s = _make(reading, a, b, 5, uav=vehicle, noise=noise)
+                    scen = _scenario_label(a, b)
+                cases.append(Case(setting=s, labels={
+                    "scenario": scen, "scenario_id": k, "vehicle": label, "noise": noise_label,
+                    "start": getattr(vehicle, "start", "drifting"),
+                    "drag": getattr(vehicle, "preset", "paper")}))
+    return cases
 
 
 #: The mixed-strength layouts ``fit_mixed`` compares: Table 3's 0.1 m/s on each of x and y
@@ -337,6 +383,13 @@ EXPERIMENTS = {e.id: e for e in [
                  "beside causal curiosity?",
         paper_table="beyond the paper", build=_exp7, summary="baseline",
         group_by=("scenario", "noise_sigma", "noise_bias")),
+    Experiment(
+        id="exp10", title="On a multirotor", notebook="exp10_multirotor.md",
+        question="Does trajectory-only wind identification work on RotorPy's quadrotor, from "
+                 "a hover as well as drifting with the air?",
+        paper_table="beyond the paper", build=_exp10,
+        group_by=("scenario_id", "scenario", "vehicle", "noise"), readings=("inferred",),
+        summary="vehicle"),
     Experiment(
         id="fit_layout", title="Layout fit", notebook="inference.md",
         question="Which gap between same-strength groups gives Table 4's scores?",
