@@ -128,11 +128,10 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
 def _rows(results, thrusts):
     rows = []
     for i, (res, th) in enumerate(zip(results, thrusts)):
+        # a thrust sequence's directions, or an attitude action's angles [rad]
         rows.append({"loop": i, "score": res.score, "silhouette": res.silhouette,
                      "correct": res.correct, "n_iter": res.n_iter,
-                     "labels": res.labels.tolist(), "times": th.times.tolist(),
-                     "magnitudes": th.magnitudes.tolist(),
-                     "directions": th.directions.tolist(), **res.metrics})
+                     "labels": res.labels.tolist(), **th.to_dict(), **res.metrics})
     return rows
 
 
@@ -241,7 +240,9 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
     """Cross-Entropy Method over thrust magnitudes and direction components.
 
     The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``
-    (see :meth:`ThrustSequence.to_vector`). Each iteration draws ``n_samples``
+    (see :meth:`ThrustSequence.to_vector`); for a setting that samples attitude actions
+    (``sampler="attitude"``), ``[thrust, roll, pitch, yaw]`` per segment, started from
+    :attr:`AttitudeSequence.CEM_MEAN <uavwind.sim.actions.AttitudeSequence.CEM_MEAN>` and ``CEM_STD``. Each iteration draws ``n_samples``
     vectors from independent Gaussians N(mu, sigma^2); each draw is turned into a
     thrust sequence by clipping magnitudes to [0, max_magnitude] and normalising
     directions; the ``n_elite`` best-scoring *draws* refit mu and sigma (eqs
@@ -297,17 +298,23 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
         raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
     root = root_seed(seed)
 
-    times = setting.sample_thrust(child_rng(root, 0)).times
+    first = setting.sample_thrust(child_rng(root, 0))
+    times = first.times
     k = times.shape[0]
-    mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
-    sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
+    action = type(first)
+    if action is ThrustSequence:
+        mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
+        sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
+    else:  # attitude actions: thrust [N], roll, pitch, yaw [rad] per segment
+        mu = np.tile(action.CEM_MEAN, k).astype(float)
+        sigma = np.tile(action.CEM_STD, k).astype(float)
 
     history, sample_rows = [], []
     best_score, best_thrust, best_iter = -np.inf, None, -1
     stopped = False
     for it in range(max_iter):
         draws = child_rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
-        thrusts = [ThrustSequence.from_vector(x, times, max_magnitude) for x in draws]
+        thrusts = [action.from_vector(x, times, max_magnitude) for x in draws]
         if objective is None:
             seeds = [child_seed(root, it + 1, j + 1) for j in range(n_samples)]
             results = evaluate(setting, thrusts, seeds, engine=engine, n_jobs=n_jobs,

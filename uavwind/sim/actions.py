@@ -10,6 +10,7 @@ vector form the Cross-Entropy Method searches over (:meth:`ThrustSequence.to_vec
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -20,7 +21,8 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
-           "MAX_THRUST", "PAPER_EXAMPLE"]
+           "MAX_THRUST", "PAPER_EXAMPLE", "AttitudeSequence", "sample_attitude", "MAX_TILT",
+           "euler_to_quaternion"]
 
 #: Upper bound of the thrust magnitude [N] (paper Table 4c).
 MAX_THRUST = 50.0
@@ -253,3 +255,168 @@ SAMPLERS = {"paper": sample_paper, "continuous": sample_continuous}
 #: The paper's worked-example thrust (Table "Simulation parameters and outputs").
 PAPER_EXAMPLE = ThrustSequence([0.0, 4.0, 10.0], [40.0, 15.0, 45.0],
                                [[0, 0, 1], [1, 0, 0], [0, 1, 0]])
+
+
+# --------------------------------------------------------------------------- #
+# attitude actions (the paper's future work: moments, not only forces)
+# --------------------------------------------------------------------------- #
+#: Largest roll or pitch an attitude action commands [rad] (30 degrees).
+MAX_TILT = math.radians(30.0)
+
+
+def euler_to_quaternion(angles) -> np.ndarray:
+    """Quaternions [i, j, k, w] (scalar last, body -> world) of ZYX Euler ``angles`` (n, 3):
+    roll about x, pitch about y, yaw about z [rad], applied yaw first (``R = Rz Ry Rx``)."""
+    a = np.atleast_2d(np.asarray(angles, dtype=float))
+    cr, sr = np.cos(a[:, 0] / 2), np.sin(a[:, 0] / 2)
+    cp, sp = np.cos(a[:, 1] / 2), np.sin(a[:, 1] / 2)
+    cy, sy = np.cos(a[:, 2] / 2), np.sin(a[:, 2] / 2)
+    return np.stack([sr * cp * cy - cr * sp * sy, cr * sp * cy + sr * cp * sy,
+                     cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy], axis=1)
+
+
+class AttitudeSequence:
+    """Piecewise-constant collective thrust and attitude: segment ``i`` holds from
+    ``times[i]`` to the next change, flown with RotorPy's ``cmd_ctatt`` (a multirotor only).
+
+    Parameters
+    ----------
+    times : array_like, shape (k,)
+        Start time of each segment [s]; ``times[0] == 0``, strictly increasing.
+    thrusts : array_like, shape (k,)
+        Collective thrust of each segment [N], >= 0.
+    angles : array_like, shape (k, 3)
+        Roll, pitch, yaw of each segment [rad] (ZYX Euler); roll and pitch in
+        [-pi/2, pi/2], yaw in [-pi, pi].
+
+    Examples
+    --------
+    >>> seq = AttitudeSequence([0, 4], [20.0, 25.0], [[0, 0, 0], [0.2, -0.1, 0.5]])
+    >>> seq.n_changes, seq.quaternions().shape
+    (1, (2, 4))
+    """
+
+    __slots__ = ("times", "thrusts", "angles")
+    #: the CEM's start: per segment (thrust [N], roll, pitch, yaw [rad]) means and stds
+    CEM_MEAN = (25.0, 0.0, 0.0, 0.0)
+    CEM_STD = (50.0, 0.3, 0.3, 1.0)
+
+    def __init__(self, times, thrusts, angles):
+        times = check_array(times, "times", ndim=1)
+        k = times.shape[0]
+        if k == 0:
+            raise ValueError("times must hold at least one segment start (0.0)")
+        thrusts = check_array(thrusts, "thrusts", shape=(k,))
+        angles = check_array(angles, "angles", shape=(k, 3))
+        if times[0] != 0.0:
+            raise ValueError(f"times[0] must be 0 s, got {times[0]}")
+        if np.any(np.diff(times) <= 0):
+            raise ValueError(f"times must be strictly increasing, got {times.tolist()}")
+        if np.any(thrusts < 0):
+            raise ValueError(f"thrusts must be >= 0 N, got {thrusts.tolist()}")
+        if np.any(np.abs(angles[:, :2]) > math.pi / 2 + 1e-12):
+            raise ValueError("angles: roll and pitch must be in [-pi/2, pi/2] rad, got "
+                             f"{np.abs(angles[:, :2]).max():g}")
+        if np.any(np.abs(angles[:, 2]) > math.pi + 1e-12):
+            raise ValueError(f"angles: yaw must be in [-pi, pi] rad, got "
+                             f"{np.abs(angles[:, 2]).max():g}")
+        for name, arr in (("times", times), ("thrusts", thrusts), ("angles", angles)):
+            arr = np.array(arr, dtype=float)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def __setattr__(self, name, value):
+        raise AttributeError("AttitudeSequence is immutable")
+
+    def __reduce__(self):
+        return (AttitudeSequence, (self.times, self.thrusts, self.angles))
+
+    @property
+    def n_segments(self) -> int:
+        return self.times.shape[0]
+
+    @property
+    def n_changes(self) -> int:
+        return self.n_segments - 1
+
+    @property
+    def magnitudes(self) -> np.ndarray:
+        """Collective thrust of each segment [N] (the name the vehicles check limits on)."""
+        return self.thrusts
+
+    def quaternions(self) -> np.ndarray:
+        """Commanded attitude of each segment, quaternions [i, j, k, w], shape (k, 4)."""
+        return euler_to_quaternion(self.angles)
+
+    def segment(self, t):
+        """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
+        return np.searchsorted(self.times, np.asarray(t, dtype=float) + 1e-9, side="right") - 1
+
+    def check_within(self, duration: float) -> None:
+        if self.times[-1] >= duration:
+            raise ValueError(f"attitude change times must lie inside the flight [0, {duration}) "
+                             f"s, got {self.times[-1]}")
+
+    def to_vector(self) -> np.ndarray:
+        """Flat vector ``[T_0, roll_0, pitch_0, yaw_0, T_1, ...]``, shape (4 k,)."""
+        return np.column_stack([self.thrusts, self.angles]).ravel()
+
+    @classmethod
+    def from_vector(cls, vector, times, max_magnitude: float = MAX_THRUST,
+                    max_tilt: float = MAX_TILT) -> AttitudeSequence:
+        """A CEM sample: thrusts clipped to [0, max_magnitude] [N], roll and pitch to
+        [-max_tilt, max_tilt] [rad], yaw wrapped to [-pi, pi)."""
+        times = check_array(times, "times", ndim=1)
+        vector = check_array(vector, "vector", shape=(4 * times.shape[0],))
+        v = vector.reshape(-1, 4)
+        angles = np.column_stack([np.clip(v[:, 1:3], -max_tilt, max_tilt),
+                                  (v[:, 3] + math.pi) % (2 * math.pi) - math.pi])
+        return cls(times, np.clip(v[:, 0], 0.0, max_magnitude), angles)
+
+    def __eq__(self, other):
+        if not isinstance(other, AttitudeSequence):
+            return NotImplemented
+        return (np.array_equal(self.times, other.times)
+                and np.array_equal(self.thrusts, other.thrusts)
+                and np.array_equal(self.angles, other.angles))
+
+    def __hash__(self):
+        return hash((self.times.tobytes(), self.thrusts.tobytes(), self.angles.tobytes()))
+
+    def __repr__(self):
+        return (f"AttitudeSequence(times={self.times.tolist()}, thrusts={self.thrusts.tolist()}, "
+                f"angles={np.round(self.angles, 4).tolist()})")
+
+    def to_dict(self) -> dict:
+        return {"times": self.times.tolist(), "magnitudes": self.thrusts.tolist(),
+                "directions": self.angles.tolist()}
+
+
+def sample_attitude(rng: np.random.Generator, n_changes: int = 6, duration: float = 12.0,
+                    magnitude_step: float = 5.0, max_magnitude: float = MAX_THRUST,
+                    tilt_step: float = math.radians(10.0), max_tilt: float = MAX_TILT,
+                    yaw_step: float = math.radians(45.0),
+                    time_step: float = 1.0) -> AttitudeSequence:
+    """Attitude actions drawn like the paper's thrust sequences: the same change times,
+    thrusts that are multiples of ``magnitude_step`` in [0, max_magnitude] [N], roll and
+    pitch multiples of ``tilt_step`` in [-max_tilt, max_tilt] (10 and 30 degrees), yaw a
+    multiple of ``yaw_step`` (45 degrees) in [-pi, pi).
+
+    >>> seq = sample_attitude(np.random.default_rng(0))
+    >>> seq.n_changes, bool(np.all(np.abs(seq.angles[:, :2]) <= MAX_TILT + 1e-12))
+    (6, True)
+    """
+    _check_rng(rng)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    times = _change_times(rng, n_changes, duration, time_step)
+    k = times.shape[0]
+    thrusts = rng.integers(0, int(round(max_magnitude / magnitude_step)) + 1, size=k) * float(
+        magnitude_step)
+    n_tilt = int(round(max_tilt / tilt_step))
+    tilts = rng.integers(-n_tilt, n_tilt + 1, size=(k, 2)) * tilt_step
+    n_yaw = int(round(2 * math.pi / yaw_step))
+    yaws = (rng.integers(0, n_yaw, size=k) * yaw_step + math.pi) % (2 * math.pi) - math.pi
+    return AttitudeSequence(times, thrusts, np.column_stack([tilts, yaws]))
+
+
+SAMPLERS["attitude"] = sample_attitude

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .actions import ThrustSequence
+from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 from .multirotor import Multirotor
 from ..core.checks import check_array, check_scalar
@@ -39,12 +39,16 @@ __all__ = ["simulate", "simulate_flight", "Flight", "max_stable_dt"]
 
 
 def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
-    if not isinstance(thrust, ThrustSequence):
-        raise TypeError(f"thrust must be a ThrustSequence, got {type(thrust).__name__}")
+    if not isinstance(thrust, (ThrustSequence, AttitudeSequence)):
+        raise TypeError(f"thrust must be a ThrustSequence or an AttitudeSequence, got "
+                        f"{type(thrust).__name__}")
     if not isinstance(wind, WindModel):
         raise TypeError(f"wind must be a WindModel, got {type(wind).__name__}")
     if not isinstance(uav, (UAV, Multirotor)):
         raise TypeError(f"uav must be a UAV or a Multirotor, got {type(uav).__name__}")
+    if isinstance(thrust, AttitudeSequence) and not isinstance(uav, Multirotor):
+        raise ValueError("thrust: an AttitudeSequence commands an attitude, which the point "
+                         "mass does not have: fly it with uav=Multirotor()")
     dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
     duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
     if duration / dt > MAX_STEPS:
@@ -64,7 +68,7 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     else:
         start = check_array(start_position, "start_position", shape=(3,))
     t_start = np.arange(n) * dt
-    forces = thrust.thrust(t_start)
+    forces = thrust.thrust(t_start) if isinstance(thrust, ThrustSequence) else None
     return n, t_start, forces, start
 
 

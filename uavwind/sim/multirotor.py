@@ -51,7 +51,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.checks import check_choice, check_scalar
-from .actions import ThrustSequence
+from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 from .vehicle import PAPER_UAV
 
@@ -286,6 +286,24 @@ class Multirotor:
                              f"control steps (1/{self.control_rate:g} s)")
         return k
 
+    def segment_commands(self, action) -> list[tuple[float, np.ndarray, bool]]:
+        """``(collective thrust [N], attitude quaternion, limited)`` of each segment of
+        ``action``: a :class:`~uavwind.sim.actions.ThrustSequence` through
+        :func:`force_command`, an :class:`~uavwind.sim.actions.AttitudeSequence` as given
+        (limited where its tilt exceeds ``tilt_limit``, then tilted to the limit)."""
+        if isinstance(action, ThrustSequence):
+            return [force_command(v, self.tilt_limit) for v in action.vectors]
+        out = []
+        for T, q in zip(action.thrusts, action.quaternions()):
+            b3 = _body_z(q)
+            tilt = math.degrees(math.acos(min(max(b3[2], -1.0), 1.0)))
+            if tilt > self.tilt_limit + 1e-9:
+                Tc, qc, _ = force_command(T * b3, self.tilt_limit)
+                out.append((Tc, qc, True))
+            else:
+                out.append((float(T), q, False))
+        return out
+
     def check_thrust(self, thrust: ThrustSequence) -> None:
         """``ValueError`` if a segment asks for more thrust than the rotors make."""
         too_much = thrust.magnitudes > self.max_thrust * (1 + 1e-12)
@@ -294,7 +312,7 @@ class Multirotor:
                              f"multirotor (its rotors at full speed), got "
                              f"{thrust.magnitudes.max():g} N")
 
-    def fly(self, thrust: ThrustSequence, wind: WindModel, dt: float, n: int,
+    def fly(self, thrust: ThrustSequence | AttitudeSequence, wind: WindModel, dt: float, n: int,
             start: np.ndarray, record_all: bool = False) -> np.ndarray | Flight:
         """Fly ``thrust`` through every environment of ``wind`` for ``n`` samples of ``dt``
         [s] from ``start`` (3,) [m]: positions (n_env, n, 3) [m], or with ``record_all`` a
@@ -310,7 +328,7 @@ class Multirotor:
         h_ctrl = 1.0 / self.control_rate
         h = h_ctrl / self.substeps
         S = self.initial_states(start, wind._velocity(0.0, np.broadcast_to(start, (n_env, 3))))
-        commands = [force_command(v, self.tilt_limit) for v in thrust.vectors]
+        commands = self.segment_commands(thrust)
         T = np.empty(n_env)
         C = np.empty((n_env, 4))
         clipped = np.zeros(n_env, dtype=np.int64)
@@ -342,7 +360,8 @@ class Multirotor:
                     rec["w"][:, j] = S[:, 10:13]
                     rec["rotors"][:, j] = S[:, 16:20]
                     rec["f"][:, j] = _specific_force(P, S, u_held)
-                    forces[j] = thrust.vectors[int(max(seg_of[k], 0))]
+                    T_j, q_j, _ = commands[int(max(seg_of[k], 0))]
+                    forces[j] = T_j * _body_z(q_j)
         if not np.all(np.isfinite(positions)):
             raise ValueError("the multirotor's simulation produced non-finite positions (winds "
                              "or forces too large for float64); check the wind speeds")
@@ -354,6 +373,12 @@ class Multirotor:
                       attitudes=rec["q"], body_rates=rec["w"], rotor_speeds=rec["rotors"],
                       specific_forces=rec["f"], tilt_limited=limited_steps / n_ctrl,
                       motor_limited=float(clipped.sum()) / (n_ctrl * n_env))
+
+
+def _body_z(q) -> np.ndarray:
+    """The body's z axis in the world frame for the quaternion q [i, j, k, w]."""
+    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return np.array([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)])
 
 
 def _clipped_commands(P, S, T, C):

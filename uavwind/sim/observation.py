@@ -41,11 +41,17 @@ from ..core.seeding import child_seed
 if TYPE_CHECKING:
     from .flight import Flight
 
-__all__ = ["OBSERVATIONS", "Noise", "CONSUMER_NOISE", "gauss_markov", "observe",
-           "check_observation", "noise_seed"]
+__all__ = ["OBSERVATIONS", "ATTITUDE_CHANNELS", "POINT_MASS_OBSERVATIONS", "Noise",
+           "CONSUMER_NOISE", "CONSUMER_SENSORS", "rotorpy_imu_noise", "gauss_markov", "observe", "check_observation",
+           "noise_seed"]
 
-#: The channels a loop can cluster on.
-OBSERVATIONS = ("position", "velocity", "acceleration", "position+velocity")
+#: The channels a loop can cluster on (the last three need a multirotor).
+OBSERVATIONS = ("position", "velocity", "acceleration", "position+velocity", "attitude",
+                "body_rates", "imu")
+#: Channels only a vehicle with an attitude has.
+ATTITUDE_CHANNELS = ("attitude", "body_rates", "imu")
+#: The channels of the point mass (Exp 8).
+POINT_MASS_OBSERVATIONS = tuple(o for o in OBSERVATIONS if o not in ATTITUDE_CHANNELS)
 
 
 def check_observation(observation: str) -> str:
@@ -71,7 +77,12 @@ class Noise:
     velocity : float
         White noise on ground velocities [m/s], in [0, 100].
     acceleration : float
-        White noise on specific forces [m/s^2], in [0, 100].
+        White noise on specific forces (the accelerometer) [m/s^2], in [0, 100].
+    attitude : float
+        Attitude error [rad], in [0, 1]: the true attitude turned by a small random rotation
+        whose axis components are white noise of this standard deviation.
+    rate : float
+        White noise on body rates (the gyroscope) [rad/s], in [0, 10].
 
     >>> Noise(position=0.3).is_zero
     False
@@ -82,10 +93,12 @@ class Noise:
     bias_time: float = 300.0
     velocity: float = 0.0
     acceleration: float = 0.0
+    attitude: float = 0.0
+    rate: float = 0.0
 
     def __post_init__(self):
         for name, high in (("position", 1e3), ("bias", 1e3), ("velocity", 1e2),
-                           ("acceleration", 1e2)):
+                           ("acceleration", 1e2), ("attitude", 1.0), ("rate", 10.0)):
             object.__setattr__(self, name, check_scalar(getattr(self, name), name, low=0.0,
                                                         high=high))
         object.__setattr__(self, "bias_time", check_scalar(
@@ -93,11 +106,36 @@ class Noise:
 
     @property
     def is_zero(self) -> bool:
-        return not (self.position or self.bias or self.velocity or self.acceleration)
+        return not (self.position or self.bias or self.velocity or self.acceleration
+                    or self.attitude or self.rate)
 
 
 #: Consumer-grade levels (u-blox NEO-M8 receiver, MPU-6000 IMU; see the module text).
 CONSUMER_NOISE = Noise(position=2.5 / 1.1774, velocity=0.05, acceleration=400e-6 * 9.81 * 5 ** 0.5)
+#: The same, and the attitude and gyroscope a multirotor adds: the MPU-6000's gyroscope noise
+#: density, 0.005 deg/s/sqrt(Hz), at 10 Hz; an attitude error of 1 degree (an assumption: the
+#: order of a consumer autopilot's fused roll and pitch error; no data sheet states it).
+CONSUMER_SENSORS = Noise(position=CONSUMER_NOISE.position, velocity=CONSUMER_NOISE.velocity,
+                         acceleration=CONSUMER_NOISE.acceleration, attitude=math.radians(1.0),
+                         rate=math.radians(0.005) * 5 ** 0.5)
+
+
+def rotorpy_imu_noise(dt: float = 0.1) -> Noise:
+    """RotorPy's IMU noise (``rotorpy.sensors.imu.Imu``'s defaults: 0.038**2 m/s^2/sqrt(Hz)
+    for the accelerometer, 0.01**2 rad/s/sqrt(Hz) for the gyroscope, each times
+    ``sqrt(rate / 2)``, as RotorPy draws it) at a sample every ``dt`` [s], as a :class:`Noise`
+    (drawn from the loop's seed, not from NumPy's global generator as RotorPy does). Needs
+    RotorPy."""
+    import inspect
+
+    from rotorpy.sensors.imu import Imu
+
+    dt = check_scalar(dt, "dt", low=1e-4, high=10.0)
+    defaults = inspect.signature(Imu).parameters
+    acc = float(np.max(defaults["accelerometer_params"].default["noise_density"]))
+    gyr = float(np.max(defaults["gyroscope_params"].default["noise_density"]))
+    scale = math.sqrt(1.0 / dt / 2)
+    return Noise(acceleration=scale * acc, rate=scale * gyr)
 
 
 def gauss_markov(shape: tuple[int, int, int], dt: float, sigma: float, tau: float,
@@ -147,6 +185,28 @@ def specific_force(flight: Flight, gravity: float) -> np.ndarray:
     return acc
 
 
+def _attitude_6d(q):
+    """The body's x and y axes in the world frame, (..., 6): a continuous representation of
+    the attitude (Euler angles wrap; a quaternion's sign flips)."""
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = (q[..., i] for i in range(4))
+    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y + z * w), 2 * (x * z - y * w),
+                     2 * (x * y - z * w), 1 - 2 * (x * x + z * z), 2 * (y * z + x * w)], axis=-1)
+
+
+def _small_rotation(axes6, angles):
+    """``axes6`` (the body x and y axes, (..., 6)) turned by the small rotations whose
+    rotation vectors are ``angles`` (..., 3) [rad] (Rodrigues' formula)."""
+    th = np.linalg.norm(angles, axis=-1, keepdims=True)
+    k = np.divide(angles, th, out=np.zeros_like(angles), where=th > 0)
+    out = []
+    for v in (axes6[..., 0:3], axes6[..., 3:6]):
+        kxv = np.cross(k, v)
+        kdv = np.sum(k * v, axis=-1, keepdims=True)
+        out.append(v * np.cos(th) + kxv * np.sin(th) + k * kdv * (1 - np.cos(th)))
+    return np.concatenate(out, axis=-1)
+
+
 def observe(flight: Flight, observation: str = "position", noise: Noise | None = None,
             seed: int | np.random.SeedSequence | None = None,
             gravity: float = 9.81) -> np.ndarray:
@@ -166,11 +226,17 @@ def observe(flight: Flight, observation: str = "position", noise: Noise | None =
 
     Returns
     -------
-    ndarray, shape (n_env, n_steps, 3) (6 for ``"position+velocity"``)
-        Position [m], ground velocity [m/s] or specific force [m/s^2].
+    ndarray, shape (n_env, n_steps, 3) (6 for ``"position+velocity"``, ``"attitude"`` and ``"imu"``)
+        Position [m], ground velocity [m/s] or specific force [m/s^2]; for a multirotor also
+        the attitude (the body's x and y axes in the world frame, a continuous
+        representation), the body rates [rad/s], or the IMU (accelerometer [m/s^2] and
+        gyroscope [rad/s], body frame).
     """
     check_observation(observation)
     gravity = check_scalar(gravity, "gravity", low=0.0, high=1e3)
+    if observation in ATTITUDE_CHANNELS and flight.attitudes is None:
+        raise ValueError(f"observation {observation!r} needs a vehicle with an attitude: fly "
+                         f"the loop with uav=Multirotor()")
     if noise is not None and not isinstance(noise, Noise):
         raise TypeError(f"noise must be a Noise or None, got {type(noise).__name__}")
     noise = noise or Noise()
@@ -191,4 +257,15 @@ def observe(flight: Flight, observation: str = "position", noise: Noise | None =
         parts.append(flight.ground_velocities + noise.velocity * white["velocity"])
     if observation == "acceleration":
         parts.append(specific_force(flight, gravity) + noise.acceleration * white["acceleration"])
+    if observation in ATTITUDE_CHANNELS:  # drawn after the others: their draws are unchanged
+        att = rng.standard_normal(shape)
+        gyro = rng.standard_normal(shape)
+        accel = rng.standard_normal(shape)
+        if observation == "attitude":
+            parts.append(_small_rotation(_attitude_6d(flight.attitudes), noise.attitude * att))
+        elif observation == "body_rates":
+            parts.append(flight.body_rates + noise.rate * gyro)
+        else:  # the IMU: accelerometer (body frame) and gyroscope
+            parts += [flight.specific_forces + noise.acceleration * accel,
+                      flight.body_rates + noise.rate * gyro]
     return parts[0] if len(parts) == 1 else np.concatenate(parts, axis=2)

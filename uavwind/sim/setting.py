@@ -267,6 +267,10 @@ class Setting:
         for k, default in (("observation", "position"), ("noise", None), ("baseline", False)):
             if fields[k] == default:  # the paper's loop keeps its earlier keys
                 del fields[k]
+        if fields.get("noise"):  # noise fields added later keep earlier keys while zero
+            for k in ("attitude", "rate"):
+                if fields["noise"].get(k) == 0.0:
+                    del fields["noise"][k]
         if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
         blob = json.dumps(fields, sort_keys=True, default=str)

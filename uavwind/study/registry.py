@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
-from ..sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise
+from ..sim.observation import CONSUMER_NOISE, POINT_MASS_OBSERVATIONS, Noise
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from ..sim.vehicle import UAV
@@ -315,7 +315,7 @@ def _exp7(reading):
 def _exp8(reading):
     cases = []
     for label, s in _beyond_scenarios(reading):
-        for obs in OBSERVATIONS:
+        for obs in POINT_MASS_OBSERVATIONS:
             for name, noise in (("none", None), ("consumer", CONSUMER_NOISE)):
                 cases.append(Case(setting=replace(s, observation=obs, noise=noise),
                                   labels={"scenario": label, "observation": obs, "noise": name}))
