@@ -76,7 +76,6 @@ def test_each_channel_has_its_shape_and_units(flight):
 
 def test_the_imu_channel_is_rotorpys_imu_without_noise(flight):
     from rotorpy.sensors.imu import Imu
-    from uavwind.sim import _rotor_kernels as rk
 
     mr, f = flight
     imu = Imu()
