@@ -136,7 +136,7 @@ def _tilt_quaternion(b3: np.ndarray) -> np.ndarray:
     0: no rotation about the thrust axis; defined for every b3 but -e_z)."""
     c = min(max(float(b3[2]), -1.0), 1.0)
     half = 0.5 * math.acos(c)
-    axis = np.array([-b3[1], b3[0], 0.0])  # e_z x b3
+    axis = np.array([-b3[1], b3[0], 0.0]) + 0.0  # e_z x b3 (+ 0.0: no negative zeros)
     n = float(np.linalg.norm(axis))
     axis = axis / n if n > 0 else np.array([1.0, 0.0, 0.0])
     return np.concatenate([math.sin(half) * axis, [math.cos(half)]])
@@ -239,7 +239,7 @@ class Multirotor:
     def max_thrust(self) -> float:
         """Collective thrust at full rotor speed [N] (no translational lift)."""
         P = self.packed
-        return 4 * P[23] * P[31] ** 2
+        return float(4 * P[23] * P[31] ** 2)
 
     @property
     def hover_speed(self) -> float:
