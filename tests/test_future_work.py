@@ -128,3 +128,32 @@ def test_cem_searches_attitude_actions():
                         uav=Multirotor(start="hover"))
     res = uw.cem(s, n_samples=3, n_elite=1, max_iter=2, n_jobs=1, progress=False, seed=1)
     assert isinstance(res.best_thrust, AttitudeSequence) and len(res.history) == 2
+
+
+# --------------------------------------------------------------------------- #
+# RotorPy's wind filters
+# --------------------------------------------------------------------------- #
+def test_the_drag_calibration_recovers_the_papers_frame_drag():
+    from uavwind.analysis.filters import calibrate_drag
+
+    c = calibrate_drag(Multirotor(preset="paper", start="hover"), duration=6.0)
+    # body x and y: the accelerometer's drag part is exactly -(c/m)|v|v (no thrust along them)
+    assert c[:2] == pytest.approx([uw.PAPER_UAV.drag_factor] * 2, rel=1e-3)
+
+
+def test_the_filters_find_a_known_wind_on_a_hover_probe(tmp_path):
+    """A hover probe in constant wind (the flight the filters are designed for): RotorPy's UKF
+    recovers the wind within 0.5 m/s; the table is cached and read back."""
+    from uavwind.analysis.filters import filter_comparison
+
+    s = uw.make_setting("light constant", "strong constant", 2, uav=Multirotor(start="hover"))
+    df = filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path)
+    ukf = df[df["filter"] == "ukf"].iloc[0]
+    assert ukf["diverged"] == 0 and ukf["rmse"] < 0.5 and ukf["correct"]
+    assert set(df["filter"]) == {"ekf", "ukf"} and len(df) == 2
+    again = filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path)
+    assert again.equals(df) and len(list((tmp_path / "filters").iterdir())) == 1
+    with pytest.raises(ValueError, match="kinds"):
+        filter_comparison(s, kinds=("kalman",))
+    with pytest.raises(TypeError, match="Multirotor"):
+        filter_comparison(uw.make_setting("light constant", "strong constant", 2))

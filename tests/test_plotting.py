@@ -95,6 +95,9 @@ CALLS = {
     "stamp": lambda f: plotting.stamp(plotting.fig2_flowcharts(), _loops(scenario=["a"])),
     "vehicle_trajectories": lambda f: plotting.vehicle_trajectories(
         {"point mass": f, "multirotor": f.positions + 1.0}, uw.table3_setting().groups),
+    "future_grid": lambda f: plotting.future_grid(beyond.future_table(
+        _loops(scenario=["a", "b"], action=["thrust", "attitude"],
+               observation=["position", "imu"], noise=["none", "consumer"]))),
     "vehicle_scores": lambda f: plotting.vehicle_scores(beyond.vehicle_table(
         _loops(scenario_id=[1, 2], vehicle=["point mass", "multirotor"]).assign(
             scenario=lambda d: "S" + d["scenario_id"].astype(str)))),

@@ -31,12 +31,13 @@ from .method.baseline import estimate_wind  # noqa: E402
 from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
 from .method.search import CEMResult, cem, random_search  # noqa: E402
 from .report.display import pretty  # noqa: E402
-from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, ThrustSequence,  # noqa: E402
-                          sample_continuous, sample_paper)
+from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, AttitudeSequence,  # noqa: E402
+                          ThrustSequence, sample_attitude, sample_continuous, sample_paper)
 from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # noqa: E402
                          cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
 from .sim.dynamics import Flight, simulate, simulate_flight  # noqa: E402
-from .sim.observation import CONSUMER_NOISE, OBSERVATIONS, Noise  # noqa: E402
+from .sim.multirotor import Multirotor  # noqa: E402
+from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
 from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402
 from .sim.wind import CombinedWind, ConstantWind, ShearWind, WindModel  # noqa: E402
@@ -53,7 +54,8 @@ __all__ = [
     "MAX_THRUST", "PAPER_EXAMPLE", "WindModel", "ConstantWind", "ShearWind", "CombinedWind",
     "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
-    "Noise", "CONSUMER_NOISE", "OBSERVATIONS", "EnvironmentGroup", "Setting",
+    "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
+    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude",
     # method
     "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
     "estimate_wind",

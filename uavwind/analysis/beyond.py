@@ -22,7 +22,8 @@ import pandas as pd
 from ..core.stats import bootstrap_ci, summarise
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
-           "observation_table", "best_observation", "baseline_table", "vehicle_table"]
+           "observation_table", "best_observation", "baseline_table", "vehicle_table",
+           "future_table", "best_future"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -119,6 +120,28 @@ def vehicle_table(df: pd.DataFrame) -> pd.DataFrame:
             out[col] = [means.get(tuple(k), np.nan) for k in
                         out[keys].itertuples(index=False)]
     return out
+
+
+def future_table(df: pd.DataFrame) -> pd.DataFrame:
+    """Exp 11: per scenario, action, observation and noise, score and correct share with 95%
+    intervals."""
+    return _summary(df, ("scenario", "action", "observation", "noise"))
+
+
+def best_future(table: pd.DataFrame, noise: str = "none") -> pd.DataFrame:
+    """Per scenario, the action and observation with the highest mean score under ``noise``
+    (from :func:`future_table`), and the best position-only score beside it."""
+    t = table[table["noise"] == noise]
+    rows = []
+    for scen, sub in t.groupby("scenario", sort=False):
+        best = sub.loc[sub["mean"].idxmax()]
+        pos = sub[(sub["observation"] == "position") & (sub["action"] == "thrust")]
+        rows.append({"scenario": scen, "action": best["action"],
+                     "observation": best["observation"], "mean": best["mean"],
+                     "ci_low": best["ci_low"], "ci_high": best["ci_high"],
+                     "correct_rate": best["correct_rate"],
+                     "position_thrust_mean": float(pos["mean"].iloc[0]) if len(pos) else np.nan})
+    return pd.DataFrame(rows).set_index("scenario")
 
 
 def baseline_table(df: pd.DataFrame) -> pd.DataFrame:

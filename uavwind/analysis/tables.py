@@ -20,7 +20,7 @@ from .._version import __version__
 from ..core.stats import summarise
 from ..study.paper import load_paper_values
 from ..study.registry import EXPERIMENTS, get_experiment
-from .beyond import baseline_table, vehicle_table
+from .beyond import baseline_table, future_table, vehicle_table
 
 __all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFERENCES",
            "maxmean_table", "cem_table"]
@@ -42,8 +42,13 @@ def maxmean_table(df: pd.DataFrame, by: Iterable[str]) -> pd.DataFrame:
     return out
 
 
-def cem_table(df: pd.DataFrame) -> pd.DataFrame:
-    """CEM per iteration: ``max``, ``mean``, ``elite_mean`` and ``best_so_far`` of the scores."""
+def cem_table(df: pd.DataFrame, by=()) -> pd.DataFrame:
+    """CEM per iteration (and per ``by`` columns, one CEM run each): ``max``, ``mean``,
+    ``elite_mean`` and ``best_so_far`` of the scores."""
+    by = [b for b in by if b in df.columns]
+    if by:
+        parts = {k: cem_table(sub) for k, sub in df.groupby(by, sort=False)}
+        return pd.concat(parts, names=by)
     g = df.groupby("iteration")["score"]
     elite = df[df["elite"]].groupby("iteration")["score"].mean()
     return pd.DataFrame({"max": g.max(), "mean": g.mean(), "elite_mean": elite,
@@ -53,9 +58,10 @@ def cem_table(df: pd.DataFrame) -> pd.DataFrame:
 #: Summary name (``Experiment.summary``) -> ``(experiment, df) -> table``.
 SUMMARIES = {
     "maxmean": lambda exp, df: maxmean_table(df, exp.group_by),
-    "cem": lambda exp, df: cem_table(df),
+    "cem": lambda exp, df: cem_table(df, [k for k in exp.group_by if k != "scenario"]),
     "baseline": lambda exp, df: baseline_table(df),
     "vehicle": lambda exp, df: vehicle_table(df),
+    "future": lambda exp, df: future_table(df),
 }
 
 

@@ -485,3 +485,32 @@ def vehicle_scores(table) -> Figure:
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
     ax.legend(fontsize=7, loc="lower right")
     return fig
+
+
+def future_grid(table) -> Figure:
+    """Exp 11: mean score by observation (rows) and scenario (columns), one panel per action
+    and noise level (``table``: :func:`uavwind.analysis.beyond.future_table`)."""
+    plt = _plt()
+    actions = list(dict.fromkeys(table["action"]))
+    noises = list(dict.fromkeys(table["noise"]))
+    scen = list(dict.fromkeys(table["scenario"]))
+    obs = list(dict.fromkeys(table["observation"]))
+    fig, axes = plt.subplots(len(noises), len(actions), squeeze=False,
+                             figsize=(5.2 * len(actions), 2.8 * len(noises) + 0.8),
+                             constrained_layout=True)
+    for i, noise in enumerate(noises):
+        for j, action in enumerate(actions):
+            ax = axes[i, j]
+            sub = table[(table["noise"] == noise) & (table["action"] == action)]
+            grid = sub.pivot_table(index="observation", columns="scenario", values="mean",
+                                   sort=False).reindex(index=obs, columns=scen)
+            im = ax.imshow(grid.to_numpy(), vmin=0, vmax=100, cmap="viridis", aspect="auto")
+            for (r, c), v in np.ndenumerate(grid.to_numpy()):
+                ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=7,
+                        color="white" if v < 60 else "black")
+            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ") for s in scen],
+                          fontsize=6)
+            ax.set_yticks(range(len(obs)), obs, fontsize=7)
+            ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
+    fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
+    return fig

@@ -59,6 +59,9 @@ class Profile:
     fit_loops : int
         Loops per case of the inference fits.
     cem : CEMSize
+    side_loops : int
+        Loops per case of the wide sweeps beyond the paper (Exp 11's channels x actions x
+        scenarios x noise); default ``fit_loops``.
     name : str
         ``"paper"``, ``"quick"``, or a name of your own (``"custom"`` by default).
     """
@@ -67,10 +70,13 @@ class Profile:
     long_loops: int
     fit_loops: int
     cem: CEMSize
+    side_loops: int | None = None
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self):
-        for k in ("loops", "long_loops", "fit_loops"):
+        if self.side_loops is None:
+            object.__setattr__(self, "side_loops", self.fit_loops)
+        for k in ("loops", "long_loops", "fit_loops", "side_loops"):
             object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
                                                      low=1, high=10 ** 6, integer=True))
         cem = self.cem
@@ -102,7 +108,7 @@ def get_profile(profile: str | Profile | Mapping[str, Any]) -> Profile:
         return profile
     if isinstance(profile, Mapping):
         need = {"loops", "long_loops", "fit_loops", "cem"}
-        missing, extra = need - set(profile), set(profile) - need - {"name"}
+        missing, extra = need - set(profile), set(profile) - need - {"name", "side_loops"}
         if missing or extra:
             raise ValueError(f"profile dict must have exactly the keys {sorted(need)}; "
                              f"missing {sorted(missing)}, unknown {sorted(extra)}")

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
-from ..sim.observation import CONSUMER_NOISE, POINT_MASS_OBSERVATIONS, Noise
+from ..sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, POINT_MASS_OBSERVATIONS, Noise
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from ..sim.vehicle import UAV
@@ -38,7 +38,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
            "FIT_RATIOS", "MIXED_SPACINGS", "VEHICLES",
-           "NOISY_VEHICLES", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "NOISY_VEHICLES", "FUTURE_VEHICLE", "FUTURE_CHANNELS", "FUTURE_ACTIONS",
+           "FUTURE_NOISE", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
            "column_names"]
 
 
@@ -50,6 +51,7 @@ class Case:
     labels: Mapping = field(hash=False, compare=False)
     long: bool = False  # uses the profile's long loop count (Exp 1's 500-loop case)
     fit: bool = False  # uses the profile's fit loop count (the inference experiments)
+    side: bool = False  # uses the profile's side loop count (the wide sweeps beyond the paper)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -114,7 +116,8 @@ class Experiment:
 
     def __post_init__(self):
         check_choice(self.search, "search", ("random", "cem"))
-        check_choice(self.summary, "summary", ("maxmean", "cem", "baseline", "vehicle"))
+        check_choice(self.summary, "summary", ("maxmean", "cem", "baseline", "vehicle",
+                                               "future"))
         check_choice(self.reference, "reference", ("paper", "example"))
         check_kwargs(self.search_options, ("rank_by",), f"experiment {self.id!r} search_options")
 
@@ -259,6 +262,52 @@ def _exp10(reading):
     return cases
 
 
+#: Exp 11's vehicle: RotorPy's quadrotor with its own drag, starting from a hover.
+FUTURE_VEHICLE = Multirotor(preset="rotorpy", start="hover")
+#: Exp 11's observation channels, its action families (label -> setting sampler) and its
+#: noise levels (label -> Noise).
+FUTURE_CHANNELS = ("position", "velocity", "attitude", "body_rates", "imu")
+FUTURE_ACTIONS = {"thrust": "paper", "attitude": "attitude"}
+FUTURE_NOISE = {"none": None, "consumer": CONSUMER_SENSORS}
+
+
+def _future_scenarios(reading):
+    """Where position alone struggles (light constant vs light constant, light constant vs
+    light shear, light constant vs strong turbulence), and the worked example."""
+    out = [("Strong shear vs light constant (Table 3)", table3_setting(uav=FUTURE_VEHICLE))]
+    for a, b in (("light constant", "light constant"), ("light constant", "light shear"),
+                 ("light constant", "strong turbulence")):
+        out.append((_scenario_label(WindCondition.parse(a), WindCondition.parse(b)),
+                    _make(reading, a, b, 5, uav=FUTURE_VEHICLE)))
+    return out
+
+
+def _exp11(reading):
+    cases = []
+    for scen, base in _future_scenarios(reading):
+        for action, sampler in FUTURE_ACTIONS.items():
+            for channel in FUTURE_CHANNELS:
+                for noise_label, noise in FUTURE_NOISE.items():
+                    s = replace(base, sampler=sampler, observation=channel, noise=noise)
+                    cases.append(Case(setting=s, side=True, labels={
+                        "scenario": scen, "action": action, "observation": channel,
+                        "noise": noise_label}))
+    return cases
+
+
+def _exp11_cem(reading):
+    """CEM on light constant vs light shear with consumer noise, each action family on the
+    position channel and on the IMU."""
+    scen, base = _future_scenarios(reading)[2]
+    cases = []
+    for action, sampler in FUTURE_ACTIONS.items():
+        for channel in ("position", "imu"):
+            s = replace(base, sampler=sampler, observation=channel, noise=CONSUMER_SENSORS)
+            cases.append(Case(setting=s, labels={"scenario": scen, "action": action,
+                                                 "observation": channel, "noise": "consumer"}))
+    return cases
+
+
 #: The mixed-strength layouts ``fit_mixed`` compares: Table 3's 0.1 m/s on each of x and y
 #: (0.1 sqrt(2) along x = y), and 0.1 m/s in magnitude [m/s].
 MIXED_SPACINGS = {"per axis": TABLE3_SPACING, "magnitude": 0.1}
@@ -390,6 +439,19 @@ EXPERIMENTS = {e.id: e for e in [
         paper_table="beyond the paper", build=_exp10,
         group_by=("scenario_id", "scenario", "vehicle", "noise"), readings=("inferred",),
         summary="vehicle"),
+    Experiment(
+        id="exp11", title="The paper's future work", notebook="exp11_future_work.md",
+        question="On a hovering multirotor, which observation (position, velocity, attitude, "
+                 "body rates, IMU) and which action (thrust or attitude) tell the winds apart?",
+        paper_table="beyond the paper (the paper's future work)", build=_exp11,
+        group_by=("scenario", "action", "observation", "noise"), readings=("inferred",),
+        summary="future"),
+    Experiment(
+        id="exp11_cem", title="The paper's future work, CEM", notebook="exp11_future_work.md",
+        question="Does CEM find better attitude or thrust actions than random search?",
+        paper_table="beyond the paper (the paper's future work)", search="cem",
+        build=_exp11_cem, summary="cem", readings=("inferred",),
+        group_by=("action", "observation")),
     Experiment(
         id="fit_layout", title="Layout fit", notebook="inference.md",
         question="Which gap between same-strength groups gives Table 4's scores?",

@@ -229,6 +229,8 @@ def check_cases(cases: Iterable[int] | None, n: int) -> list[int]:
 
 def case_loops(prof: Profile, case: Case) -> int:
     """Loops ``case`` runs under profile ``prof`` (its fit, long or plain count)."""
+    if case.side:
+        return prof.side_loops
     return prof.fit_loops if case.fit else prof.long_loops if case.long else prof.loops
 
 
@@ -238,7 +240,7 @@ def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
     total = 0
     for exp in EXPERIMENTS.values():
         if exp.search == "cem":
-            total += prof.cem.n_samples * prof.cem.max_iter
+            total += prof.cem.n_samples * prof.cem.max_iter * len(exp.cases())
         else:
             total += sum(case_loops(prof, c) for c in exp.cases())
     return total

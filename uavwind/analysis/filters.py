@@ -1,0 +1,231 @@
+"""RotorPy's wind filters (``WindEKF``, ``WindUKF``) as the model-based peer of the clustering.
+
+This module owns how the filters that ship with RotorPy are run on uavwind's flights, the way
+a user would run them:
+
+* :func:`calibrate_drag` -- the drag coefficients the filters need, identified as RotorPy's
+  own wind-filter example does: a calibration flight in still air, and per body axis a least
+  squares fit of the accelerometer's drag part against ``-|v_b| v_b / m`` (this absorbs the
+  rotor drag the filters do not model);
+* :func:`run_filter` -- one filter over one environment of a 100 Hz flight: mocap attitude and
+  velocity without noise, the accelerometer with RotorPy's IMU noise (seeded), the commanded
+  collective thrust and the true body rates as inputs, RotorPy's default tuning (``Q``, ``R``,
+  ``P0``, ``xhat0``); the body-frame wind estimate is turned into the world frame with the true
+  attitude;
+* :func:`filter_comparison` -- per setting, flights drawn with the setting's own sampler (the
+  loops of Exp 11) or level hover probes (the flights the filters are designed for): each
+  filter's wind error against the wind met (RMSE over environments of the estimate averaged
+  over the last 4 s) and whether a two-means split of the estimates reproduces the groups.
+
+The filters model only quadratic frame drag and near-level flight; where one diverges (a
+non-finite estimate, or an error above :data:`DIVERGED`), the table says so rather than
+averaging it in.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+
+import numpy as np
+import pandas as pd
+
+from ..core.checks import check_choice, check_instance, check_scalar
+from ..core.io import atomic_write
+from ..core.parallel import check_jobs, pin_threads
+from ..core.seeding import child_rng, child_seed, root_seed
+from ..method.baseline import two_means
+from ..sim.actions import ThrustSequence
+from ..sim.dynamics import simulate_flight
+from ..sim.multirotor import Multirotor
+from ..sim.observation import rotorpy_imu_noise
+from ..sim.setting import Setting
+from ..sim.wind import ConstantWind
+from ..study.cache import RESULTS_VERSION, results_dir
+
+__all__ = ["FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
+
+#: The filters: RotorPy's names.
+FILTERS = ("ekf", "ukf")
+#: A wind error above this [m/s] (or a non-finite one) counts as a diverged filter.
+DIVERGED = 100.0
+#: The sample rate the filters are designed for [s] (RotorPy's example: 100 Hz).
+FILTER_DT = 0.01
+#: Bump when the comparison's numbers change (part of its cache digest).
+FILTERS_VERSION = "1"
+#: The tail of a flight whose estimates are averaged [s].
+TAIL = 4.0
+
+
+def _filter_class(kind):
+    check_choice(kind, "kind", FILTERS)
+    if kind == "ekf":
+        from rotorpy.estimators.wind_ekf import WindEKF
+        return WindEKF
+    try:
+        import filterpy  # noqa: F401 -- RotorPy's UKF fails silently without it
+    except ImportError as exc:
+        raise ImportError("RotorPy's WindUKF needs filterpy: pip install 'uavwind[filter]'") \
+            from exc
+    from rotorpy.estimators.wind_ukf import WindUKF
+    return WindUKF
+
+
+def _rotation(q):
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    x, y, z, w = (q[..., i] for i in range(4))
+    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+                     np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+                     np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)],
+                    axis=-2)
+
+
+def _commanded_thrust(vehicle, action, times):
+    """The collective thrust commanded at each time [N]."""
+    commands = vehicle.segment_commands(action)
+    seg = np.maximum(action.segment(times), 0)
+    return np.array([commands[int(k)][0] for k in seg])
+
+
+def calibrate_drag(vehicle: Multirotor, seed: int = 0, duration: float = 12.0) -> np.ndarray:
+    """The drag coefficients ``(c_Dx, c_Dy, c_Dz)`` [N/(m/s)^2] a user would give the filters:
+    fitted on a calibration flight in still air (attitude actions drawn from ``seed``), per
+    body axis, by least squares of ``a_b - T/m e_z = -(c/m) |v_b| v_b``."""
+    from ..sim.actions import sample_attitude
+
+    check_instance(vehicle, "vehicle", Multirotor)
+    action = sample_attitude(child_rng(root_seed(seed), 0),
+                             n_changes=max(int(math.ceil(duration)) - 1, 0), duration=duration,
+                             max_magnitude=min(50.0, vehicle.max_thrust))
+    f = simulate_flight(action, ConstantWind([[0.0, 0.0, 0.0]]), uav=vehicle, dt=FILTER_DT,
+                        duration=duration)
+    R = _rotation(f.attitudes[0])
+    vb = np.einsum("nji,nj->ni", R, f.ground_velocities[0])
+    T = _commanded_thrust(vehicle, action, f.times - FILTER_DT)
+    drag = f.specific_forces[0].copy()
+    drag[:, 2] -= T / vehicle.mass
+    x = -np.abs(np.linalg.norm(vb, axis=1))[:, None] * vb / vehicle.mass
+    return np.array([max(float(np.dot(x[:, i], drag[:, i]) / np.dot(x[:, i], x[:, i])), 1e-9)
+                     for i in range(3)])
+
+
+def run_filter(flight, action, vehicle: Multirotor, kind: str, drag, env: int = 0,
+               seed: int | np.random.SeedSequence | None = 0) -> np.ndarray:
+    """The filter's wind estimate along one environment of a 100 Hz ``flight``, world frame
+    [m/s], shape (n_steps, 3) (NaN from the first non-finite step on)."""
+    cls = _filter_class(kind)
+    qp = vehicle.quad_params()
+    qp.update(c_Dx=float(drag[0]), c_Dy=float(drag[1]), c_Dz=float(drag[2]))
+    dt = float(flight.times[1] - flight.times[0])
+    filt = cls(qp, dt=dt)
+    rng = np.random.default_rng(seed if isinstance(seed, np.random.SeedSequence)
+                                else np.random.SeedSequence(seed))
+    accel_noise = rotorpy_imu_noise(dt).acceleration
+    T = _commanded_thrust(vehicle, action, flight.times - dt)
+    R = _rotation(flight.attitudes[env])
+    out = np.full((flight.times.size, 3), np.nan)
+    with np.errstate(all="ignore"):
+        for j in range(flight.times.size):
+            q = flight.attitudes[env, j] / np.linalg.norm(flight.attitudes[env, j])
+            accel = flight.specific_forces[env, j] + accel_noise * rng.standard_normal(3)
+            try:
+                res = filt.step({"w": flight.body_rates[env, j]}, {"cmd_thrust": T[j]},
+                                {"accel": accel}, {"q": q, "v": flight.ground_velocities[env, j]})
+            except (np.linalg.LinAlgError, ValueError):
+                break
+            wb = np.asarray(res["filter_state"])[6:9]
+            if not np.all(np.isfinite(wb)):
+                break
+            out[j] = R[j] @ wb
+    return out
+
+
+def filter_comparison(setting: Setting, n_flights: int = 5, seed: int = 0, probe: bool = False,
+                      kinds=FILTERS, n_jobs: int | None = None, results=None) -> pd.DataFrame:
+    """Both filters on ``n_flights`` flights of ``setting`` (a multirotor setting), at 100 Hz.
+
+    Parameters
+    ----------
+    setting : Setting
+        Its vehicle must be a :class:`~uavwind.sim.multirotor.Multirotor`.
+    n_flights : int
+        Flights, each through all of the setting's environments, in [1, 1000].
+    seed : int
+        Flight ``i`` draws its action from ``(i, 0)`` and its turbulence from ``(i, 1)``, as
+        loop ``i`` of a search does; the filters' noise from ``(i, 3)``.
+    probe : bool
+        Fly level hover probes (collective thrust = weight, 12 s) instead of the setting's
+        sampled actions: the flights the filters are designed for.
+    n_jobs : int, optional
+        Worker processes over flights (-1/None: all cores); the table does not depend on it.
+    results : path-like, optional
+        The result folder (:func:`~uavwind.study.cache.results_dir`): the table is kept in
+        its ``filters/`` folder under a digest of everything that determines it, and read
+        back (a damaged file is recomputed).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per flight and filter: ``filter``, ``flight``, ``rmse`` [m/s] (over the
+        environments whose filter stayed finite and within :data:`DIVERGED`), ``diverged``
+        (how many environments diverged), ``correct`` (a two-means split of the estimates
+        reproduces the groups; False if any diverged) and ``drag_x``, ``drag_y``, ``drag_z``
+        (the calibrated c_D [N/(m/s)^2]).
+    """
+    check_instance(setting, "setting", Setting)
+    check_instance(setting.uav, "setting.uav", Multirotor)
+    n_flights = check_scalar(n_flights, "n_flights", low=1, high=1000, integer=True)
+    seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
+    kinds = tuple(check_choice(k, "kinds", FILTERS) for k in kinds)
+    n_jobs = check_jobs(n_jobs)
+    blob = json.dumps({"setting": setting.key(), "n_flights": n_flights, "seed": seed,
+                       "probe": bool(probe), "kinds": kinds, "version": RESULTS_VERSION,
+                       "filters": FILTERS_VERSION}, sort_keys=True)
+    path = results_dir(results) / "filters" / f"{hashlib.sha256(blob.encode()).hexdigest()[:20]}.parquet"
+    try:
+        return pd.read_parquet(path)
+    except Exception:  # missing or damaged: compute (and replace) it
+        pass
+    root = root_seed(seed)
+    drag = calibrate_drag(setting.uav, seed=child_seed(root, 10 ** 6))
+    from joblib import Parallel, delayed
+    chunks = Parallel(n_jobs=n_jobs)(delayed(_one_flight)(setting, i, root, probe, kinds, drag)
+                                     for i in range(n_flights))
+    out = pd.DataFrame([r for rows in chunks for r in rows])
+    atomic_write(path, lambda tmp: out.to_parquet(tmp, index=False))
+    return out
+
+
+def _one_flight(setting, i, root, probe, kinds, drag):
+    """The rows of flight ``i`` of :func:`filter_comparison` (in a worker process)."""
+    pin_threads()
+    vehicle = setting.uav
+    rows = []
+    if probe:
+        action = ThrustSequence([0.0], [vehicle.weight], [[0.0, 0.0, 1.0]])
+    else:
+        action = setting.sample_thrust(child_rng(root, i, 0))
+    wind = setting.wind(child_seed(root, i, 1))
+    f = simulate_flight(action, wind, uav=vehicle, dt=FILTER_DT, duration=setting.duration,
+                        start_altitude=setting.start_altitude)
+    tail = f.times > f.times[-1] - TAIL
+    truth = f.winds[:, tail].mean(axis=1)
+    for kind in kinds:
+        est = np.array([run_filter(f, action, vehicle, kind, drag, env=e,
+                                   seed=child_seed(root, i, 3, e))[tail].mean(axis=0)
+                        for e in range(f.n_env)])
+        err = np.linalg.norm(est - truth, axis=1)
+        bad = ~np.isfinite(err) | (err > DIVERGED)
+        ok = ~bad
+        correct = False
+        if not bad.any():
+            labels = two_means(est)
+            g = setting.groups
+            correct = bool(np.array_equal(labels, g) or np.array_equal(labels, 1 - g))
+        rows.append({"filter": kind, "flight": i,
+                     "rmse": float(np.sqrt(np.mean(err[ok] ** 2))) if ok.any() else np.nan,
+                     "diverged": int(bad.sum()), "correct": correct,
+                     "drag_x": float(drag[0]), "drag_y": float(drag[1]),
+                     "drag_z": float(drag[2])})
+    return rows
