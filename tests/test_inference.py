@@ -127,3 +127,16 @@ def test_replication_notes_quote_the_ratios_in_use():
 def test_fit_ratio_refuses_what_would_come_out_as_a_number(scores, target, match):
     with pytest.raises(ValueError, match=match):
         inf.fit_ratio([1.0, 4.0], scores, target)
+
+
+def test_compare_and_closer_mixed_measure_the_distance_to_table_4(tmp_path):
+    prof = {"loops": 2, "long_loops": 2, "fit_loops": 2,
+            "cem": {"n_samples": 2, "n_elite": 1, "max_iter": 1}}
+    r = ex.run_experiment("fit_mixed", profile=prof, results=tmp_path, n_jobs=1,
+                          progress=False, cases=[0, 3])  # S2 centre, per axis and magnitude
+    m = inf.compare_mixed(r)
+    row = m.iloc[0]
+    assert row["distance"] == max(abs(row["mean"] - row["paper_mean"]),
+                                  abs(row["max"] - row["paper_max"]))
+    closer, total = inf.closer_mixed(m)
+    assert closer == total.idxmin() and set(total.index) == {"per axis", "magnitude"}
