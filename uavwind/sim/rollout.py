@@ -1,0 +1,284 @@
+"""Flights continued from given states, each row with its own command: what a closed-loop
+UAV flies and plans with.
+
+This module owns :class:`Rollout`: many *rows* (a vehicle in one environment each) flown
+forward a segment at a time, every row holding its own thrust vector [N] for the segment.
+:func:`uavwind.simulate` flies one open-loop sequence through every environment from t = 0;
+a closed-loop UAV instead needs to stop at a decision time, choose the next segment from
+what it has seen, and ask "where would the next segment take me in each environment I
+know?" from the states it has reached. A row's state is the vehicle's: ``(r, v_air)``
+(6 numbers) for the point mass, RotorPy's 20 numbers for a
+:class:`~uavwind.sim.multirotor.Multirotor`.
+
+The steps are :func:`uavwind.simulate`'s own, operation for operation, so a flight chained
+segment by segment through :meth:`Rollout.advance` equals the open-loop simulation of the
+same thrust sequence bit for bit (the tests hold it to ``==``). The wind comes from a
+:class:`WindTable`: every environment of a :class:`~uavwind.sim.wind.WindModel` as arrays,
+looked up per row (constant and shear winds from their parameters, winds that do not depend
+on the position, such as Dryden gusts, tabulated at every step time).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..core.checks import check_array, check_instance, check_scalar
+from .multirotor import Multirotor, force_command
+from .vehicle import UAV, n_steps as _n_steps
+from .wind import CombinedWind, ConstantWind, ShearWind, WindModel
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+__all__ = ["WindTable", "Rollout", "state_size"]
+
+_CONSTANT, _SHEAR, _TABLE = 0, 1, 2
+
+
+def _leaves(wind):
+    """The (model, first environment) of each non-combined model inside ``wind``."""
+    if isinstance(wind, CombinedWind):
+        out = []
+        for model, start in zip(wind.models, wind._bounds[:-1]):
+            out += [(m, int(start) + s) for m, s in _leaves(model)]
+        return out
+    return [(wind, 0)]
+
+
+class WindTable:
+    """Every environment of ``wind`` as arrays, for rows that each fly in one of them.
+
+    Parameters
+    ----------
+    wind : WindModel
+        The environments (a :class:`~uavwind.sim.wind.CombinedWind` of constant, shear and
+        Dryden groups, or any model whose velocity does not depend on the position).
+    times : array_like, shape (n_times,)
+        Every time [s] the wind will be asked for (the step starts of the whole flight); a
+        position-independent model is tabulated there.
+
+    Notes
+    -----
+    A :class:`~uavwind.sim.wind.ConstantWind` and a :class:`~uavwind.sim.wind.ShearWind`
+    are evaluated from their parameters with the models' own arithmetic; any other model
+    is asked once per time for all its environments (``model.velocity(t, positions)``
+    with the positions ignored), which is exact for the Dryden gusts (they do not depend
+    on the position) and refused for a model that says it does (a ``ShearWind`` subclass).
+    """
+
+    def __init__(self, wind: WindModel, times: ArrayLike):
+        check_instance(wind, "wind", WindModel)
+        self.times = check_array(times, "times", ndim=1)
+        self.n_env = wind.n_env
+        self.kind = np.empty(self.n_env, dtype=np.int8)
+        self.base = np.zeros((self.n_env, 3))      # constant velocity, or shear reference
+        self.shear = np.zeros((self.n_env, 3))     # alpha, reference height, floor
+        self.table = np.zeros((self.times.shape[0], self.n_env, 3))
+        for model, start in _leaves(wind):
+            sl = slice(start, start + model.n_env)
+            if type(model) is ConstantWind:
+                self.kind[sl] = _CONSTANT
+                self.base[sl] = model.velocities
+            elif type(model) is ShearWind:
+                self.kind[sl] = _SHEAR
+                self.base[sl] = model.reference_velocities
+                self.shear[sl] = (model.alpha, model.reference_height, model.floor)
+            elif isinstance(model, (ConstantWind, ShearWind)):
+                raise TypeError(f"wind: a subclass of {type(model).__mro__[1].__name__} "
+                                f"({type(model).__name__}) may compute its velocity its own "
+                                f"way; give the base class")
+            else:
+                self.kind[sl] = _TABLE
+                zeros = np.zeros((model.n_env, 3))
+                for k, t in enumerate(self.times):
+                    self.table[k, sl] = model._velocity(float(t), zeros)
+        self._shear_rows = np.flatnonzero(self.kind == _SHEAR)
+        self._table_rows = np.flatnonzero(self.kind == _TABLE)
+
+    def velocity(self, k: int, env: np.ndarray, positions: np.ndarray) -> np.ndarray:
+        """Wind [m/s] (n_rows, 3) at time ``times[k]`` for rows flying in environments
+        ``env`` (n_rows,) at ``positions`` (n_rows, 3) [m]."""
+        return self.lookup(env)(k, positions)
+
+    def lookup(self, env: np.ndarray) -> _Lookup:
+        """The wind of rows in environments ``env`` as a function ``(k, positions) ->
+        (n_rows, 3)``, its per-row arrays gathered once (for a loop over steps)."""
+        return _Lookup(self, np.asarray(env, dtype=np.intp))
+
+
+class _Lookup:
+    """:meth:`WindTable.lookup`: the table's arrays gathered for one set of rows."""
+
+    def __init__(self, table, env):
+        kind = table.kind[env]
+        self.base = table.base[env]
+        self.sh = np.flatnonzero(kind == _SHEAR)
+        self.tb = np.flatnonzero(kind == _TABLE)
+        p = table.shear[env[self.sh]]
+        self.floor, self.height, self.alpha = p[:, 2], p[:, 1], p[:, 0]
+        self.ref = self.base[self.sh]
+        self.env_tb = env[self.tb]
+        self.table = table.table
+
+    def __call__(self, k, positions):
+        out = self.base.copy()
+        if self.sh.size:
+            z = np.maximum(positions[self.sh, 2], self.floor)
+            out[self.sh] = self.ref * ((z / self.height) ** self.alpha)[:, None]
+        if self.tb.size:
+            out[self.tb] = self.table[k, self.env_tb]
+        return out
+
+
+def state_size(uav: UAV | Multirotor) -> int:
+    """Numbers in one row's state: 6 for the point mass ``(r, v_air)``, 20 for a multirotor."""
+    return 20 if isinstance(uav, Multirotor) else 6
+
+
+@dataclass(frozen=True, eq=False)
+class Rollout:
+    """Rows of one vehicle, each in one environment of a :class:`WindTable`, flown forward
+    a segment at a time from their states.
+
+    Parameters
+    ----------
+    uav : UAV or Multirotor
+        The vehicle (every row flies the same one).
+    table : WindTable
+        The environments; its times are the step starts (point mass) or control-step
+        starts (multirotor) of the whole flight.
+    dt : float
+        Sample time [s] (positions are recorded every ``dt``); for a multirotor a whole
+        number of its control steps.
+    n_samples : int
+        Samples of the whole flight (``duration / dt``).
+
+    Use :meth:`for_flight` to build one for a flight of ``duration`` seconds.
+    """
+
+    uav: UAV | Multirotor
+    table: WindTable
+    dt: float
+    n_samples: int
+
+    @classmethod
+    def for_flight(cls, uav: UAV | Multirotor, wind: WindModel, dt: float = 0.1,
+                   duration: float = 12.0) -> Rollout:
+        """A rollout of ``wind``'s environments over a flight of ``duration`` [s] sampled
+        every ``dt`` [s]."""
+        check_instance(uav, "uav", (UAV, Multirotor))
+        dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
+        duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
+        n = _n_steps(dt, duration)
+        if isinstance(uav, Multirotor):
+            per = uav.check_grid(dt)
+            times = np.arange(n * per) * (1.0 / uav.control_rate)
+        else:
+            times = np.arange(n) * dt
+        return cls(uav, WindTable(wind, times), float(dt), n)
+
+    def with_substeps(self, substeps: int) -> Rollout:
+        """The same rollout with a multirotor integrated in ``substeps`` RK4 steps per
+        control step (a cheaper model to plan with; the point mass is returned as is)."""
+        if not isinstance(self.uav, Multirotor):
+            return self
+        return replace(self, uav=replace(self.uav, substeps=substeps))
+
+    @property
+    def steps_per_sample(self) -> int:
+        """Integration steps per recorded sample (1, or the multirotor's control steps)."""
+        return self.uav.check_grid(self.dt) if isinstance(self.uav, Multirotor) else 1
+
+    def start(self, env: ArrayLike, start_position: ArrayLike) -> np.ndarray:
+        """States (n_rows, :func:`state_size`) at t = 0 of rows in environments ``env``,
+        starting at ``start_position`` (3,) [m], as :func:`uavwind.simulate` starts them."""
+        env = np.asarray(env, dtype=np.intp)
+        start = check_array(start_position, "start_position", shape=(3,))
+        if isinstance(self.uav, Multirotor):
+            winds0 = self.table.velocity(0, env, np.broadcast_to(start, (env.size, 3)))
+            return self.uav.initial_states(start, winds0)
+        s = np.zeros((env.size, 6))
+        s[:, 0:3] = start
+        return s
+
+    def advance(self, states: np.ndarray, env: np.ndarray, forces: np.ndarray, sample0: int,
+                n: int) -> tuple[np.ndarray, np.ndarray]:
+        """Fly every row ``n`` samples on from sample ``sample0``, holding its thrust.
+
+        Parameters
+        ----------
+        states : ndarray, shape (n_rows, state_size)
+            The rows' states at ``sample0 * dt`` (not modified).
+        env : ndarray of int, shape (n_rows,)
+            The environment of each row.
+        forces : ndarray, shape (n_rows, 3)
+            The thrust vector each row holds [N] (a multirotor flies it through
+            :func:`~uavwind.sim.multirotor.force_command`).
+        sample0, n : int
+            First sample and number of samples; ``sample0 + n <= n_samples``.
+
+        Returns
+        -------
+        states : ndarray, shape (n_rows, state_size)
+            The states at ``(sample0 + n) * dt``.
+        positions : ndarray, shape (n_rows, n, 3)
+            Positions [m] after each step, as :func:`uavwind.simulate` records them.
+        """
+        if not (0 <= sample0 and n >= 1 and sample0 + n <= self.n_samples):
+            raise ValueError(f"sample0 = {sample0} and n = {n}: samples {sample0}.."
+                             f"{sample0 + n} lie outside the flight's 0..{self.n_samples}")
+        if isinstance(self.uav, Multirotor):
+            return self._advance_multirotor(states, env, forces, sample0, n)
+        return self._advance_point_mass(states, env, forces, sample0, n)
+
+    def _advance_point_mass(self, states, env, forces, sample0, n):
+        uav, dt = self.uav, self.dt
+        accel = forces / uav.mass  # (rows, 3), as simulate's (steps, 3)
+        accel[:, 2] -= uav.gravity
+        r = states[:, 0:3].copy()
+        v_air = states[:, 3:6].copy()
+        positions = np.empty((states.shape[0], n, 3))
+        drag = uav.drag_factor / uav.mass
+        wind = self.table.lookup(env)
+        for j in range(n):
+            k = sample0 + j
+            if drag:
+                speed = np.sqrt(np.einsum("ij,ij->i", v_air, v_air))
+                v_air = v_air + (accel - drag * speed[:, None] * v_air) * dt
+            else:
+                v_air = v_air + accel * dt
+            w = wind(k, r)
+            v_gnd = v_air + w
+            r = r + v_gnd * dt
+            positions[:, j] = r
+        return np.concatenate([r, v_air], axis=1), positions
+
+    def _advance_multirotor(self, states, env, forces, sample0, n):
+        from ._rotor_kernels import control_step
+
+        uav = self.uav
+        per = self.steps_per_sample
+        h = 1.0 / uav.control_rate / uav.substeps
+        S = np.ascontiguousarray(states, dtype=float).copy()
+        rows = S.shape[0]
+        T = np.empty(rows)
+        C = np.empty((rows, 4))
+        unique, inverse = np.unique(forces, axis=0, return_inverse=True)
+        for u, f in enumerate(unique):  # one command per distinct force
+            T_u, C_u, _ = force_command(f, uav.tilt_limit)
+            rows_u = inverse.reshape(-1) == u
+            T[rows_u], C[rows_u] = T_u, C_u
+        clipped = np.zeros(rows, dtype=np.int64)
+        positions = np.empty((rows, n, 3))
+        P = uav.packed
+        k0 = sample0 * per
+        wind = self.table.lookup(env)
+        for k in range(n * per):
+            S[:, 13:16] = wind(k0 + k, S[:, 0:3])
+            control_step(P, S, T, C, 0, uav.substeps, h, clipped)
+            if (k + 1) % per == 0:
+                positions[:, (k + 1) // per - 1] = S[:, 0:3]
+        return S, positions
