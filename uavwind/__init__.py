@@ -28,6 +28,7 @@ from ._version import __version__
 _compat.install()  # the flat module paths of 0.1 keep working for one release
 
 from .method.baseline import estimate_wind  # noqa: E402
+from .method.closed_loop import ClosedLoop, run_episodes  # noqa: E402
 from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
 from .method.search import CEMResult, cem, random_search  # noqa: E402
 from .report.display import pretty  # noqa: E402
@@ -58,7 +59,7 @@ __all__ = [
     "Setting", "Multirotor", "AttitudeSequence", "sample_attitude",
     # method
     "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
-    "estimate_wind",
+    "estimate_wind", "ClosedLoop", "run_episodes",
     # study
     "SPEED_RANGES", "WindCondition", "PAPER_SCENARIOS", "scenario_table", "table3_setting",
     "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds", "Reading",

@@ -144,7 +144,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
-          f"{done['computed']} computed ({done['rows_computed']} loops or CEM samples) in "
+          f"{done['computed']} computed ({done['rows_computed']} rows: loops, CEM samples or "
+          f"closed-loop reports) in "
           f"{time.perf_counter() - t0:.1f} s")
     if done["times"]:
         by_exp = time_by_experiment(done["times"])

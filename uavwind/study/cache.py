@@ -45,7 +45,7 @@ from ..method.clustering import DEFAULT_PARAMS
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["RESULTS_VERSION", "cache_key", "results_dir", "check_writable", "Expected",
+__all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "cache_key", "results_dir", "check_writable", "Expected",
            "read_verified", "atomic_write", "chunk_lock", "cached", "CorruptChunkWarning",
            "TransientReadError", "content_digest"]
 
@@ -127,6 +127,9 @@ class Expected:
         The true group (0/1) of each environment: each row's ``labels`` must have this
         length, hold only 0 and 1, and say ``correct`` exactly when they reproduce the groups
         up to a label swap.
+    kind : {"loops", "episodes"}
+        What a row is: a loop (or CEM sample) of the clustering, or a reported belief of a
+        closed-loop episode (:data:`EPISODE_REQUIRED`, and its own consistency rules).
     """
 
     setting_key: str
@@ -134,11 +137,16 @@ class Expected:
     engine: str
     n_rows: int
     groups: tuple = ()
+    kind: str = "loops"
 
 
 #: Columns every chunk holds, with the kinds of their dtypes (numpy ``dtype.kind``).
 REQUIRED = {"score": "f", "silhouette": "f", "correct": "b", "n_iter": "iu", "labels": "O",
             "setting_key": "O", "seed": "iu", "engine": "O"}
+#: Columns every closed-loop chunk holds (:data:`uavwind.method.closed_loop.EPISODE_COLUMNS`).
+EPISODE_REQUIRED = {"episode": "iu", "policy": "O", "test_group": "iu", "time": "f",
+                    "p_group_b": "f", "p_true": "f", "predicted": "iu", "correct": "b",
+                    "log_loss": "f", "setting_key": "O", "seed": "iu", "engine": "O"}
 #: Parquet metadata key of the content digest written with every chunk.
 CHECKSUM_KEY = b"uavwind.sha256"
 
@@ -169,11 +177,37 @@ def content_digest(df: pd.DataFrame) -> str:
     return h.hexdigest()
 
 
+def _episode_problem(df):
+    """Why closed-loop rows are inconsistent (empty string: they are not)."""
+    p_b = df["p_group_b"].to_numpy(dtype=float)
+    p_true = df["p_true"].to_numpy(dtype=float)
+    group = df["test_group"].to_numpy()
+    if not (np.all(np.isfinite(p_b)) and np.all((p_b >= 0) & (p_b <= 1))):
+        return "probabilities outside [0, 1]"
+    if np.any(np.abs(np.where(group == 1, p_b, 1.0 - p_b) - p_true) > 1e-12):
+        return "p_true is not the test group's probability"
+    if not np.all(np.isin(group, (0, 1))) or np.any(group != df["episode"].to_numpy() % 2):
+        return "a test group other than episode % 2"
+    pred = df["predicted"].to_numpy()
+    if not np.all(np.isin(pred, (0, 1))):
+        return "a predicted group other than 0 or 1"
+    if np.any(df["correct"].to_numpy(dtype=bool) != (pred == group)):
+        return "a correct flag that contradicts the predicted group"
+    loss = df["log_loss"].to_numpy(dtype=float)
+    if not np.all(np.isfinite(loss)) or np.any(loss < 0):
+        return "log-losses that are negative or not finite"
+    sure = p_true > 1e-300
+    if np.any(np.abs(loss[sure] + np.log(p_true[sure])) > 1e-9 * np.maximum(1.0, loss[sure])):
+        return "log-losses that are not -log(p_true)"
+    return ""
+
+
 def _problem(df, expect):
     """Why ``df`` cannot be trusted as ``expect`` (empty string: it can)."""
     if len(df) != expect.n_rows:
         return f"{len(df)} rows, expected {expect.n_rows}"
-    for col, kinds in REQUIRED.items():
+    required = EPISODE_REQUIRED if expect.kind == "episodes" else REQUIRED
+    for col, kinds in required.items():
         if col not in df.columns:
             return f"no {col} column"
         if df[col].dtype.kind not in kinds:
@@ -182,6 +216,8 @@ def _problem(df, expect):
                       ("engine", expect.engine)):
         if not (df[col] == want).all():
             return f"{col} is not {want!r}"
+    if expect.kind == "episodes":
+        return _episode_problem(df)
     score = df["score"].to_numpy(dtype=float)
     # 100 x silhouette where the loop is grouped correctly (a silhouette may be <= 0), 0 else
     if not np.all(np.isfinite(score)) or score.min() < -100 or score.max() > 100:

@@ -231,7 +231,7 @@ def time_by_experiment(times: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
         Indexed by (``experiment``, ``reading``), experiments in registry order (``reading``
         is ``"both"`` for entries both readings share; an entry two experiments share is
         counted under the first), with
-        ``entries``, ``rows`` (loops or CEM samples), ``cpu_seconds`` and ``share`` (% of
+        ``entries``, ``rows`` (loops, CEM samples or closed-loop reports), ``cpu_seconds`` and ``share`` (% of
         the run's CPU seconds); empty if nothing was computed.
 
     Examples

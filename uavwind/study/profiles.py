@@ -16,12 +16,15 @@ from typing import Any
 
 from ..core.checks import check_instance, check_scalar
 
-__all__ = ["CEMSize", "Profile", "PROFILES", "get_profile", "DEFAULT_SEED", "CHUNK"]
+__all__ = ["CEMSize", "Profile", "PROFILES", "get_profile", "DEFAULT_SEED", "CHUNK",
+           "EPISODE_CHUNK"]
 
 #: Default seed of every experiment (its SeedSequence root).
 DEFAULT_SEED = 20240101
 #: Loops per cached chunk.
 CHUNK = 50
+#: Closed-loop episodes per cached chunk (each flown by every policy of the experiment).
+EPISODE_CHUNK = 25
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -62,6 +65,9 @@ class Profile:
     side_loops : int
         Loops per case of the wide sweeps beyond the paper (Exp 11's channels x actions x
         scenarios x noise); default ``fit_loops``.
+    episodes : int
+        Closed-loop flights (held-out test environments) per case of Exp 12; default 200
+        (the paper profile's count).
     name : str
         ``"paper"``, ``"quick"``, or a name of your own (``"custom"`` by default).
     """
@@ -71,12 +77,13 @@ class Profile:
     fit_loops: int
     cem: CEMSize
     side_loops: int | None = None
+    episodes: int = 200
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self):
         if self.side_loops is None:
             object.__setattr__(self, "side_loops", self.fit_loops)
-        for k in ("loops", "long_loops", "fit_loops", "side_loops"):
+        for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes"):
             object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
                                                      low=1, high=10 ** 6, integer=True))
         cem = self.cem
@@ -95,7 +102,7 @@ class Profile:
 PROFILES = {
     "paper": Profile(name="paper", loops=50, long_loops=500, fit_loops=20,
                      cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
-    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2,
+    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2, episodes=10,
                      cem=CEMSize(n_samples=6, n_elite=2, max_iter=3)),
 }
 
@@ -108,7 +115,8 @@ def get_profile(profile: str | Profile | Mapping[str, Any]) -> Profile:
         return profile
     if isinstance(profile, Mapping):
         need = {"loops", "long_loops", "fit_loops", "cem"}
-        missing, extra = need - set(profile), set(profile) - need - {"name", "side_loops"}
+        missing, extra = (need - set(profile),
+                          set(profile) - need - {"name", "side_loops", "episodes"})
         if missing or extra:
             raise ValueError(f"profile dict must have exactly the keys {sorted(need)}; "
                              f"missing {sorted(missing)}, unknown {sorted(extra)}")

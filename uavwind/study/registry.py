@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
            "FIT_RATIOS", "MIXED_SPACINGS", "VEHICLES",
            "NOISY_VEHICLES", "FUTURE_VEHICLE", "FUTURE_CHANNELS", "FUTURE_ACTIONS",
-           "FUTURE_NOISE", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "FUTURE_NOISE", "CLOSED_LOOP_VEHICLES", "CLOSED_LOOP_POLICIES", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
            "column_names"]
 
 
@@ -69,15 +69,17 @@ class Experiment:
         Notebook file (under ``notebooks/``) that presents it.
     paper_table : str
         The paper's table (or figure) it regenerates.
-    search : {"random", "cem"}
-        How its loops are chosen: random exploration, or one CEM run per case.
+    search : {"random", "cem", "closed_loop"}
+        How its loops are chosen: random exploration, one CEM run per case, or closed-loop
+        episodes (one vehicle, one held-out wind, every policy of ``search_options``).
     build : callable
         ``(reading) -> list[Case]``.
     tables_as : str
         Id of the experiment whose table layout and paper values this one shares
         (empty: its own).
     search_options : dict
-        Extra arguments of the search (e.g. CEM's ``rank_by``); part of the cache key.
+        Extra arguments of the search (CEM's ``rank_by``; the closed loop's ``policies`` and
+        its :class:`~uavwind.method.closed_loop.ClosedLoop` grid); part of the cache key.
     group_by : tuple of str
         Label columns of :func:`summary_table`'s rows (max and mean per group).
     paper_keys : tuple of str
@@ -86,7 +88,8 @@ class Experiment:
     summary : str
         The name of its summary in :data:`uavwind.analysis.tables.SUMMARIES`: ``"maxmean"``
         (max, mean with its CI, correct rate per ``group_by``), ``"cem"`` (per iteration),
-        ``"baseline"`` (Exp 9) or ``"vehicle"`` (Exp 10).
+        ``"baseline"`` (Exp 9), ``"vehicle"`` (Exp 10), ``"future"`` (Exp 11) or
+        ``"closed_loop"`` (Exp 12).
     reference : str
         Where the paper's rows come from: ``"paper"`` (the experiment's table in
         :mod:`uavwind.study.paper`) or ``"example"`` (the worked example's one loop).
@@ -115,11 +118,16 @@ class Experiment:
     readings: tuple = ("inferred", "halves")
 
     def __post_init__(self):
-        check_choice(self.search, "search", ("random", "cem"))
+        check_choice(self.search, "search", ("random", "cem", "closed_loop"))
         check_choice(self.summary, "summary", ("maxmean", "cem", "baseline", "vehicle",
-                                               "future"))
+                                               "future", "closed_loop"))
         check_choice(self.reference, "reference", ("paper", "example"))
-        check_kwargs(self.search_options, ("rank_by",), f"experiment {self.id!r} search_options")
+        allowed = (("policies", "decision_interval", "report_interval", "magnitude_step")
+                   if self.search == "closed_loop" else ("rank_by",))
+        check_kwargs(self.search_options, allowed, f"experiment {self.id!r} search_options")
+        if self.search == "closed_loop" and not self.search_options.get("policies"):
+            raise ValueError(f"experiment {self.id!r}: a closed-loop search needs "
+                             f"search_options['policies']")
 
     def cases(self, reading: str | Reading | None = None) -> list[Case]:
         """The cases under ``reading`` (a name or a :class:`~uavwind.study.readings.Reading`)."""
@@ -308,6 +316,27 @@ def _exp11_cem(reading):
     return cases
 
 
+#: Exp 12's vehicles: the paper's point mass and RotorPy's quadrotor from a hover.
+CLOSED_LOOP_VEHICLES = {"point mass": UAV(), "multirotor, RotorPy drag, hover": FUTURE_VEHICLE}
+#: Exp 12's policies, in the order the pages show them.
+CLOSED_LOOP_POLICIES = ("random", "best", "greedy", "receding")
+
+
+def _exp12(reading):
+    """Light constant vs light constant, light shear and strong turbulence (five known
+    environments a group), each vehicle, consumer GNSS position noise."""
+    cases = []
+    for a, b in (("light constant", "light constant"), ("light constant", "light shear"),
+                 ("light constant", "strong turbulence")):
+        for label, vehicle in CLOSED_LOOP_VEHICLES.items():
+            s = _make(reading, a, b, 5, uav=vehicle,
+                      noise=Noise(position=CONSUMER_NOISE.position))
+            cases.append(Case(setting=s, labels={"scenario": _scenario_label(s.group_a,
+                                                                             s.group_b),
+                                                 "vehicle": label}))
+    return cases
+
+
 #: The mixed-strength layouts ``fit_mixed`` compares: Table 3's 0.1 m/s on each of x and y
 #: (0.1 sqrt(2) along x = y), and 0.1 m/s in magnitude [m/s].
 MIXED_SPACINGS = {"per axis": TABLE3_SPACING, "magnitude": 0.1}
@@ -452,6 +481,15 @@ EXPERIMENTS = {e.id: e for e in [
         paper_table="beyond the paper (the paper's future work)", search="cem",
         build=_exp11_cem, summary="cem", readings=("inferred",),
         group_by=("action", "observation")),
+    Experiment(
+        id="exp12", title="Closed loop", notebook="exp12_closed_loop.md",
+        question="One vehicle in one unknown wind: how many seconds of flight does it need "
+                 "to know which condition it is in, and does choosing its manoeuvres as it "
+                 "flies help?",
+        paper_table="beyond the paper (the paper's future work)", search="closed_loop",
+        build=_exp12, search_options={"policies": CLOSED_LOOP_POLICIES,
+                                      "decision_interval": 2.0, "report_interval": 0.5},
+        group_by=("scenario", "vehicle"), readings=("halves",), summary="closed_loop"),
     Experiment(
         id="fit_layout", title="Layout fit", notebook="inference.md",
         question="Which gap between same-strength groups gives Table 4's scores?",

@@ -28,11 +28,13 @@ import pandas as pd
 from .._version import __version__
 from ..core.checks import check_scalar
 from ..method.clustering import ClusteringParams, check_engine
+from ..method.closed_loop import ClosedLoop, run_episodes
 from ..method.search import cem, random_search
+from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
                     results_dir)
-from .profiles import CHUNK, DEFAULT_SEED, get_profile
+from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, get_profile
 from .readings import DEFAULT_READING, get_reading
 from .registry import EXPERIMENTS, get_experiment
 
@@ -40,6 +42,11 @@ if TYPE_CHECKING:
     from .profiles import Profile
     from .readings import Reading
     from .registry import Case, Experiment
+
+#: The engine stamp of closed-loop entries (no clustering: the run's engine does not matter).
+CLOSED_LOOP_ENGINE = "none"
+#: Bump when a change to the closed loop (belief, policies, episodes) alters its rows.
+CLOSED_LOOP_VERSION = "1"
 
 __all__ = ["run_experiment", "Entry", "experiment_entries", "check_cases", "case_loops",
            "check_seed_engine", "n_loops_total"]
@@ -117,7 +124,9 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
 @dataclass(frozen=True, eq=False, kw_only=True)
 class Entry:
     """One cache entry an experiment needs: a chunk of random loops of one case
-    (``search="random"``, loops ``start .. stop-1``) or one whole CEM run (``search="cem"``).
+    (``search="random"``, loops ``start .. stop-1``), one whole CEM run (``search="cem"``),
+    or a chunk of closed-loop episodes, each flown by every policy (``search="closed_loop"``,
+    episodes ``start .. stop-1``; ``engine`` is ``"none"``: no clustering).
 
     :func:`run_experiment` fills its entries one after the other, each over ``n_jobs``
     workers; :func:`uavwind.study.fill.fill_cache` fills the missing entries of many
@@ -134,21 +143,34 @@ class Entry:
     params: dict
     start: int = 0
     stop: int = 0
-    options: dict = field(default_factory=dict)  # CEM: n_samples, n_elite, max_iter, rank_by
+    # CEM: n_samples, n_elite, max_iter, rank_by; closed loop: policies and the problem's grid
+    options: dict = field(default_factory=dict)
     labels: dict = field(default_factory=dict)
 
     @property
     def n_rows(self) -> int:
-        """Rows the entry holds: loops, or CEM samples."""
+        """Rows the entry holds: loops, CEM samples, or episodes x policies x reports."""
         if self.search == "cem":
             return self.options["n_samples"] * self.options["max_iter"]
+        if self.search == "closed_loop":
+            prob = self.problem
+            n_reports = prob.n_segments * (prob.segment_samples // prob.report_samples)
+            return (self.stop - self.start) * len(self.options["policies"]) * n_reports
         return self.stop - self.start
+
+    @property
+    def problem(self) -> ClosedLoop:
+        """The closed-loop problem of a ``"closed_loop"`` entry."""
+        grid = {k: v for k, v in self.options.items() if k != "policies"}
+        return ClosedLoop(setting=self.setting, **grid)
 
     @property
     def cost(self) -> int:
         """A rough cost, for ordering only: rows x environments^2 x observed channels (a
         soft-DTW k-means loop grows with the square of the number of series)."""
         s = self.setting
+        if self.search == "closed_loop":  # measured: ~0.75 s a multirotor episode, 0.13 s a point mass
+            return (self.stop - self.start) * (1100 if isinstance(s.uav, Multirotor) else 200)
         channels = 6 if s.observation == "position+velocity" else 3
         return self.n_rows * s.n_env ** 2 * channels
 
@@ -159,6 +181,9 @@ class Entry:
             res = cem(s, seed=self.seed, n_jobs=n_jobs, engine=self.engine, progress=progress,
                       **self.options, clustering=self.params)
             return res.samples
+        if self.search == "closed_loop":
+            return run_episodes(self.problem, list(self.options["policies"]), self.start,
+                                self.stop, seed=self.seed, n_jobs=n_jobs)
         return random_search(s, n_loops=self.stop - self.start, seed=self.seed,
                              loop_offset=self.start, n_jobs=n_jobs, engine=self.engine,
                              progress=progress, **self.params)
@@ -177,6 +202,9 @@ class Entry:
     @property
     def _expected(self):
         """What a cached copy must hold to be trusted."""
+        if self.search == "closed_loop":
+            return Expected(self.setting.key(), self.seed, self.engine, self.n_rows,
+                            kind="episodes")
         return Expected(self.setting.key(), self.seed, self.engine, self.n_rows,
                         tuple(int(g) for g in self.setting.groups))
 
@@ -200,6 +228,18 @@ def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, e
             out.append(Entry(path=folder / exp.id / f"cem-{key}.parquet", search="cem",
                              setting=s, seed=seed, engine=engine, params=params,
                              options={**cfg.to_dict(), **exp.search_options}, labels=labels))
+            continue
+        if exp.search == "closed_loop":
+            opts = dict(exp.search_options)
+            for start in range(0, prof.episodes, EPISODE_CHUNK):
+                stop = min(start + EPISODE_CHUNK, prof.episodes)
+                key = cache_key(s, seed, start, stop, CLOSED_LOOP_ENGINE, {},
+                                extra={**opts, "closed_loop": CLOSED_LOOP_VERSION})
+                path = (folder / exp.id /
+                        f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet")
+                out.append(Entry(path=path, search="closed_loop", setting=s, seed=seed,
+                                 engine=CLOSED_LOOP_ENGINE, params={}, start=start, stop=stop,
+                                 options=opts, labels=labels))
             continue
         n_loops = case_loops(prof, case)
         for start in range(0, n_loops, CHUNK):
@@ -235,11 +275,14 @@ def case_loops(prof: Profile, case: Case) -> int:
 
 
 def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
-    """Total loops (or CEM samples) of every experiment in ``profile``."""
+    """Total loops (or CEM samples, or closed-loop flights: episodes x policies) of every
+    experiment in ``profile``."""
     prof = get_profile(profile)
     total = 0
     for exp in EXPERIMENTS.values():
-        if exp.search == "cem":
+        if exp.search == "closed_loop":
+            total += prof.episodes * len(exp.search_options["policies"]) * len(exp.cases())
+        elif exp.search == "cem":
             total += prof.cem.n_samples * prof.cem.max_iter * len(exp.cases())
         else:
             total += sum(case_loops(prof, c) for c in exp.cases())
