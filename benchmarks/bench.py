@@ -415,9 +415,70 @@ def bench_spread(report, n_loops=None):
                                        "fast_2_workers": t_fast}}
 
 
+def bench_closed_loop(report, per_scenario=4):
+    """Experiment 12: seconds per closed-loop flight by vehicle and policy, over flights of
+    the three scenarios (median, 10th and 90th percentile), the paper profile's CPU time
+    estimated from them, and with FULL=1 the paper profile's fill measured."""
+    from uavwind.method.closed_loop import ClosedLoop, fly_episode
+    from uavwind.method.closed_loop.episode import _test_environment
+    from uavwind.core.seeding import root_seed
+    from uavwind.study import EXPERIMENTS, PROFILES
+
+    print("\n== closed loop (Exp 12): seconds per flight ==")
+    exp = EXPERIMENTS["exp12"]
+    reading = exp.readings[0]
+    policies = exp.search_options["policies"]
+    root = root_seed(20240101)
+    per = {}
+    for case in exp.cases(reading):
+        prob = ClosedLoop(setting=case.setting, decision_interval=2.0, report_interval=0.5)
+        vehicle = case.labels["vehicle"]
+        for pol in policies:  # the shared open-loop plan once, outside the timings
+            fly_episode(prob, pol, 0, root)
+        for ep in range(1, 1 + per_scenario):
+            test = _test_environment(prob, ep, root)
+            for pol in policies:
+                t0 = time.perf_counter()
+                fly_episode(prob, pol, ep, root, _test=test)
+                per.setdefault((vehicle, pol), []).append(time.perf_counter() - t0)
+    rows, total = {}, 0.0
+    prof = PROFILES["paper"]
+    for (vehicle, pol), t in per.items():
+        q10, q50, q90 = np.percentile(t, [10, 50, 90])
+        rows[f"{vehicle} / {pol}"] = {"median": q50, "p10": q10, "p90": q90, "flights": len(t)}
+        total += float(np.mean(t)) * prof.episodes * 3  # three scenarios per vehicle
+        print(f"  {vehicle:34s} {pol:9s} median {q50:6.3f} s  (10th-90th {q10:.3f}-{q90:.3f} s, "
+              f"{len(t)} flights)")
+    cores = os.cpu_count() or 1
+    print(f"  paper profile ({prof.episodes} flights per case and policy): about "
+          f"{total / 60:.1f} CPU-min, {total / cores / 60:.1f} min on {cores} cores, before the "
+          f"open-loop plans and the gust series")
+    report["closed_loop"] = {"per_flight": rows, "estimated_cpu_seconds": total,
+                             "flights_timed_per_scenario": per_scenario}
+    if os.environ.get("FULL") == "1":
+        import subprocess
+        import tempfile
+        import resource
+        with tempfile.TemporaryDirectory() as tmp:
+            env = {**os.environ, "UAVWIND_RESULTS": tmp}
+            cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            cmd = [sys.executable, "-m", "uavwind", "run", "exp12", "--profile", "paper",
+                   "--reading", "all", "--jobs", str(cores), "--no-tables"]
+            subprocess.run(cmd, env=env, check=True, capture_output=True)
+            wall = time.perf_counter() - t0
+            cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
+        print(f"  measured (FULL=1): python -m uavwind run exp12 --profile paper from an empty "
+              f"cache: {wall / 60:.1f} min wall, {cpu / 60:.1f} CPU-min on {cores} cores")
+        report["closed_loop"].update(measured_seconds=wall, measured_cpu_seconds=cpu,
+                                     measured_command=" ".join(["python"] + cmd[1:]))
+
+
 SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
             "agreement": bench_agreement, "search": bench_search,
-            "profile": bench_where_time_goes, "compile": bench_cold_compile}
+            "profile": bench_where_time_goes, "compile": bench_cold_compile,
+            "closed_loop": bench_closed_loop}
 
 
 def main():

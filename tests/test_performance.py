@@ -52,3 +52,17 @@ def test_paper_and_compile_tables_show_the_new_figures():
     assert "would have 540 s on 2 cores: 20.0x fewer CPU-seconds" in line
     assert t["compile"].loc["soft-DTW kernels a loop uses (softdtw.warmup())",
                             "wall time (s)"] == 17.4
+
+
+def test_the_closed_loop_section_shows_flights_and_the_measured_run():
+    report = {"closed_loop": {
+        "per_flight": {"point mass / greedy": {"median": 0.03, "p10": 0.02, "p90": 0.05,
+                                               "flights": 12}},
+        "estimated_cpu_seconds": 300.0, "flights_timed_per_scenario": 4}}
+    t = report_tables(report)["closed_loop"]
+    assert t.loc["point mass / greedy", "median (s)"] == 0.03
+    assert "5.0 CPU-minutes" in summary_lines(report)["closed_loop"]
+    report["closed_loop"].update(measured_seconds=261.0, measured_cpu_seconds=510.0,
+                                 measured_command="python -m uavwind run exp12")
+    line = summary_lines(report)["closed_loop"]
+    assert "4.3 min wall" in line and "8.5 CPU-minutes" in line

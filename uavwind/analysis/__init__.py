@@ -1,7 +1,10 @@
 """Analyses of the study's results.
 
 * :mod:`.tables` -- summary and comparison tables in the paper's layout, and provenance;
-* :mod:`.beyond` -- the tables of Exps 7-9 (noise, observations, a physics baseline);
+* :mod:`.beyond` -- the tables of Exps 7-11 (noise, observations, a physics baseline, the
+  multirotor, the future work);
+* :mod:`.filters` -- RotorPy's wind filters, calibrated and compared (Exp 11);
+* :mod:`.closed_loop` -- Exp 12's accuracy against time, calibration and manoeuvres;
 * :mod:`.inference` -- the paper's unstated setup, recovered from its Table 4 and tested;
 * :mod:`.claims` -- the paper's claims, judged with uncertainty.
 

@@ -21,6 +21,7 @@ from ..core.stats import summarise
 from ..study.paper import load_paper_values
 from ..study.registry import EXPERIMENTS, get_experiment
 from .beyond import baseline_table, future_table, vehicle_table
+from .closed_loop import accuracy_table
 
 __all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFERENCES",
            "maxmean_table", "cem_table"]
@@ -62,6 +63,7 @@ SUMMARIES = {
     "baseline": lambda exp, df: baseline_table(df),
     "vehicle": lambda exp, df: vehicle_table(df),
     "future": lambda exp, df: future_table(df),
+    "closed_loop": lambda exp, df: accuracy_table(df),
 }
 
 

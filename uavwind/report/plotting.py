@@ -11,7 +11,10 @@ that a test cannot reach elsewhere). Figures:
 * :func:`score_vs_parameter` -- Figs 5, 6, 7 (max and mean vs a swept parameter);
 * :func:`fig9_cem` -- Fig 9 (CEM max and mean per iteration);
 * :func:`dryden_spectrum` -- the Dryden check on the model page;
-* :func:`paper_vs_replication` -- reported vs regenerated values.
+* :func:`paper_vs_replication` -- reported vs regenerated values;
+* beyond the paper: the inference fits, noise, observations, the baseline, the multirotor,
+  the future work (:func:`future_grid`) and the closed loop (:func:`closed_loop_curves`,
+  :func:`reliability_diagram`, :func:`manoeuvre_plot`).
 """
 
 from __future__ import annotations
@@ -36,7 +39,10 @@ if TYPE_CHECKING:
 
 __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",
-           "dryden_spectrum", "paper_vs_replication", "panel_grid"]
+           "dryden_spectrum", "paper_vs_replication", "panel_grid", "closed_loop_curves",
+           "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
+           "predicted_vs_paper", "noise_curves", "observation_bars", "baseline_vs_clustering",
+           "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp"]
 
 GROUP_COLOURS = ("tab:blue", "tab:orange")
 
@@ -513,4 +519,106 @@ def future_grid(table) -> Figure:
             ax.set_yticks(range(len(obs)), obs, fontsize=7)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
+    return fig
+
+
+# --------------------------------------------------------------------------- #
+# closed loop (Exp 12)
+# --------------------------------------------------------------------------- #
+POLICY_STYLES = {"random": ("0.45", ":"), "best": ("tab:blue", "--"),
+                 "greedy": ("tab:green", "-"), "receding": ("tab:red", "-")}
+
+
+def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
+    """Exp 12: ``value`` (``"accuracy"`` or ``"log_loss"``) against flight time, one panel
+    per scenario (rows) and vehicle (columns), one line per policy with its 95% interval
+    (``curves``: :func:`uavwind.analysis.closed_loop.accuracy_over_time`)."""
+    from ..analysis.closed_loop import POLICY_NAMES
+
+    plt = _plt()
+    scen = list(dict.fromkeys(curves["scenario"]))
+    veh = list(dict.fromkeys(curves["vehicle"]))
+    fig, axes = plt.subplots(len(scen), len(veh), squeeze=False, sharex=True, sharey=True,
+                             figsize=(5.0 * len(veh), 2.6 * len(scen) + 0.6),
+                             constrained_layout=True)
+    for i, s in enumerate(scen):
+        for j, v in enumerate(veh):
+            ax = axes[i, j]
+            sub = curves[(curves["scenario"] == s) & (curves["vehicle"] == v)]
+            for pol, d in sub.groupby("policy", sort=False):
+                colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
+                scale = 100 if value == "accuracy" else 1
+                ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4,
+                        label=POLICY_NAMES.get(pol, pol))
+                ax.fill_between(d["time"], d[f"{value}_low"] * scale,
+                                d[f"{value}_high"] * scale, color=colour, alpha=0.12, lw=0)
+            ax.set_title(f"{s}\n{v}", fontsize=8)
+            if value == "accuracy":
+                ax.axhline(50, color="0.8", lw=0.8, zorder=0)
+                ax.set_ylim(40, 101)
+            if i == len(scen) - 1:
+                ax.set_xlabel("flight time (s)")
+            if j == 0:
+                ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
+    axes[0, 0].legend(fontsize=7, loc="lower right" if value == "accuracy" else "upper right")
+    return fig
+
+
+def reliability_diagram(table) -> Figure:
+    """Exp 12: reported probability of group 1 against the observed share of group 1's
+    environments, one panel per vehicle, one line per policy, the counts as bars
+    (``table``: :func:`uavwind.analysis.closed_loop.reliability` with
+    ``by=("vehicle", "policy")``)."""
+    from ..analysis.closed_loop import POLICY_NAMES
+
+    plt = _plt()
+    veh = list(dict.fromkeys(table["vehicle"]))
+    fig, axes = plt.subplots(1, len(veh), squeeze=False, figsize=(4.6 * len(veh), 4.2),
+                             constrained_layout=True)
+    for j, v in enumerate(veh):
+        ax = axes[0, j]
+        ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls="--", label="calibrated")
+        sub = table[table["vehicle"] == v]
+        for pol, d in sub.groupby("policy", sort=False):
+            colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
+            ax.plot(d["predicted"], d["observed"], color=colour, ls=ls, marker="o", ms=3,
+                    lw=1.2, label=POLICY_NAMES.get(pol, pol))
+        counts = sub.groupby(["bin_low", "bin_high"])["count"].sum().reset_index()
+        ax2 = ax.twinx()
+        ax2.bar((counts["bin_low"] + counts["bin_high"]) / 2, counts["count"],
+                width=0.8 * (counts["bin_high"] - counts["bin_low"]), color="0.88", zorder=0)
+        ax2.set_yticks([])
+        ax.set_zorder(ax2.get_zorder() + 1)
+        ax.patch.set_visible(False)
+        ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="reported P(group 1)",
+               ylabel="observed share in group 1", title=v)
+        ax.title.set_fontsize(9)
+        ax.legend(fontsize=7, loc="upper left")
+    return fig
+
+
+def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
+    """Exp 12: the mean thrust [N] along x, y and z each policy flew, segment by segment,
+    for one scenario and vehicle (``table``: :func:`uavwind.analysis.closed_loop.manoeuvres`)."""
+    from ..analysis.closed_loop import POLICY_NAMES
+
+    plt = _plt()
+    sub = table[(table["scenario"] == scenario) & (table["vehicle"] == vehicle)]
+    pols = list(dict.fromkeys(sub["policy"]))
+    fig, axes = plt.subplots(1, len(pols), squeeze=False, sharey=True,
+                             figsize=(3.2 * len(pols), 3.0), constrained_layout=True)
+    for j, pol in enumerate(pols):
+        ax = axes[0, j]
+        d = sub[sub["policy"] == pol].sort_values("segment")
+        x = d["segment"].to_numpy()
+        for k, (axis, colour) in enumerate(zip("xyz", ("tab:purple", "tab:olive", "tab:cyan"))):
+            ax.bar(x + (k - 1) * 0.27, d[f"thrust_{axis}"], 0.27, color=colour,
+                   label=f"thrust {axis}")
+        ax.axhline(2.0 * 9.81, color="0.5", lw=0.8, ls="--")
+        ax.set(title=POLICY_NAMES.get(pol, pol), xlabel="segment")
+        ax.title.set_fontsize(9)
+        if j == 0:
+            ax.set_ylabel("mean thrust (N)")
+            ax.legend(fontsize=7)
+    fig.suptitle(f"{scenario}, {vehicle}", fontsize=9)
     return fig
