@@ -13,7 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 import uavwind as uw  # noqa: E402
-from uavwind.analysis import beyond, inference  # noqa: E402
+from uavwind.analysis import beyond, closed_loop, inference  # noqa: E402
 from uavwind.analysis.tables import cem_table  # noqa: E402
 from uavwind.report import plotting  # noqa: E402
 
@@ -67,6 +67,28 @@ def _cem_history():
     return cem_table(pd.DataFrame(rows))
 
 
+def _episodes():
+    """Synthetic Exp 12 rows: 8 episodes per scenario, vehicle and policy, a report every
+    second over 4 s, two segments of 2 s."""
+    rng = np.random.default_rng(5)
+    rows = []
+    for scen in ("a", "b"):
+        for veh in ("point mass", "multirotor"):
+            for pol in ("random", "best", "greedy", "receding"):
+                for ep in range(8):
+                    group = ep % 2
+                    for t in (1.0, 2.0, 3.0, 4.0):
+                        p = float(np.clip(rng.normal(0.3 + 0.4 * group, 0.2), 0.0, 1.0))
+                        p_true = p if group == 1 else 1.0 - p
+                        rows.append({"scenario": scen, "vehicle": veh, "policy": pol,
+                                     "episode": ep, "test_group": group, "time": t,
+                                     "segment": int((t - 0.5) // 2), "p_group_b": p,
+                                     "correct": p_true > 0.5,
+                                     "log_loss": -np.log(max(p_true, 1e-12)),
+                                     "thrust": rng.uniform(0, 30, 3)})
+    return pd.DataFrame(rows)
+
+
 #: figure function -> a call with inputs shaped as the library makes them
 CALLS = {
     "fig1_trajectory_and_wind": lambda f: plotting.fig1_trajectory_and_wind(f),
@@ -101,6 +123,12 @@ CALLS = {
     "vehicle_scores": lambda f: plotting.vehicle_scores(beyond.vehicle_table(
         _loops(scenario_id=[1, 2], vehicle=["point mass", "multirotor"]).assign(
             scenario=lambda d: "S" + d["scenario_id"].astype(str)))),
+    "closed_loop_curves": lambda f: plotting.closed_loop_curves(
+        closed_loop.accuracy_over_time(_episodes())),
+    "reliability_diagram": lambda f: plotting.reliability_diagram(
+        closed_loop.reliability(_episodes(), by=("vehicle", "policy"))),
+    "manoeuvre_plot": lambda f: plotting.manoeuvre_plot(
+        closed_loop.manoeuvres(_episodes()), "a", "multirotor"),
 }
 
 

@@ -36,7 +36,8 @@ from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, AttitudeSequence,
                           ThrustSequence, sample_attitude, sample_continuous, sample_paper)
 from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # noqa: E402
                          cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
-from .sim.dynamics import Flight, simulate, simulate_flight  # noqa: E402
+from .sim.dynamics import simulate, simulate_flight  # noqa: E402
+from .sim.flight import Flight  # noqa: E402
 from .sim.multirotor import Multirotor  # noqa: E402
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402

@@ -35,7 +35,7 @@ from .wind import WindModel
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["simulate", "simulate_flight", "Flight", "max_stable_dt"]
+__all__ = ["simulate", "simulate_flight", "max_stable_dt"]  # Flight: uavwind.sim.flight
 
 
 def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):

@@ -141,7 +141,8 @@ def state_size(uav: UAV | Multirotor) -> int:
 @dataclass(frozen=True, eq=False)
 class Rollout:
     """Rows of one vehicle, each in one environment of a :class:`WindTable`, flown forward
-    a segment at a time from their states.
+    a segment at a time from their states. Use :meth:`for_flight` to build one for a
+    flight of ``duration`` seconds.
 
     Parameters
     ----------
@@ -155,8 +156,6 @@ class Rollout:
         number of its control steps.
     n_samples : int
         Samples of the whole flight (``duration / dt``).
-
-    Use :meth:`for_flight` to build one for a flight of ``duration`` seconds.
     """
 
     uav: UAV | Multirotor
