@@ -9,6 +9,7 @@ PROFILE ?= paper
 JOBS    ?= -1
 BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 RUN_FLAGS ?=# extra flags for `make results`, e.g. RUN_FLAGS="--times times.json"
+SCHEDULER ?=# a dask.distributed scheduler address: `make book SCHEDULER=tcp://host:8786` fills the cache on that cluster
 BOOK    ?= book
 GEN     := $(BOOK)/generated
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
@@ -63,7 +64,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # every result the book shows, both readings, in one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under every reading into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
-	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(RUN_FLAGS)
+	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then

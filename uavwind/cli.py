@@ -2,6 +2,7 @@
 
     python -m uavwind list
     python -m uavwind run exp1 exp2 --profile paper --jobs -1
+    python -m uavwind run all --reading all --profile paper --scheduler tcp://host:8786
     python -m uavwind run all --profile quick
     python -m uavwind run all --profile paper --reading all --no-tables   (what make book runs)
 
@@ -88,6 +89,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                      help="only fill the result cache; print no summary tables")
     run.add_argument("--times", default=None, metavar="FILE",
                      help="write the CPU seconds of every computed cache entry to FILE (JSON)")
+    run.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="fill the cache on a dask.distributed cluster (e.g. "
+                          "tcp://host:8786): its workers compute, this process writes "
+                          "every entry (--jobs then applies to the tables only)")
     args = parser.parse_args(argv)
 
     if args.command == "list":
@@ -122,7 +127,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                           readings="all" if args.reading == "all" else args.reading,
-                          progress=not args.no_progress, times=records, stop=stop, **kw)
+                          progress=not args.no_progress, times=records, stop=stop,
+                          scheduler=args.scheduler, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
         if times is not None:

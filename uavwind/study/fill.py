@@ -4,8 +4,14 @@ This module owns how the book's results are computed in one go (``make results``
 ``python -m uavwind run all``): :func:`needed_entries` lists the cache entries
 (:class:`~uavwind.study.runner.Entry`) the experiments need, each once, however many
 experiments and readings share it; :func:`fill_cache` computes the missing ones as one task
-per entry, longest first, over a pool of workers, and records the CPU seconds of each;
-:func:`time_by_experiment` sums those records per experiment and reading.
+per entry, longest first, over a pool of local workers or on a ``dask.distributed``
+cluster (``scheduler=``), and records the CPU seconds of each; :func:`time_by_experiment`
+sums those records per experiment and reading.
+
+Local workers write their entries themselves (the results folder is theirs too). Cluster
+workers only compute: each returns its rows to the client, which verifies and writes every
+entry, so the workers need no shared folder, and an entry whose worker dies is computed
+again elsewhere by the scheduler while the entries already returned stay written.
 
 What an entry holds, where it is cached and how it is verified is
 :mod:`uavwind.study.runner`' (and :mod:`uavwind.study.cache`'s): the rows a fill stores are the
@@ -118,13 +124,68 @@ def _fill_one(entry, pin=True, n_jobs=1):
     return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
 
 
+def _compute_remote(entry):
+    """A cluster task: ``entry``'s rows and the CPU seconds they took, computed on one
+    thread of the worker; nothing is written there (the client stores the rows)."""
+    pin_threads()
+    cpu0 = time.process_time()
+    df = entry.compute(n_jobs=1, progress=False)
+    return df, time.process_time() - cpu0
+
+
+def _check_scheduler(scheduler):
+    """``scheduler``: a ``dask.distributed`` scheduler address (``"tcp://host:8786"``) or a
+    ``Client``; ``(client, owned)`` (``owned``: made here, to be closed here)."""
+    try:
+        from distributed import Client
+    except ImportError as exc:  # pragma: no cover - distributed is pinned in environment.txt
+        raise ValueError("scheduler needs dask.distributed (pip install distributed)") from exc
+    if isinstance(scheduler, Client):
+        return scheduler, False
+    if not isinstance(scheduler, str):
+        raise TypeError(f"scheduler must be a dask.distributed address (str, e.g. "
+                        f"'tcp://host:8786') or a Client, got {type(scheduler).__name__}")
+    if not scheduler.strip() or any(c.isspace() for c in scheduler):
+        raise ValueError(f"scheduler must be an address such as 'tcp://host:8786', got "
+                         f"{scheduler!r}")
+    try:  # waits up to dask's connect timeout (distributed.comm.timeouts.connect)
+        return Client(scheduler), True
+    except (OSError, TimeoutError) as exc:
+        raise ValueError(f"scheduler: cannot reach a dask scheduler at {scheduler!r} "
+                         f"({type(exc).__name__}: {exc})") from None
+
+
+def _on_cluster(missing, client):
+    """Yield ``(path, rows, from_cache, CPU seconds)`` as the cluster returns each entry,
+    stored here by :meth:`Entry.store <uavwind.study.runner.Entry.store>`. The scheduler
+    runs the costliest first (``priority``) and computes again a task whose worker died;
+    on leaving early (an interrupt, an error) the remaining tasks are cancelled."""
+    from distributed import as_completed
+
+    futures = {}
+    for e in missing:
+        fut = client.submit(_compute_remote, e, key=f"uavwind-fill-{e.path.stem}",
+                            priority=int(min(e.cost, 2 ** 62)), pure=False)
+        futures[fut] = e
+    try:
+        for fut in as_completed(list(futures)):
+            df, cpu = fut.result()
+            e = futures.pop(fut)
+            back, hit = e.store(df)
+            fut.release()
+            yield e.path, len(back), hit, cpu
+    finally:
+        if futures:
+            client.cancel(list(futures), force=True)
+
+
 def fill_cache(exp_ids: str | Iterable[str] = "all",
                profile: str | Profile | Mapping[str, Any] = "quick", seed: int = DEFAULT_SEED,
                n_jobs: int | None = None, engine: str | None = None,
                results: os.PathLike | str | None = None,
                readings: str | Iterable[str | Reading] | None = None, progress: bool = True,
                times: list[dict] | None = None, stop: threading.Event | None = None,
-               **params: float | str) -> dict:
+               scheduler: Any = None, **params: float | str) -> dict:
     """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
@@ -142,7 +203,7 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
     profile, seed, engine, results, **params
         As :func:`~uavwind.study.runner.run_experiment`.
     n_jobs : int, optional
-        Worker processes (-1/None = all cores).
+        Local worker processes (-1/None = all cores); unused with ``scheduler``.
     readings : "all", str or list of str, optional
         Readings (:data:`~uavwind.study.readings.READINGS`); default :data:`~uavwind.study.readings.DEFAULT_READING`.
     progress : bool
@@ -154,6 +215,11 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         Checked between entries: once set, the workers stop and ``KeyboardInterrupt`` is
         raised, every finished entry on disk and recorded (the command line sets it on
         SIGINT or SIGTERM, so an interrupt never lands inside a kernel).
+    scheduler : str or distributed.Client, optional
+        Fill on a ``dask.distributed`` cluster instead of local workers: the address of its
+        scheduler (``"tcp://host:8786"``) or a ``Client``. Each worker computes one entry at
+        a time per thread and returns its rows; this process verifies and writes them (the
+        workers need no access to ``results``). The rows equal a local fill's, bit for bit.
 
     Returns
     -------
@@ -166,9 +232,21 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         ``n_env``, ``rows`` and ``cpu_seconds`` (of the processes that computed it).
         :func:`time_by_experiment` sums them.
     """
+    n_jobs = check_jobs(n_jobs)
+    client, owned = (None, False) if scheduler is None else _check_scheduler(scheduler)
+    try:
+        return _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress,
+                     times, stop, client, **params)
+    finally:
+        if owned:
+            client.close()
+
+
+def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, times, stop,
+          client, **params):
+    """:func:`fill_cache` once its pool is chosen (``client``: a cluster, or ``None``)."""
     from joblib import Parallel, delayed, effective_n_jobs
 
-    n_jobs = check_jobs(n_jobs)
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
     missing = sorted((e for e in unique if not e.present()),
@@ -186,7 +264,9 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
                    file=sys.stderr)
     try:
-        if effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
+        if client is not None:
+            done = _on_cluster(missing, client)
+        elif effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
             # in this process; a lone entry still gets every worker
             done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
         else:
@@ -213,9 +293,12 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
             if stop is not None and stop.is_set():
                 raise KeyboardInterrupt
     except BaseException:  # interrupted or failed: finished entries are on disk
-        stop_workers()
+        if client is None:
+            stop_workers()
         raise
     finally:
+        if client is not None:
+            done.close()  # cancels the cluster tasks still pending
         if bar is not None:
             bar.close()
     return out

@@ -191,9 +191,22 @@ class Entry:
     def fill(self, n_jobs: int | None = None,
              progress: bool = False) -> tuple[pd.DataFrame, bool]:
         """``(rows, from_cache)``: the verified cached rows, or computed and stored."""
-        meta = {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
+        return cached(self.path, lambda: self.compute(n_jobs, progress), self._meta,
+                      self._expected)
+
+    def store(self, rows: pd.DataFrame) -> tuple[pd.DataFrame, bool]:
+        """``(rows, from_cache)``: ``rows`` computed elsewhere (by :meth:`compute`, on a
+        cluster worker), verified and written as :meth:`fill` writes them; if a trusted copy
+        appeared meanwhile, that copy, and ``rows`` are dropped."""
+        if not isinstance(rows, pd.DataFrame):
+            raise TypeError(f"rows must be a pandas DataFrame, got {type(rows).__name__}")
+        return cached(self.path, lambda: rows.copy(), self._meta, self._expected)
+
+    @property
+    def _meta(self):
+        """The provenance columns every stored row carries."""
+        return {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
-        return cached(self.path, lambda: self.compute(n_jobs, progress), meta, self._expected)
 
     def present(self) -> bool:
         """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""

@@ -1,0 +1,148 @@
+"""The fill on a dask.distributed cluster: the workers compute, the client writes.
+
+A ``LocalCluster`` of worker processes, each with its own working folder and forbidden to
+write cache entries, fills the cache: the rows equal a local fill's bit for bit, an
+interrupted fill resumes, and a worker killed in the middle of a task loses nothing.
+"""
+import os
+import signal
+import threading
+import time
+
+import pytest
+from test_fill import TINY, _exact
+
+from uavwind import study as ex
+from uavwind.study import fill
+
+distributed = pytest.importorskip("distributed")
+
+IDS = ["exp5", "exp6"]
+
+
+def _forbid_writes():
+    """Run on every worker: any attempt to write a cache entry there fails its task."""
+    from uavwind.study import cache
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a cluster worker tried to write a cache entry")
+    cache.atomic_write = refuse
+    return os.getcwd()
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    work = tmp_path_factory.mktemp("workers")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, local_directory=str(work),
+                                  env={"UAVWIND_RESULTS": str(work / "nowhere")}) as cluster, \
+            distributed.Client(cluster) as c:
+        c.register_worker_callbacks(_forbid_writes)  # also on a restarted worker
+        yield c
+    assert not (work / "nowhere").exists()
+
+
+def _rows(folder, reading):
+    return {eid: _exact(ex.run_experiment(eid, profile=TINY, results=folder, n_jobs=1,
+                                          progress=False, reading=reading))
+            for eid in IDS}
+
+
+def _entries(folder):
+    return sorted(p.relative_to(folder) for p in folder.rglob("*.parquet"))
+
+
+def test_a_cluster_fill_stores_what_a_local_fill_stores(tmp_path, client):
+    done = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "cluster", readings="all",
+                           progress=False, scheduler=client)
+    assert done["computed"] == done["entries"] > 0 and done["cached"] == 0
+    assert all(t["cpu_seconds"] > 0 for t in done["times"])   # timed on the workers
+    assert sum(t["rows"] for t in done["times"]) == done["rows_computed"]
+    local = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "local", readings="all",
+                            progress=False, n_jobs=1)
+    assert _entries(tmp_path / "cluster") == _entries(tmp_path / "local")
+    assert local["rows_computed"] == done["rows_computed"]
+    for reading in ("inferred", "halves"):
+        assert _rows(tmp_path / "cluster", reading) == _rows(tmp_path / "local", reading)
+    again = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "cluster", readings="all",
+                            progress=False, scheduler=client)
+    assert again["cached"] == again["entries"] and again["computed"] == 0
+
+
+def test_an_interrupted_cluster_fill_resumes(tmp_path, client):
+    stop = threading.Event()
+    stop.set()  # checked after each stored entry: stop after the first
+    with pytest.raises(KeyboardInterrupt):
+        fill.fill_cache(IDS, profile=TINY, results=tmp_path, readings="all", progress=False,
+                        scheduler=client, stop=stop)
+    kept = _entries(tmp_path)
+    total = len(fill.needed_entries(IDS, TINY, "all", results=tmp_path))
+    assert 1 <= len(kept) < total
+    deadline = time.monotonic() + 30  # the rest were cancelled, not left running
+    while any(client.processing().values()) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(client.processing().values())
+    done = fill.fill_cache(IDS, profile=TINY, results=tmp_path, readings="all",
+                           progress=False, scheduler=client)
+    assert done["cached"] == len(kept) and done["computed"] == total - len(kept)
+    alone = tmp_path / "alone"
+    fill.fill_cache(IDS, profile=TINY, results=alone, readings="all", progress=False, n_jobs=1)
+    assert _rows(tmp_path, "inferred") == _rows(alone, "inferred")
+
+
+def test_a_worker_killed_mid_task_loses_nothing(tmp_path, client):
+    prof = {**TINY, "loops": 8, "cem": {"n_samples": 6, "n_elite": 2, "max_iter": 3}}
+    result, errors = {}, []
+
+    def run():
+        try:
+            result.update(fill.fill_cache(IDS, profile=prof, results=tmp_path,
+                                          readings="all", progress=False, scheduler=client))
+        except BaseException as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+    th = threading.Thread(target=run)
+    th.start()
+    deadline = time.monotonic() + 120
+    while not _entries(tmp_path) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    first = _entries(tmp_path)
+    assert first, "no entry was stored within 120 s"
+    stamp = {p: os.stat(tmp_path / p).st_mtime_ns for p in first}
+    busy = {w: keys for w, keys in client.processing().items() if keys}
+    pids = client.run(os.getpid)
+    victim = next(iter(busy), None)
+    if victim is not None:  # the fill may already have finished on a fast machine
+        os.kill(pids[victim], signal.SIGKILL)
+    th.join(300)
+    assert not th.is_alive() and not errors, errors
+    total = len(fill.needed_entries(IDS, prof, "all", results=tmp_path))
+    assert len(_entries(tmp_path)) == total == result["entries"]
+    assert result["computed"] == total  # each entry stored once: none lost, none redone
+    assert {p: os.stat(tmp_path / p).st_mtime_ns for p in first} == stamp
+    alone = tmp_path / "alone"
+    fill.fill_cache(IDS, profile=prof, results=alone, readings="all", progress=False, n_jobs=1)
+    for reading in ("inferred", "halves"):
+        assert {e: _exact(ex.run_experiment(e, profile=prof, results=tmp_path, n_jobs=1,
+                                            progress=False, reading=reading)) for e in IDS} == \
+            {e: _exact(ex.run_experiment(e, profile=prof, results=alone, n_jobs=1,
+                                         progress=False, reading=reading)) for e in IDS}
+
+
+@pytest.mark.parametrize("scheduler, error, word", [
+    (42, TypeError, "scheduler"), ("tcp://host 8786", ValueError, "scheduler"),
+    ("", ValueError, "scheduler")])
+def test_a_bad_scheduler_is_refused_before_any_work(tmp_path, scheduler, error, word):
+    with pytest.raises(error, match=word):
+        fill.fill_cache(IDS, profile=TINY, results=tmp_path / "r", progress=False,
+                        scheduler=scheduler)
+    assert not (tmp_path / "r").exists()
+
+
+def test_an_unreachable_scheduler_is_a_value_error(tmp_path):
+    import dask
+
+    with dask.config.set({"distributed.comm.timeouts.connect": "1s"}):
+        with pytest.raises(ValueError, match="cannot reach a dask scheduler"):
+            fill.fill_cache(IDS, profile=TINY, results=tmp_path / "r", progress=False,
+                            scheduler="tcp://127.0.0.1:9")
+    assert not (tmp_path / "r").exists()
