@@ -61,9 +61,9 @@ test: $(STAMP)  ## run the test suite
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section
 	$(BIN)/python benchmarks/bench.py
 
-# every result the book shows, both readings, in one pool of workers, longest task first;
+# every result the book shows, under the readings its pages show, in one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
-results: $(STAMP)  ## run every experiment under every reading into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
+results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then

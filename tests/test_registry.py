@@ -38,6 +38,35 @@ def test_the_claims_page_reads_the_experiments_the_claims_need():
     assert "needed_experiments()" in page and not re.search(r'"exp\d"', page)
 
 
+def _pages_reading(reading):
+    """Experiments a notebook runs under ``reading`` by name (``reading="halves"``)."""
+    out = set()
+    for nb in (ROOT / "notebooks").glob("*.md"):
+        for m in re.finditer(r'run_experiment\("(\w+)"[^)]*reading="' + reading + '"',
+                             nb.read_text()):
+            out.add(m.group(1))
+    return out
+
+
+def test_the_fill_computes_a_reading_only_where_the_book_shows_it():
+    """The book's pages read every experiment under the inferred reading; the halves
+    reading (the ablation) only where the claims page (both readings of what the claims
+    need), Exp 1's page or an experiment of its own (Exp 12) shows it. An experiment whose
+    halves entries the book never reads may keep the halves reading only if those entries
+    are its inferred ones (nothing is computed for it)."""
+    from uavwind.study.fill import needed_entries
+
+    shown = set(needed_experiments()) | _pages_reading("halves") | {
+        e.id for e in EXPERIMENTS.values() if e.readings == ("halves",)}
+    assert {"exp1", "exp12"} <= shown
+    for exp in EXPERIMENTS.values():
+        if "halves" not in exp.readings or exp.id in shown:
+            continue
+        inferred = {e.path for e in needed_entries(exp.id, "quick", "inferred")}
+        halves = {e.path for e in needed_entries(exp.id, "quick", "halves")}
+        assert halves == inferred, f"{exp.id}: halves entries no page reads"
+
+
 def test_every_label_column_has_one_display_name_from_the_registry():
     names = column_names()
     assert set(names) <= set(label_columns())

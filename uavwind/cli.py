@@ -83,7 +83,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     run.add_argument("--engine", default=None, choices=sorted(ENGINES),
                      help="clustering engine (default: fast)")
     run.add_argument("--reading", default=None, choices=sorted(READINGS) + ["all"],
-                     help="reading of the paper (default: inferred; all: every reading)")
+                     help="reading of the paper (default: inferred; all: each experiment "
+                          "under the readings its pages show)")
     run.add_argument("--no-progress", action="store_true")
     run.add_argument("--no-tables", action="store_true",
                      help="only fill the result cache; print no summary tables")

@@ -54,7 +54,8 @@ def needed_entries(exp_ids: str | Iterable[str] = "all",
                    results: os.PathLike | str | None = None,
                    **params: float | str) -> list[Entry]:
     """The cache entries ``exp_ids`` need under ``readings`` (default
-    :data:`~uavwind.study.readings.DEFAULT_READING`; ``"all"``: every reading), each once: a setting that two
+    :data:`~uavwind.study.readings.DEFAULT_READING`; ``"all"``: each experiment under the
+    readings the book shows it under, its ``readings``), each once: a setting that two
     experiments or two readings share is one entry. Computes nothing. The arguments are
     :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
     return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))

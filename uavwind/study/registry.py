@@ -442,7 +442,8 @@ EXPERIMENTS = {e.id: e for e in [
         question="Does CEM find a signal when its elites are ranked by the raw silhouette "
                  "instead of the floored score?",
         paper_table="Figure 9 (alternative objective)", search="cem", build=_exp6,
-        tables_as="exp6", search_options={"rank_by": "silhouette"}, summary="cem"),
+        tables_as="exp6", search_options={"rank_by": "silhouette"}, summary="cem",
+        readings=("inferred",)),  # the book shows it under the paper reading only
     Experiment(
         id="exp7", title="Position noise", notebook="exp7_noise.md",
         question="How much GNSS-like position noise can the method take (the paper's "
@@ -454,13 +455,15 @@ EXPERIMENTS = {e.id: e for e in [
         id="exp8", title="What to observe", notebook="exp8_observation.md",
         question="Which observation separates which wind conditions: position, velocity, "
                  "acceleration or position and velocity?",
-        paper_table="beyond the paper", build=_exp8, group_by=("scenario", "observation", "noise")),
+        paper_table="beyond the paper", build=_exp8, group_by=("scenario", "observation", "noise"),
+        readings=("inferred",)),  # its page reads the paper reading; no claim reads it
     Experiment(
         id="exp9", title="A physics baseline", notebook="exp9_baseline.md",
         question="What does a model-based wind estimate from the same positions achieve, "
                  "beside causal curiosity?",
         paper_table="beyond the paper", build=_exp7, summary="baseline",
-        group_by=("scenario", "noise_sigma", "noise_bias")),
+        group_by=("scenario", "noise_sigma", "noise_bias"),
+        readings=("inferred",)),  # its page reads the paper reading; no claim reads it
     Experiment(
         id="exp10", title="On a multirotor", notebook="exp10_multirotor.md",
         question="Does trajectory-only wind identification work on RotorPy's quadrotor, from "
