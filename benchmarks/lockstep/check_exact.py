@@ -2,7 +2,7 @@
 of uavwind's) and vs tslearn 0.10.  Value: lockW (R=4).  Value+gradient: lockG (forward,
 backward E, lockstep Jacobian).  Also counts how often the rare exp/log paths were hit in
 cells/factors whose result is used, so the crafted sets are known to exercise them."""
-import os, sys, time
+import time
 import numpy as np
 from scipy.spatial.distance import cdist
 import tslearn.metrics as tm

@@ -1,7 +1,7 @@
 import time, numpy as np
 t0 = time.time()
 import lockW, lockG
-from lockV import N, to_lanes
+from lockV import N
 t1 = time.time()
 gv, b, _, _ = lockW.make(4)
 XG = np.zeros((1, 120 * 3 * N)); out = np.empty((1, N))

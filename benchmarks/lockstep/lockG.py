@@ -16,13 +16,13 @@ Lanes = N series X_l against one centre Z (tslearn _softdtw_func(Z, X_l, 1, gamm
 """
 import numpy as np
 from numba import njit
-from vec import (N, vload, vstore, vmax, vmin, vsub, vadd, vmul, vdiv, vlt, veq, mnot, mor,
-                 mand, many, splat, lane, sel, vfma)
+from vec import (N, vload, vstore, vmax, vmin, vsub, vadd, vmul, vlt, veq, mnot, mor,
+                 many, splat, lane, sel, vfma)
 from vmath import vexp
 from vmath2 import vexp2
 from lockV import FAST
 from lockV import _cellv, cost_rows3, to_lanes, NEG
-from uavwind.method.softdtw._kernels import _is_pow2, _jacobian_product_sq_euc
+from uavwind.method.softdtw._kernels import _jacobian_product_sq_euc
 
 _TEMPLATE = '''
 def forward(x, y, m, n, d, gamma, sqrtsq, S, D, Rf):

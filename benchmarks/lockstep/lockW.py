@@ -12,8 +12,7 @@ import numpy as np
 from numba import njit
 from vec import (N, vload, vstore, vmax, vmin, vsub, vadd, vmul, vdiv, vlt, mnot, mor,
                  many, splat, lane)
-from lockV import _cellv, cost_rows, cost_rows3, to_lanes, NEG
-from uavwind.method.softdtw._kernels import _is_pow2
+from lockV import _cellv, cost_rows, cost_rows3, NEG
 
 _TEMPLATE = '''
 def group_value(x, y, m, n, d, gamma, sqrtsq, S, D, out, stats):
@@ -80,8 +79,7 @@ def _gen(R):
         st.append(f"                    m{r} = vmax({a}, {b})")
         st.append(f"                    x{r} = vmax(m{r}, {c})")
         st.append(f"                    q{r} = vmax(vmin({a}, {b}), vmin(m{r}, {c}))")
-    cond = " , ".join(f"mnot(vlt(vsub(q{r}, x{r}), NEG))" for r in range(R))
-    acc = f"mnot(vlt(vsub(q0, x0), NEG))"
+    acc = "mnot(vlt(vsub(q0, x0), NEG))"
     for r in range(1, R):
         acc = f"mor({acc}, mnot(vlt(vsub(q{r}, x{r}), NEG)))"
     st.append(f"                    if many({acc}):")

@@ -9,8 +9,7 @@ import os
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.core.extending import intrinsic, register_model, models, typeof_impl
-from numba.core.datamodel import models as dm
+from numba.core.extending import intrinsic, register_model, models
 
 N = int(os.environ.get("VECN", "8"))
 

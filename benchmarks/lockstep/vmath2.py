@@ -3,8 +3,8 @@ about needs them (branch on "any lane"), table pairs fetched with one 16-byte lo
 lane.  `care` = lanes whose result is used; other lanes may get garbage (callers select)."""
 import numpy as np
 from numba import njit
-from vec import (N, vadd, vsub, vmul, vfma, vlt, veq, sel, f2u, u2f, i2f_i32, iadd, isub,
-                 iand, ishl, ilshr, iashr, iult, iuge, iugt, ieq, ine, mand, mor, mnot, many,
+from vec import (N, vadd, vsub, vmul, vfma, vlt, sel, f2u, u2f, i2f_i32, iadd, isub,
+                 iand, ishl, ilshr, iashr, iult, iuge, iugt, ieq, mand, mnot, many,
                  gather2, vload, vstore, mtrue)
 from vmath import vexp, vlog
 from uavwind.method.softdtw._libm import (_EXP_TAB, _LOG_TAB, _E_INVLN2N, _E_NEGLN2HIN, _E_NEGLN2LON, _E_C2,

@@ -36,7 +36,7 @@ from ..core.io import atomic_write
 from ..core.parallel import check_jobs, pin_threads
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..method.baseline import two_means
-from ..sim.actions import ThrustSequence
+from ..sim.actions import ThrustSequence, sample_attitude
 from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import Multirotor
 from ..sim.observation import rotorpy_imu_noise
@@ -92,8 +92,6 @@ def calibrate_drag(vehicle: Multirotor, seed: int = 0, duration: float = 12.0) -
     """The drag coefficients ``(c_Dx, c_Dy, c_Dz)`` [N/(m/s)^2] a user would give the filters:
     fitted on a calibration flight in still air (attitude actions drawn from ``seed``), per
     body axis, by least squares of ``a_b - T/m e_z = -(c/m) |v_b| v_b``."""
-    from ..sim.actions import sample_attitude
-
     check_instance(vehicle, "vehicle", Multirotor)
     action = sample_attitude(child_rng(root_seed(seed), 0),
                              n_changes=max(int(math.ceil(duration)) - 1, 0), duration=duration,

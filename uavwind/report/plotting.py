@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..analysis.closed_loop import POLICY_NAMES
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.dryden import dryden_psd
@@ -533,9 +534,8 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
     """Exp 12: ``value`` (``"accuracy"`` or ``"log_loss"``) against flight time, one panel
     per scenario (rows) and vehicle (columns), one line per policy with its 95% interval
     (``curves``: :func:`uavwind.analysis.closed_loop.accuracy_over_time`)."""
-    from ..analysis.closed_loop import POLICY_NAMES
-
     plt = _plt()
+    scale = 100 if value == "accuracy" else 1
     scen = list(dict.fromkeys(curves["scenario"]))
     veh = list(dict.fromkeys(curves["vehicle"]))
     fig, axes = plt.subplots(len(scen), len(veh), squeeze=False, sharex=True, sharey=True,
@@ -547,7 +547,6 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             sub = curves[(curves["scenario"] == s) & (curves["vehicle"] == v)]
             for pol, d in sub.groupby("policy", sort=False):
                 colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-                scale = 100 if value == "accuracy" else 1
                 ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4,
                         label=POLICY_NAMES.get(pol, pol))
                 ax.fill_between(d["time"], d[f"{value}_low"] * scale,
@@ -569,8 +568,6 @@ def reliability_diagram(table) -> Figure:
     environments, one panel per vehicle, one line per policy, the counts as bars
     (``table``: :func:`uavwind.analysis.closed_loop.reliability` with
     ``by=("vehicle", "policy")``)."""
-    from ..analysis.closed_loop import POLICY_NAMES
-
     plt = _plt()
     veh = list(dict.fromkeys(table["vehicle"]))
     fig, axes = plt.subplots(1, len(veh), squeeze=False, figsize=(4.6 * len(veh), 4.2),
@@ -600,8 +597,6 @@ def reliability_diagram(table) -> Figure:
 def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
     """Exp 12: the mean thrust [N] along x, y and z each policy flew, segment by segment,
     for one scenario and vehicle (``table``: :func:`uavwind.analysis.closed_loop.manoeuvres`)."""
-    from ..analysis.closed_loop import POLICY_NAMES
-
     plt = _plt()
     sub = table[(table["scenario"] == scenario) & (table["vehicle"] == vehicle)]
     pols = list(dict.fromkeys(sub["policy"]))
