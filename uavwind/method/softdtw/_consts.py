@@ -2,7 +2,9 @@
 
 Switches (environment variables, read once at import): ``UAVWIND_SOFTDTW_PARALLEL=0`` runs the
 batched kernels serially, ``UAVWIND_SOFTDTW_GLIBC_REPLICA=0`` calls libm instead of the inlined
-exp/log replicas, ``UAVWIND_SOFTDTW_LIMIT_BLAS=0`` leaves scipy's BLAS threads alone. The names
+exp/log replicas, ``UAVWIND_SOFTDTW_LIMIT_BLAS=0`` leaves scipy's BLAS threads alone,
+``UAVWIND_SOFTDTW_LOCKSTEP=0`` computes soft-DTW values one pair at a time (the scalar
+reference) instead of N pairs per vector (the lockstep kernel; same doubles). The names
 of 0.1 (``FASTKMEANS_PARALLEL``, ...) still work, with a ``DeprecationWarning``.
 """
 
@@ -30,6 +32,10 @@ def env_flag(name, default=True):
 # Python threads: numba's default "workqueue" threading layer is not
 # thread-safe).
 PARALLEL = env_flag("PARALLEL")
+
+# Soft-DTW values (the assignment step) N pairs per SIMD vector; the scalar kernel with
+# UAVWIND_SOFTDTW_LOCKSTEP=0.  Both give the same doubles (tests/test_lockstep.py).
+LOCKSTEP = env_flag("LOCKSTEP")
 
 _INF = np.inf
 # exp(x) == 0.0 exactly (round-to-nearest) for every x < -745.14; we use a

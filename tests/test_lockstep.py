@@ -1,0 +1,213 @@
+"""The lockstep kernels (N pairs per SIMD vector) against tslearn and the scalar kernels, with
+``==``: on loops of every Table 2 scenario, both readings and both vehicles, and on crafted
+inputs that force every rare path of the vector exp/log (the lane masks)."""
+import numpy as np
+import pytest
+from numba import njit
+from tslearn.barycenters.softdtw import _softdtw_func
+from tslearn.metrics import cdist_soft_dtw
+
+import uavwind as uw
+from uavwind.method import softdtw as fk
+from uavwind.method.clustering import score_loop
+from uavwind.method.softdtw import _consts, _dispatch
+from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
+                                             _sdtw_forward)
+from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
+from uavwind.method.softdtw._lockstep import (N, _objgrad_lockstep, _objgrad_lockstep_par,
+                                              _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
+from uavwind.method.softdtw._simd import vload, vlt, vstore
+from uavwind.method.softdtw._vlibm import vexp, vexp_care, vlog, vlog_care
+from uavwind.study.conditions import PAPER_SCENARIOS
+
+pytestmark = pytest.mark.skipif(not _libm_selfcheck(),
+                                reason="the glibc replicas (and so the lockstep kernel) are off")
+
+
+def _same(a, b):
+    """Bit-identical doubles (NaN payloads aside)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    return a.shape == b.shape and bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
+
+
+def _check_kernels(X, centres, gamma, tslearn=True):
+    """Values and barycentre objective/gradient: lockstep (serial and threaded) == scalar (==
+    tslearn when asked)."""
+    X = np.ascontiguousarray(X, dtype=float)
+    centres = np.ascontiguousarray(centres, dtype=float)
+    lock = np.empty((len(X), len(centres)))
+    lock2 = np.empty_like(lock)
+    scal = np.empty_like(lock)
+    _sdtw_cross_lockstep(X, centres, gamma, lock)
+    _sdtw_cross_lockstep_par(X, centres, gamma, 2, lock2)
+    _sdtw_cross_serial(X, centres, gamma, True, scal)
+    assert _same(lock, scal) and _same(lock2, scal)
+    if tslearn:
+        assert _same(lock, cdist_soft_dtw(X, centres, gamma=gamma))
+    for Z in centres:
+        v, G = _objgrad_lockstep(Z, X, gamma)
+        v2, G2 = _objgrad_lockstep_par(Z, X, gamma, 2)
+        rv, rG = _objgrad_batch_serial(Z, X, gamma, True)
+        assert v == rv and v2 == rv and _same(G, rG) and _same(G2, rG)
+    if tslearn:  # per series, tslearn's own value and gradient (a cluster of one)
+        for s in range(min(3, len(X))):
+            v, G = _objgrad_lockstep(centres[0], X[s:s + 1], gamma)
+            tv, tG = _softdtw_func(centres[0], X[s], 1.0, gamma, 0, None, None)
+            assert v == tv and _same(G.ravel(), np.ravel(tG))
+
+
+def _loop(scenario, reading, seed, n_per_group=5, vehicle="point mass"):
+    a, b = PAPER_SCENARIOS[scenario]
+    kwargs = dict(uw.get_reading(reading).builder_kwargs)
+    if vehicle == "multirotor":
+        kwargs.update(uav=uw.Multirotor(), observation="attitude")
+    s = uw.make_setting(a, b, n_per_group, **kwargs)
+    thrust = s.sample_thrust(np.random.default_rng(seed))
+    if s.plain and vehicle == "point mass":
+        return s.simulate(thrust, seed=seed), s.groups
+    return np.asarray(s.observe(thrust, seed=seed)[0]), s.groups
+
+
+@pytest.mark.parametrize("reading", ["inferred", "halves"])
+@pytest.mark.parametrize("scenario", sorted(PAPER_SCENARIOS))
+def test_lockstep_loops_equal_tslearn_on_every_scenario(scenario, reading):
+    """A whole loop through the engine (lockstep by default) == tslearn's loop, and its
+    kernels == tslearn's and the scalar kernels' on the loop's series and centres."""
+    X, g = _loop(scenario, reading, seed=100 + scenario)
+    assert _dispatch._use_lockstep(True)
+    fast = score_loop(X, g, engine="fast")
+    ref = score_loop(X, g, engine="tslearn")
+    assert np.array_equal(fast.labels, ref.labels) and fast.n_iter == ref.n_iter
+    assert fast.score == ref.score
+    assert fast.silhouette == ref.silhouette or (np.isnan(fast.silhouette)
+                                                 and np.isnan(ref.silhouette))
+    km = fk.SoftDTWKMeans(n_clusters=2, gamma=0.5, random_state=0, parallel=False).fit(X)
+    _check_kernels(X, km.cluster_centers_, 0.5)
+
+
+@pytest.mark.parametrize("scenario", [1, 4, 7])
+def test_lockstep_equals_tslearn_on_the_multirotor_with_six_features(scenario):
+    """RotorPy's quadrotor observed through its attitude (6 features, not 3): the general
+    cost loop, not the 3-feature one."""
+    X, g = _loop(scenario, "inferred", seed=7, n_per_group=3, vehicle="multirotor")
+    assert X.shape[2] == 6
+    km = fk.SoftDTWKMeans(n_clusters=2, gamma=0.5, random_state=0, parallel=False,
+                          max_iter=5).fit(X)
+    _check_kernels(X, km.cluster_centers_, 0.5)
+
+
+@pytest.mark.parametrize("gamma", [0.5, 1.0, 0.1, 2.0, 0.3])
+def test_lockstep_equals_the_scalar_kernel_on_odd_shapes_and_gammas(gamma):
+    """Lengths shorter than a block, unequal lengths, pair counts that leave lanes idle, 1-6
+    features, gamma a power of two (product with the reciprocal) or not (division)."""
+    rng = np.random.default_rng(int(gamma * 10))
+    for na, nb, m, n, d in [(7, 3, 50, 40, 3), (5, 2, 3, 7, 1), (1, 1, 1, 1, 2),
+                            (3, 3, 4, 4, 3), (6, 2, 5, 9, 3), (2, 5, 13, 2, 4), (9, 2, 30, 30, 6)]:
+        for scale in (1.0, 1e-3, 30.0):
+            A = rng.normal(size=(na, m, d)).cumsum(1) * scale
+            B = rng.normal(size=(nb, n, d)).cumsum(1) * scale
+            _check_kernels(A, B, gamma, tslearn=False)
+            if m == n:  # the objective needs Z and X of one length only per call
+                _check_kernels(B, A[:2], gamma, tslearn=False)
+
+
+def _walk(rng, n, scale, T=120, d=3):
+    v = np.cumsum(rng.normal(size=(n, T, d)), axis=1)
+    v = v / np.maximum(np.abs(v).max(axis=1, keepdims=True), 1e-300)
+    return scale * v + scale * 0.2 * rng.normal(size=(n, 1, d))
+
+
+def _rare_paths(x, y, gamma=0.5):
+    """How often the cells whose exp/log results are used (the non-trivial cells of the
+    scalar kernel) reach each rare path of glibc's exp and log."""
+    m, n = len(x), len(y)
+    S = np.empty((m, n))
+    _sdtw_forward(x, y, gamma, False, True, np.empty((x.shape[1], n)), np.empty((m, n)),
+                  np.empty((m, n)), S)
+    a, b, c = S[:-1, 1:], S[1:, :-1], S[:-1, :-1]
+    mx = np.maximum(np.maximum(a, b), c)
+    second = np.maximum(np.minimum(a, b), np.minimum(np.maximum(a, b), c))
+    used = ~(second - mx < -38.0)
+    args = np.stack([a - mx, b - mx, c - mx])[:, used]
+    with np.errstate(all="ignore"):
+        e = np.exp(args)
+    tmp = e.sum(axis=0)
+    return dict(exp_special=int(((np.abs(args) >= 512) & (args >= -746)).sum()),
+                exp_subnormal=int(((e > 0) & (e < 2.2250738585072014e-308)).sum()),
+                exp_below_746=int((args < -746).sum()),
+                log_near_1=int(((tmp >= 0.9375) & (tmp < 1.0644) & (tmp != 1.0)).sum()),
+                log_of_1=int((tmp == 1.0).sum()))
+
+
+def test_lockstep_is_exact_where_the_rare_exp_and_log_paths_are_taken():
+    """Small-scale and near-identical series put the used exp arguments into glibc's special
+    case (subnormal results), below -746 (exactly 0), and the log's argument into its near-1
+    polynomial and exactly 1; every path is hit, and every lane still equals the scalar
+    kernel and tslearn."""
+    rng = np.random.default_rng(2024)
+    sets = [(_walk(rng, 8, s), _walk(rng, 2, s)) for s in (0.3, 3.0, 10.0, 30.0)]
+    b = _walk(rng, 8, 5.0)
+    sets.append((np.where(rng.random((8, 1, 1)) < 0.5, b, b + 1e-9), b[:2]))
+    a = _walk(rng, 8, 1.0)
+    sets.append((a * 1e-160, (a[:2] + 0.01 * rng.normal(size=a[:2].shape)) * 1e-160))
+    hits = dict.fromkeys(_rare_paths(sets[0][0][0], sets[0][1][0]), 0)
+    for X, C in sets:
+        _check_kernels(X, C, 0.5)
+        for x in X:
+            for k, v in _rare_paths(x, C[0]).items():
+                hits[k] += v
+    assert all(v > 0 for v in hits.values()), hits
+
+
+@njit
+def _apply(x, care, full_e, full_l, care_e, care_l):
+    """Every path (vexp, vlog) and the cared-for paths (vexp_care, vlog_care) over x, N lanes
+    at a time; care > 0.5 marks a cared-for lane."""
+    for q in range(0, x.shape[0] - N + 1, N):
+        v = vload(x, q)
+        mask = vlt(0.5, vload(care, q))
+        vstore(full_e, q, vexp(v))
+        vstore(full_l, q, vlog(v))
+        vstore(care_e, q, vexp_care(v, mask))
+        vstore(care_l, q, vlog_care(v, mask))
+
+
+def test_vector_exp_and_log_equal_the_scalar_replica_on_every_path():
+    """vexp/vlog (every path, selected) and vexp_care/vlog_care (the rare paths only when a
+    cared-for lane needs them) == glibc's replicas bit for bit on the cared-for lanes:
+    subnormal and underflowing exp, |x| < 2**-54, overflow, the near-1 and subnormal log,
+    zero, negative, inf and NaN, mixed in one vector with ordinary lanes."""
+    rng = np.random.default_rng(5)
+    special = [0.0, -0.0, 1e-300, -1e-300, 2.0 ** -60, -745.0, -745.2, -746.5, -800.0, -708.5,
+               -720.0, 709.0, 709.8, 710.0, np.inf, -np.inf, np.nan, 1.0, 1.0 + 2.0 ** -52,
+               1.0 - 2.0 ** -53, 0.95, 1.05, 5e-324, 2.2e-308, -1.0, 1e308, 0.5, 3.0]
+    x = np.concatenate([np.repeat(special, 3), rng.uniform(-760, 10, 4000),
+                        rng.uniform(0.93, 1.07, 4000), 10.0 ** rng.uniform(-320, 300, 4000)])
+    rng.shuffle(x)
+    x = x[: len(x) // N * N]
+    care = rng.random(len(x)) < 0.7
+    ref_e = np.array([_exp_glibc(v) for v in x])
+    with np.errstate(all="ignore"):
+        ref_l = np.array([_log_glibc(v) for v in x])
+    full_e, full_l, care_e, care_l = (np.empty_like(x) for _ in range(4))
+    _apply(x, care.astype(np.float64), full_e, full_l, care_e, care_l)
+    assert _same(full_e, ref_e) and _same(full_l, ref_l)
+    assert _same(care_e[care], ref_e[care]) and _same(care_l[care], ref_l[care])
+
+
+def test_the_scalar_reference_stays_selectable(monkeypatch):
+    """UAVWIND_SOFTDTW_LOCKSTEP=0 (here: the switch it sets) runs the scalar kernels, and the
+    answers are the same doubles."""
+    X, g = _loop(2, "inferred", seed=3)
+    lock = fk.fit(X, parallel=False)
+
+    def refuse(*args):
+        raise AssertionError("the lockstep kernel ran")
+
+    monkeypatch.setattr(_consts, "LOCKSTEP", False)
+    monkeypatch.setattr(_dispatch, "_sdtw_cross_lockstep", refuse)
+    monkeypatch.setattr(_dispatch, "_objgrad_lockstep", refuse)
+    scal = fk.fit(X, parallel=False)
+    assert np.array_equal(lock.labels, scal.labels) and lock.inertia == scal.inertia
+    assert np.array_equal(lock.cluster_centers, scal.cluster_centers)
+    assert not _dispatch._use_lockstep(True) and not _dispatch._use_lockstep(False, True)

@@ -1,0 +1,484 @@
+"""The lockstep soft-DTW value kernel: ``N`` (series, centre) pairs per vector, one per lane.
+
+Every lane runs tslearn 0.10.0's arithmetic, operation for operation and in its order, on its
+own pair, so its result is the same double as the scalar kernel's
+(:func:`._kernels._sdtw_forward`) and tslearn's; what changes is that one instruction serves
+``N`` pairs (:mod:`._simd`). Per cell (i, j) and lane, with a = up, b = left, c = diagonal,
+all already divided by -gamma as the scalar kernel keeps them::
+
+    mx = max(max(a, b), c);  second = max(min(a, b), min(max(a, b), c))
+    if second - mx < -38 on every lane:  lg = 0.0          (tmp == 1.0 exactly, log(1) == 0)
+    else, tslearn's sum on the lanes that need it:
+        lg = log(((0.0 + exp(a - mx)) + exp(b - mx)) + exp(c - mx))
+    r = D + (-gamma) * (lg + mx);   S = r * (1 / -gamma)  if gamma = 2**k  else r / -gamma
+
+The scalar kernel's skip rule (a cell whose two smaller terms are negligible needs no
+``exp``/``log``) becomes a lane mask: a cell is cheap only when it is cheap on every lane, and
+a lane that is cheap inside an expensive vector keeps ``lg = 0.0``, which is exact for it.
+
+Schedule: blocks of :data:`R` rows walk a staggered wavefront (row r computes column t - r at
+step t) and keep their last two S vectors in registers. A step in which some lane of some row
+needs the full ``exp``/``log`` sum leaves the register loop and runs :func:`_mstep` (the exact
+cell through memory) for all rows, as the scalar kernel's ``_slow_step`` does. Prologue and
+epilogue triangles and short blocks use :func:`_mstep` too, so the last cell always does.
+
+Layout: series are lane-interleaved, ``x[(i * d + k) * N + l]`` = feature k of step i of lane
+l's series; the S buffer is padded like tslearn's accumulated matrix (row -1 is -inf but for
+the corner (-1, -1) = 0 / -gamma, column -1 is -inf), so the borders run the same code.
+Only :mod:`._dispatch` calls the entry points; :mod:`._kernels` stays the scalar reference.
+"""
+
+import numpy as np
+from numba import njit, prange
+
+from ._consts import _EXP_NEGLIGIBLE
+from ._kernels import _is_pow2, _jacobian_product_sq_euc, _reduce_objgrad
+from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vload, vlt, vmax,
+                    vmin, vmul, vsqrt, vstore, vsub)
+from ._vlibm import vexp_care, vlog_care
+
+#: Rows per block of the register wavefront.
+R = 4
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cellv(a, b, c, dv, ng, inv, pow2):
+    """``(r, s)`` of one cell on every lane: r = dv + softmin3 (tslearn's arithmetic on the
+    lanes that need the sum, exactly 0.0 + mx on the others) and s = r / -gamma."""
+    mab = vmax(a, b)
+    mx = vmax(mab, c)
+    second = vmax(vmin(a, b), vmin(mab, c))
+    full = mnot(vlt(vsub(second, mx), _EXP_NEGLIGIBLE))
+    if many(full):
+        tmp = vadd(0.0, vexp_care(vsub(a, mx), full))
+        tmp = vadd(tmp, vexp_care(vsub(b, mx), full))
+        tmp = vadd(tmp, vexp_care(vsub(c, mx), full))
+        lg = sel(full, vlog_care(tmp, full), 0.0)
+    else:
+        lg = splat(0.0)
+    r = vadd(dv, vmul(ng, vadd(lg, mx)))
+    if pow2:
+        return r, vmul(r, inv)
+    return r, vdiv(r, ng)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D, doff):
+    """Squared Euclidean costs of rows i0 .. i0 + rb - 1 on every lane, into D's rows
+    doff .. doff + rb - 1: D[((doff + r) * n + j) * N + l] = sum_k (x[i0 + r, k] - y[j, k]) ** 2,
+    accumulated from 0.0 in k order as the scalar kernel (and tslearn, and scipy's cdist) do;
+    with ``sqrtsq``, ``sqrt(.) ** 2`` of it (the barycentre objective's ``cdist(Z, X) ** 2``).
+    For d == 3 the row's x vectors are held in registers (LLVM cannot prove the stores to D
+    leave x alone)."""
+    if d == 3:
+        for r in range(rb):
+            base = (doff + r) * n * N
+            xb = (i0 + r) * 3 * N
+            x0 = vload(x, xb)
+            x1 = vload(x, xb + N)
+            x2 = vload(x, xb + 2 * N)
+            for j in range(n):
+                yb = j * 3 * N
+                diff = vsub(x0, vload(y, yb))
+                dist = vadd(0.0, vmul(diff, diff))
+                diff = vsub(x1, vload(y, yb + N))
+                dist = vadd(dist, vmul(diff, diff))
+                diff = vsub(x2, vload(y, yb + 2 * N))
+                dist = vadd(dist, vmul(diff, diff))
+                if sqrtsq:
+                    q = vsqrt(dist)
+                    dist = vmul(q, q)
+                vstore(D, base + j * N, dist)
+        return
+    for r in range(rb):
+        base = (doff + r) * n * N
+        for j in range(n):
+            dist = splat(0.0)
+            for k in range(d):
+                diff = vsub(vload(x, ((i0 + r) * d + k) * N), vload(y, (j * d + k) * N))
+                dist = vadd(dist, vmul(diff, diff))
+            if sqrtsq:
+                q = vsqrt(dist)
+                dist = vmul(q, q)
+            vstore(D, base + j * N, dist)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _mstep(S, D, Rf, W, n, doff, r, j, ng, inv, pow2, keep):
+    """The exact cell (row r of the block, column j) through memory; returns its r vector
+    (and stores it in Rf, row doff + r, with ``keep``)."""
+    ub = r * W + (j + 1) * N
+    cb = (r + 1) * W + j * N
+    k = ((doff + r) * n + j) * N
+    rv, sv = _cellv(vload(S, ub), vload(S, cb), vload(S, ub - N), vload(D, k), ng, inv, pow2)
+    vstore(S, cb + N, sv)
+    if keep:
+        vstore(Rf, k, rv)
+    return rv
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
+    """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
+    features); returns the vector of R[m - 1, n - 1], the soft-DTW values.
+
+    ``keep=False`` (values): D holds :data:`R` rows of costs (R * n * N doubles), Rf is unused.
+    ``keep=True`` (for the gradient): the costs are ``sqrt(.) ** 2`` as in tslearn's
+    barycentre objective, and D and Rf receive the whole cost and accumulated matrices
+    (m * n * N doubles each). S: (R + 1) * (n + 1) * N doubles."""
+    ng = -gamma
+    inv = 1.0 / ng
+    pow2 = _is_pow2(gamma)
+    W = (n + 1) * N
+    for q in range(W):
+        S[q] = -np.inf
+    for l in range(N):
+        S[l] = 0.0 * inv if pow2 else 0.0 / ng
+    last = splat(0.0)
+    i0 = 0
+    while i0 < m:
+        rb = min(R, m - i0)
+        doff = i0 if keep else 0
+        _cost_rows(x, y, i0, rb, n, d, keep, D, doff)
+        for r in range(rb):
+            for l in range(N):
+                S[(r + 1) * W + l] = -np.inf
+        if rb < R or n <= R:
+            for t in range(n + rb - 1):
+                for r in range(rb):
+                    j = t - r
+                    if j >= 0 and j < n:
+                        last = _mstep(S, D, Rf, W, n, doff, r, j, ng, inv, pow2, keep)
+        else:
+            for t in range(R - 1):  # prologue triangle
+                for r in range(t + 1):
+                    _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+            t = R - 1
+            while t < n:
+                cs0 = vload(S, 1 * W + t * N)
+                ps0 = vload(S, 1 * W + (t - 1) * N)
+                cs1 = vload(S, 2 * W + (t - 1) * N)
+                ps1 = vload(S, 2 * W + (t - 2) * N)
+                cs2 = vload(S, 3 * W + (t - 2) * N)
+                ps2 = vload(S, 3 * W + (t - 3) * N)
+                cs3 = vload(S, 4 * W + (t - 3) * N)
+                while t < n:  # steady state: 4 cells per step, all cheap on every lane
+                    a0 = vload(S, (t + 1) * N)
+                    c0 = vload(S, t * N)
+                    m0 = vmax(a0, cs0)
+                    x0 = vmax(m0, c0)
+                    q0 = vmax(vmin(a0, cs0), vmin(m0, c0))
+                    m1 = vmax(cs0, cs1)
+                    x1 = vmax(m1, ps0)
+                    q1 = vmax(vmin(cs0, cs1), vmin(m1, ps0))
+                    m2 = vmax(cs1, cs2)
+                    x2 = vmax(m2, ps1)
+                    q2 = vmax(vmin(cs1, cs2), vmin(m2, ps1))
+                    m3 = vmax(cs2, cs3)
+                    x3 = vmax(m3, ps2)
+                    q3 = vmax(vmin(cs2, cs3), vmin(m3, ps2))
+                    if many(mor(mor(mnot(vlt(vsub(q0, x0), _EXP_NEGLIGIBLE)),
+                                    mnot(vlt(vsub(q1, x1), _EXP_NEGLIGIBLE))),
+                                mor(mnot(vlt(vsub(q2, x2), _EXP_NEGLIGIBLE)),
+                                    mnot(vlt(vsub(q3, x3), _EXP_NEGLIGIBLE))))):
+                        break
+                    k0 = (doff * n + t) * N
+                    k1 = ((doff + 1) * n + t - 1) * N
+                    k2 = ((doff + 2) * n + t - 2) * N
+                    k3 = ((doff + 3) * n + t - 3) * N
+                    r0 = vadd(vload(D, k0), vmul(ng, vadd(0.0, x0)))
+                    s0 = vmul(r0, inv) if pow2 else vdiv(r0, ng)
+                    vstore(S, 1 * W + (t + 1) * N, s0)
+                    r1 = vadd(vload(D, k1), vmul(ng, vadd(0.0, x1)))
+                    s1 = vmul(r1, inv) if pow2 else vdiv(r1, ng)
+                    vstore(S, 2 * W + t * N, s1)
+                    r2 = vadd(vload(D, k2), vmul(ng, vadd(0.0, x2)))
+                    s2 = vmul(r2, inv) if pow2 else vdiv(r2, ng)
+                    vstore(S, 3 * W + (t - 1) * N, s2)
+                    r3 = vadd(vload(D, k3), vmul(ng, vadd(0.0, x3)))
+                    s3 = vmul(r3, inv) if pow2 else vdiv(r3, ng)
+                    vstore(S, 4 * W + (t - 2) * N, s3)
+                    if keep:
+                        vstore(Rf, k0, r0)
+                        vstore(Rf, k1, r1)
+                        vstore(Rf, k2, r2)
+                        vstore(Rf, k3, r3)
+                    ps0 = cs0
+                    ps1 = cs1
+                    ps2 = cs2
+                    cs0 = s0
+                    cs1 = s1
+                    cs2 = s2
+                    cs3 = s3
+                    t += 1
+                if t < n:  # some lane needs the full sum: this step through memory
+                    for r in range(R):
+                        _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+                    t += 1
+            for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
+                for r in range(t - n + 1, R):
+                    last = _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+        for q in range(W):
+            S[q] = S[rb * W + q]
+        i0 += rb
+    return last
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _pack_pairs(A, B, g, x, y):
+    """Lane-interleave the pairs g * N .. g * N + N - 1 of A x B (pair p = (p // nb, p % nb));
+    lanes past the last pair repeat it (their results are dropped)."""
+    nb = B.shape[0]
+    last = A.shape[0] * nb - 1
+    m, d = A.shape[1], A.shape[2]
+    n = B.shape[1]
+    for l in range(N):
+        p = min(g * N + l, last)
+        i = p // nb
+        j = p - i * nb
+        for s in range(m):
+            for k in range(d):
+                x[(s * d + k) * N + l] = A[i, s, k]
+        for s in range(n):
+            for k in range(d):
+                y[(s * d + k) * N + l] = B[j, s, k]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _cross_groups(A, B, gamma, g0, g1, step, out):
+    """out[i, j] = soft-DTW(A[i], B[j]) for the pairs of lane groups g0, g0 + step, .. < g1."""
+    nb = B.shape[0]
+    npairs = A.shape[0] * nb
+    m, d = A.shape[1], A.shape[2]
+    n = B.shape[1]
+    x = np.empty(m * d * N)
+    y = np.empty(n * d * N)
+    S = np.empty((R + 1) * (n + 1) * N)
+    D = np.empty(R * n * N)
+    Rf = np.empty(0)
+    for g in range(g0, g1, step):
+        _pack_pairs(A, B, g, x, y)
+        last = _forward(x, y, m, n, d, gamma, False, S, D, Rf)
+        for l in range(N):
+            p = g * N + l
+            if p < npairs:
+                i = p // nb
+                out[i, p - i * nb] = lane(last, l)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _sdtw_cross_lockstep(A, B, gamma, out):
+    """out[i, j] = soft-DTW(A[i], B[j]) = the scalar ``_sdtw_cross_serial``, N pairs at once."""
+    ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
+    _cross_groups(A, B, gamma, 0, ngroups, 1, out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _sdtw_cross_lockstep_par(A, B, gamma, nw, out):
+    """:func:`_sdtw_cross_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+    ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
+    for w in prange(nw):
+        _cross_groups(A, B, gamma, w, ngroups, nw, out)
+
+
+# ------------------------- value and gradient ------------------------------
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _factor(e, care, rn, r11, dn, gamma, inv_gamma, pow2):
+    """e * exp(((rn - r11) - dn) / gamma) with tslearn's NaN -> 0 on the ``care`` lanes (where
+    e != 0); +0.0 on the others, which is tslearn's e * a = 0 * finite there."""
+    t = vsub(vsub(rn, r11), dn)
+    t = vmul(t, inv_gamma) if pow2 else vdiv(t, gamma)
+    a = vexp_care(t, care)
+    a = sel(veq(a, a), a, 0.0)
+    return sel(care, vmul(e, a), 0.0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _backward(Rf, D, m, n, gamma, E, clo, chi):
+    """tslearn's gradient matrix (``_njit_soft_dtw_grad``) of every lane into E (m * n * N,
+    all zero on entry), on the union over lanes of the band where E can be non-zero.
+
+    Same traversal as the scalar ``_sdtw_backward`` (columns right to left, rows bottom to
+    top) and the same expression ``(p1 + p2) + p3`` per cell; a factor whose e is 0 on every
+    lane is not evaluated. A cell inside the union band but outside a lane's own band gets
+    exactly 0 on that lane, as in tslearn. ``clo[c] .. chi[c]`` receive the rows computed in
+    column c (what :func:`_clear_band` resets)."""
+    pow2 = _is_pow2(gamma)
+    inv_gamma = 1.0 / gamma
+    nN = n * N
+    zero = splat(0.0)
+    one = splat(1.0)
+    vstore(E, (m - 1) * nN + (n - 1) * N, one)
+    nxt_lo = m
+    nxt_hi = -1
+    for c in range(n - 1, -1, -1):
+        if c == n - 1:
+            r = m - 2
+            prev = one
+            cur_lo = m - 1
+            cur_hi = m - 1
+            comp_hi = m - 1
+            comp_lo = m - 1
+        else:
+            r = min(m - 1, nxt_hi)
+            prev = zero
+            cur_lo = m
+            cur_hi = -1
+            comp_hi = r
+            comp_lo = r + 1
+        while r >= 0:
+            e1 = prev
+            e2 = vload(E, r * nN + (c + 1) * N) if c + 1 < n else zero
+            e3 = vload(E, (r + 1) * nN + (c + 1) * N) if (c + 1 < n and r + 1 < m) else zero
+            n1 = mnot(veq(e1, 0.0))
+            n2 = mnot(veq(e2, 0.0))
+            n3 = mnot(veq(e3, 0.0))
+            if not many(mor(mor(n1, n2), n3)):
+                if r < nxt_lo - 1:
+                    break
+                v = zero
+            else:
+                k = r * nN + c * N
+                r11 = vload(Rf, k)
+                p1 = zero
+                p2 = zero
+                p3 = zero
+                if many(n1):
+                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, vload(D, k + nN), gamma,
+                                 inv_gamma, pow2)
+                if many(n2):
+                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, vload(D, k + N), gamma,
+                                 inv_gamma, pow2)
+                if many(n3):
+                    p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11, vload(D, k + nN + N),
+                                 gamma, inv_gamma, pow2)
+                v = vadd(vadd(p1, p2), p3)
+            vstore(E, r * nN + c * N, v)
+            comp_lo = r
+            if many(mnot(veq(v, 0.0))):
+                if cur_hi < 0:
+                    cur_hi = r
+                cur_lo = r
+            prev = v
+            r -= 1
+        clo[c] = comp_lo
+        chi[c] = comp_hi
+        nxt_lo = cur_lo
+        nxt_hi = cur_hi
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _jacobian_lanes(Z, Xs, s0, E, m, n, clo, chi, El, jlo, jhi, Gs):
+    """Per lane (series s0 + l): its E band copied into the scalar matrix El, its per-row
+    first and last non-zero column, then the scalar kernel's Jacobian product itself (same
+    compiled code and flags as tslearn's, so the same doubles), into the zeroed Gs[s]."""
+    nN = n * N
+    d = Z.shape[1]
+    for l in range(N):
+        s = s0 + l
+        if s >= Xs.shape[0]:
+            break
+        for i in range(m):
+            jlo[i] = n
+            jhi[i] = -1
+        for c in range(n - 1, -1, -1):
+            for r in range(clo[c], chi[c] + 1):
+                v = E[r * nN + c * N + l]
+                El[r, c] = v
+                if v != 0.0:
+                    if jhi[r] < 0:
+                        jhi[r] = c
+                    jlo[r] = c
+        G = Gs[s]
+        for i in range(m):
+            for k in range(d):
+                G[i, k] = 0.0
+        _jacobian_product_sq_euc(Z, Xs[s], El, jlo, jhi, G)
+        for c in range(n):
+            for r in range(clo[c], chi[c] + 1):
+                El[r, c] = 0.0
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _clear_band(E, n, clo, chi):
+    """Restore the all-zero invariant of the lane-interleaved E workspace."""
+    nN = n * N
+    zero = splat(0.0)
+    for c in range(n):
+        for r in range(clo[c], chi[c] + 1):
+            vstore(E, r * nN + c * N, zero)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _pack_series(Xs, g, x):
+    """Lane-interleave the series g * N .. g * N + N - 1 of Xs (past the last: the last)."""
+    last = Xs.shape[0] - 1
+    n, d = Xs.shape[1], Xs.shape[2]
+    for l in range(N):
+        s = min(g * N + l, last)
+        for t in range(n):
+            for k in range(d):
+                x[(t * d + k) * N + l] = Xs[s, t, k]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _objgrad_groups(Z, Xs, gamma, g0, g1, step, vals, Gs):
+    """vals[s], Gs[s] = tslearn's ``_softdtw_func(Z, Xs[s], 1, gamma, ..)`` for the series of
+    lane groups g0, g0 + step, .. < g1, one private workspace."""
+    m, d = Z.shape
+    n = Xs.shape[1]
+    ns = Xs.shape[0]
+    zl = np.empty(m * d * N)
+    for t in range(m):
+        for k in range(d):
+            for l in range(N):
+                zl[(t * d + k) * N + l] = Z[t, k]
+    x = np.empty(n * d * N)
+    S = np.empty((R + 1) * (n + 1) * N)
+    D = np.empty(m * n * N)
+    Rf = np.empty(m * n * N)
+    E = np.zeros(m * n * N)
+    clo = np.empty(n, dtype=np.int64)
+    chi = np.empty(n, dtype=np.int64)
+    El = np.zeros((m, n))
+    jlo = np.empty(m, dtype=np.int64)
+    jhi = np.empty(m, dtype=np.int64)
+    for g in range(g0, g1, step):
+        _pack_series(Xs, g, x)
+        last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
+        _backward(Rf, D, m, n, gamma, E, clo, chi)
+        for l in range(N):
+            if g * N + l < ns:
+                vals[g * N + l] = lane(last, l)
+        _jacobian_lanes(Z, Xs, g * N, E, m, n, clo, chi, El, jlo, jhi, Gs)
+        _clear_band(E, n, clo, chi)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _objgrad_lockstep(Z, Xs, gamma):
+    """The barycentre objective and gradient = the scalar ``_objgrad_batch_serial``, N series
+    per vector: per-series values and gradients, then the same reduction in series order."""
+    ns = Xs.shape[0]
+    m, d = Z.shape
+    vals = np.empty(ns)
+    Gs = np.empty((ns, m, d))
+    _objgrad_groups(Z, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs)
+    return _reduce_objgrad(vals, Gs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _objgrad_lockstep_inner(Z, Xs, gamma, nw, vals, Gs):
+    ngroups = (Xs.shape[0] + N - 1) // N
+    for w in prange(nw):
+        _objgrad_groups(Z, Xs, gamma, w, ngroups, nw, vals, Gs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _objgrad_lockstep_par(Z, Xs, gamma, nw):
+    """:func:`_objgrad_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+    ns = Xs.shape[0]
+    m, d = Z.shape
+    vals = np.empty(ns)
+    Gs = np.empty((ns, m, d))
+    _objgrad_lockstep_inner(Z, Xs, gamma, nw, vals, Gs)
+    return _reduce_objgrad(vals, Gs)
