@@ -51,7 +51,8 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     -------
     dict of str -> pandas.DataFrame
         ``"simulation"``, ``"loops"``, ``"workers"``, ``"time"``, ``"spread"``, ``"paper"``,
-        ``"fill"`` (the paper build's CPU time by experiment and reading), ``"compile"``,
+        ``"fill"`` (the paper build's CPU time by experiment and reading), ``"cells"`` (ns per
+        soft-DTW cell, lockstep against scalar kernels), ``"compile"``,
         ``"closed_loop"`` (seconds per Exp 12 flight by vehicle and policy): only the
         sections present in the report.
 
@@ -88,11 +89,28 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
         t = report["time_shares"]
         out["time"] = pd.DataFrame({"share of the time (%)": {
             k: 100 * v for k, v in t["shares"].items()}})
+        if "ns_per_cell_scalar" in t:
+            out["cells"] = pd.DataFrame({
+                f"lockstep, {t['lanes']} lanes (ns)": {
+                    "soft-DTW value": t["ns_per_cell_value"],
+                    "value + gradient": t["ns_per_cell_value_and_gradient"]},
+                "scalar (ns)": {"soft-DTW value": t["ns_per_cell_scalar"]["value"],
+                                "value + gradient": t["ns_per_cell_scalar"]["value_and_gradient"]}})
+            out["cells"]["ratio"] = out["cells"].iloc[:, 1] / out["cells"].iloc[:, 0]
+            out["cells"].index.name = "per cell, median of 20"
     if "spread" in report:
         sp = report["spread"]
         out["spread"] = pd.DataFrame({"speed-up over tslearn": {
             "median": sp["median"], "10th percentile": sp["p10"], "90th percentile": sp["p90"],
             "smallest": sp["min"], "largest": sp["max"]}})
+        if "scalar" in sp:  # the scalar kernels, timed on the same loops in the same run
+            out["spread"]["scalar kernels, over tslearn"] = pd.Series({
+                "median": sp["scalar"]["median"], "10th percentile": sp["scalar"]["p10"],
+                "90th percentile": sp["scalar"]["p90"]})
+            out["spread"]["lockstep over scalar"] = pd.Series({
+                "median": sp["lockstep_over_scalar"]["median"],
+                "10th percentile": sp["lockstep_over_scalar"]["p10"],
+                "90th percentile": sp["lockstep_over_scalar"]["p90"]})
     if "paper_profile" in report:
         p = report["paper_profile"]
         rows = {"loops (before cache sharing)": f"{p['loops']}"}
@@ -165,7 +183,11 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
             f"readings, 5-20 environments per group, both thrust samplers) the fast engine is "
             f"{sp['median']:.1f}x faster than tslearn per loop (median; 10th-90th percentile "
             f"{sp['p10']:.1f}x-{sp['p90']:.1f}x), with identical labels and scores on "
-            f"{sp['identical']} of them. On 2 cores, {tp['loops']} loops take "
+            f"{sp['identical']} of them"
+            + (f"; its scalar kernels, timed on the same loops, are {sp['scalar']['median']:.1f}x "
+               f"(so the lockstep kernels gain {sp['lockstep_over_scalar']['median']:.2f}x per "
+               f"loop)" if "scalar" in sp else "")
+            + f". On 2 cores, {tp['loops']} loops take "
             f"{tp['tslearn_2_threads']:.1f} s with tslearn on its own 2 numba threads and "
             f"{tp['fast_2_workers']:.1f} s with the fast engine on 2 workers "
             f"({tp['tslearn_2_threads'] / tp['fast_2_workers']:.1f}x).")
@@ -179,10 +201,14 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
             out["cells"] = (
                 "Nearly all of a loop is soft-DTW arithmetic that has to match tslearn's "
                 "operation for operation: 120 x 120 cells per pair of series, "
-                f"{t['ns_per_cell_value']:.1f} ns per cell for a value and "
-                f"{t['ns_per_cell_value_and_gradient']:.1f} ns for a value with its gradient "
-                "on this machine. That, not Python, is what stands between the paper profile "
-                "and the 10-minute target.")
+                f"{t['ns_per_cell_value']:.2f} ns per cell for a value and "
+                f"{t['ns_per_cell_value_and_gradient']:.2f} ns for a value with its gradient "
+                "on this machine"
+                + (f" with the lockstep kernels ({t['ns_per_cell_scalar']['value']:.2f} and "
+                   f"{t['ns_per_cell_scalar']['value_and_gradient']:.2f} ns with the scalar "
+                   "ones)" if "ns_per_cell_scalar" in t else "")
+                + ". That, not Python, is what stands between the paper profile and the "
+                "10-minute target.")
     if "closed_loop" in report:
         c = report["closed_loop"]
         line = (f"Experiment 12 at the paper profile: about {c['estimated_cpu_seconds'] / 60:.1f} "
