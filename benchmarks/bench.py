@@ -316,7 +316,9 @@ def bench_where_time_goes(report, n_loops=20):
     prof.disable()
     stats = pstats.Stats(prof)
     total = stats.total_tt
-    names = {"_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
+    names = {"_objgrad_lockstep": "barycentre updates: soft-DTW value + gradient",
+             "_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
+             "_sdtw_cross_lockstep": "assignment: soft-DTW to both centres",
              "_sdtw_cross_serial": "assignment: soft-DTW to both centres",
              "_dtw_upper_range": "silhouette: DTW matrix"}
     shares = {label: 0.0 for label in names.values()}
@@ -328,21 +330,33 @@ def bench_where_time_goes(report, n_loops=20):
           f"{iters} k-means iterations, {total:.2f} s under cProfile ==")
     for label, share in shares.items():
         print(f"  {100 * share:5.1f}%  {label}")
-    # the cost per cell of the two kernels, on one loop's series against a centre-like series
+    # the cost per cell of the two kernels, on one loop's series against a centre-like series,
+    # lockstep (the default) and scalar (the reference) interleaved in one run
     from uavwind.method import softdtw as fk
+    from uavwind.method.softdtw import _consts
+    from uavwind.method.softdtw._lockstep import N
 
     X = np.ascontiguousarray(inputs[3])
     centres = np.ascontiguousarray(np.stack([X[:10].mean(0), X[10:].mean(0)]))
     cells = X.shape[1] * centres.shape[1]
-    value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False), repeat=20)
-    grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False), repeat=20)
-    ns_value = value / (len(X) * 2 * cells) * 1e9
-    ns_grad = grad / (10 * cells) * 1e9
-    print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix: soft-DTW value "
-          f"{ns_value:.1f} ns, value + gradient {ns_grad:.1f} ns (median of 20)")
+    per_cell = {}
+    for kernel, on in (("lockstep", True), ("scalar", False)):
+        _consts.LOCKSTEP = on
+        value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False), repeat=20)
+        grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False),
+                      repeat=20)
+        per_cell[kernel] = (value / (len(X) * 2 * cells) * 1e9, grad / (10 * cells) * 1e9)
+    _consts.LOCKSTEP = True
+    ns_value, ns_grad = per_cell["lockstep"]
+    for kernel, (v, g) in per_cell.items():
+        print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix, {kernel}"
+              f"{f' ({N} lanes)' if kernel == 'lockstep' else ''}: soft-DTW value {v:.2f} ns, "
+              f"value + gradient {g:.2f} ns (median of 20)")
     report["time_shares"] = {"loops": n_loops, "iterations": iters, "seconds": total,
                              "shares": shares, "ns_per_cell_value": ns_value,
-                             "ns_per_cell_value_and_gradient": ns_grad}
+                             "ns_per_cell_value_and_gradient": ns_grad, "lanes": N,
+                             "ns_per_cell_scalar": {"value": per_cell["scalar"][0],
+                                                    "value_and_gradient": per_cell["scalar"][1]}}
 
 
 def _varied_loop(i):
@@ -363,11 +377,19 @@ def _varied_loop(i):
     return s.simulate(thrust, seed=10_000 + i), s.groups, label
 
 
-def _time_loop(i, engine):
+def _time_loop(i, engine, lockstep=True):
+    """Seconds, labels and score of varied loop ``i`` on ``engine``; ``lockstep=False`` runs
+    the fast engine's scalar kernels (its reference) instead of the lockstep ones."""
+    from uavwind.method.softdtw import _consts
+
     X, g, _ = _varied_loop(i)
-    t0 = time.perf_counter()
-    res = uw.score_loop(X, g, engine=engine)
-    return time.perf_counter() - t0, res.labels.tolist(), res.score
+    _consts.LOCKSTEP = lockstep
+    try:
+        t0 = time.perf_counter()
+        res = uw.score_loop(X, g, engine=engine)
+        return time.perf_counter() - t0, res.labels.tolist(), res.score
+    finally:
+        _consts.LOCKSTEP = True
 
 
 def bench_spread(report, n_loops=None):
@@ -381,17 +403,26 @@ def bench_spread(report, n_loops=None):
     numba.set_num_threads(1)
     for e in ("fast", "tslearn"):
         _time_loop(0, e)  # compile / load caches
-    rows, same = [], 0
+    _time_loop(0, "fast", lockstep=False)
+    rows, same, scalar = [], 0, []
     for i in range(n_loops):
         tf, lf, sf = _time_loop(i, "fast")
+        ts_, ls_, ss_ = _time_loop(i, "fast", lockstep=False)
         tt, lt, st = _time_loop(i, "tslearn")
-        same += (lf == lt and sf == st)
+        same += (lf == lt and sf == st and ls_ == lt and ss_ == st)
         rows.append((tt / tf, tf, tt, _varied_loop(i)[2]))
+        scalar.append((tt / ts_, ts_ / tf))
     ratios = np.array([r[0] for r in rows])
     q10, q50, q90 = np.percentile(ratios, [10, 50, 90])
-    print(f"  speed-up: median {q50:.1f}x, 10th-90th percentile {q10:.1f}x-{q90:.1f}x, "
-          f"min {ratios.min():.1f}x, max {ratios.max():.1f}x; identical labels and scores on "
-          f"{same}/{n_loops}")
+    sc = np.array(scalar)
+    s10, s50, s90 = np.percentile(sc[:, 0], [10, 50, 90])
+    l10, l50, l90 = np.percentile(sc[:, 1], [10, 50, 90])
+    print(f"  speed-up, lockstep kernels: median {q50:.1f}x, 10th-90th percentile "
+          f"{q10:.1f}x-{q90:.1f}x, min {ratios.min():.1f}x, max {ratios.max():.1f}x")
+    print(f"  speed-up, scalar kernels (the reference): median {s50:.1f}x, 10th-90th "
+          f"percentile {s10:.1f}x-{s90:.1f}x; lockstep over scalar: median {l50:.2f}x "
+          f"({l10:.2f}x-{l90:.2f}x)")
+    print(f"  identical labels and scores (lockstep, scalar, tslearn) on {same}/{n_loops}")
     slow = sorted(rows)[:3]
     for r in slow:
         print(f"    slowest speed-ups: {r[0]:.1f}x ({r[3]}; fast {r[1] * 1e3:.0f} ms, tslearn {r[2] * 1e3:.0f} ms)")
@@ -411,6 +442,9 @@ def bench_spread(report, n_loops=None):
     report["spread"] = {"loops": n_loops, "median": float(q50), "p10": float(q10),
                         "p90": float(q90), "min": float(ratios.min()), "max": float(ratios.max()),
                         "identical": int(same),
+                        "scalar": {"median": float(s50), "p10": float(s10), "p90": float(s90)},
+                        "lockstep_over_scalar": {"median": float(l50), "p10": float(l10),
+                                                 "p90": float(l90)},
                         "throughput": {"loops": n_tp, "tslearn_2_threads": t_ts,
                                        "fast_2_workers": t_fast}}
 
