@@ -369,9 +369,14 @@ def _varied_loop(i):
     pairs.append(("light constant", "light shear"))
     a, b = pairs[i % len(pairs)]
     reading = uw.get_reading(("inferred", "halves")[(i // len(pairs)) % 2])
-    n = (5, 8, 10, 15, 20)[(i // 3) % 5]
     sampler = ("paper", "continuous")[(i // 5) % 2]
-    s = uw.make_setting(a, b, n, sampler=sampler, **reading.builder_kwargs)
+    sizes = (5, 8, 10, 15, 20)
+    for n in reversed(sizes[:(i // 3) % 5 + 1]):  # the largest the layout allows (a
+        try:  # mixed pair spaced as Table 3 leaves its class range beyond ~12 environments)
+            s = uw.make_setting(a, b, n, sampler=sampler, **reading.builder_kwargs)
+            break
+        except ValueError:
+            continue
     thrust = s.sample_thrust(np.random.default_rng(10_000 + i))
     label = f"{a} vs {b}, {n}+{n}, {reading.name}, {sampler}"
     return s.simulate(thrust, seed=10_000 + i), s.groups, label
