@@ -320,6 +320,7 @@ def bench_where_time_goes(report, n_loops=20):
              "_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
              "_sdtw_cross_lockstep": "assignment: soft-DTW to both centres",
              "_sdtw_cross_serial": "assignment: soft-DTW to both centres",
+             "_dtw_upper_lockstep": "silhouette: DTW matrix",
              "_dtw_upper_range": "silhouette: DTW matrix"}
     shares = {label: 0.0 for label in names.values()}
     for (_, _, name), (_, _, tt, _, _) in stats.stats.items():

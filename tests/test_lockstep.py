@@ -1,6 +1,7 @@
-"""The lockstep kernels (N pairs per SIMD vector) against tslearn and the scalar kernels, with
-``==``: on loops of every Table 2 scenario, both readings and both vehicles, and on crafted
-inputs that force every rare path of the vector exp/log (the lane masks)."""
+"""The lockstep kernels (N pairs per SIMD vector: soft-DTW value, value + gradient, DTW) against
+tslearn and the scalar kernels, with ``==``: on loops of every Table 2 scenario, both readings
+and both vehicles, and on crafted inputs that force every rare path of the vector exp/log
+(the lane masks)."""
 import numpy as np
 import pytest
 from numba import njit
@@ -200,6 +201,7 @@ def test_the_scalar_reference_stays_selectable(monkeypatch):
     answers are the same doubles."""
     X, g = _loop(2, "inferred", seed=3)
     lock = fk.fit(X, parallel=False)
+    sil = fk.silhouette_score(X, lock.labels)
 
     def refuse(*args):
         raise AssertionError("the lockstep kernel ran")
@@ -207,7 +209,34 @@ def test_the_scalar_reference_stays_selectable(monkeypatch):
     monkeypatch.setattr(_consts, "LOCKSTEP", False)
     monkeypatch.setattr(_dispatch, "_sdtw_cross_lockstep", refuse)
     monkeypatch.setattr(_dispatch, "_objgrad_lockstep", refuse)
+    monkeypatch.setattr(_dispatch, "_dtw_upper_lockstep", refuse)
     scal = fk.fit(X, parallel=False)
+    assert fk.silhouette_score(X, scal.labels) == sil
     assert np.array_equal(lock.labels, scal.labels) and lock.inertia == scal.inertia
     assert np.array_equal(lock.cluster_centers, scal.cluster_centers)
     assert not _dispatch._use_lockstep(True) and not _dispatch._use_lockstep(False, True)
+
+
+@pytest.mark.parametrize("shape", [(2, 1, 1), (5, 7, 3), (7, 40, 3), (9, 30, 6), (10, 120, 3)])
+def test_lockstep_dtw_matrix_equals_the_scalar_kernel_and_tslearn(shape):
+    """The silhouette's DTW matrix, N pairs per vector (serial and threaded) == the scalar
+    kernel == tslearn's cdist_dtw, pair counts that fill the lanes and ones that leave some
+    idle, on random walks and on a loop's own series."""
+    from tslearn.metrics import cdist_dtw
+
+    from uavwind.method.softdtw._kernels import _dtw_upper_range
+    from uavwind.method.softdtw._lockstep import _dtw_upper_lockstep, _dtw_upper_lockstep_par
+
+    nts, n, d = shape
+    rng = np.random.default_rng(nts * n)
+    sets = [rng.normal(size=shape).cumsum(1) * s for s in (1e-3, 1.0, 50.0)]
+    if shape == (10, 120, 3):
+        sets.append(np.ascontiguousarray(_loop(7, "inferred", seed=1)[0]))
+    for X in sets:
+        lock, lock2, scal = (np.zeros((nts, nts)) for _ in range(3))
+        _dtw_upper_lockstep(X, lock)
+        _dtw_upper_lockstep_par(X, 2, lock2)
+        _dtw_upper_range(X, 0, nts * (nts - 1) // 2, 1, scal)
+        assert _same(lock, scal) and _same(lock2, scal)
+        assert _same(lock, cdist_dtw(X))
+        assert _same(fk.dtw_pdist(X), scal)

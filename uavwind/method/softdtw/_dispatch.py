@@ -3,10 +3,10 @@
 same arithmetic and gives the same doubles (see the replication notes)."""
 
 from . import _consts
-from ._kernels import (_n_workers, _objgrad_batch_par, _objgrad_batch_serial,
-                       _sdtw_cross_par_inner, _sdtw_cross_serial)
-from ._lockstep import (N, _objgrad_lockstep, _objgrad_lockstep_par, _sdtw_cross_lockstep,
-                        _sdtw_cross_lockstep_par)
+from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _n_workers, _objgrad_batch_par,
+                       _objgrad_batch_serial, _sdtw_cross_par_inner, _sdtw_cross_serial)
+from ._lockstep import (N, _dtw_upper_lockstep, _dtw_upper_lockstep_par, _objgrad_lockstep,
+                        _objgrad_lockstep_par, _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
 
 
 def _use_lockstep(fx, lockstep=None):
@@ -41,3 +41,21 @@ def _objgrad(Z, Xs, gamma, par, fx, lockstep=None):
     if nw > 1:
         return _objgrad_batch_par(Z, Xs, gamma, fx, nw)
     return _objgrad_batch_serial(Z, Xs, gamma, fx)
+
+
+def _dtw_upper(X, out, par, lockstep=None):
+    """The DTW matrix of X into ``out`` (zero diagonal on entry). DTW needs no exp/log, so
+    only ``UAVWIND_SOFTDTW_LOCKSTEP`` (or ``lockstep``) decides the kernel."""
+    npairs = X.shape[0] * (X.shape[0] - 1) // 2
+    if _use_lockstep(True, lockstep):
+        nw = _n_workers(par, (npairs + N - 1) // N)
+        if nw > 1:
+            _dtw_upper_lockstep_par(X, nw, out)
+        else:
+            _dtw_upper_lockstep(X, out)
+        return
+    nw = _n_workers(par, npairs)
+    if nw > 1:
+        _dtw_upper_par_inner(X, nw, out)
+    else:
+        _dtw_upper_range(X, 0, npairs, 1, out)

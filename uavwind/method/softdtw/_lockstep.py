@@ -25,14 +25,18 @@ epilogue triangles and short blocks use :func:`_mstep` too, so the last cell alw
 Layout: series are lane-interleaved, ``x[(i * d + k) * N + l]`` = feature k of step i of lane
 l's series; the S buffer is padded like tslearn's accumulated matrix (row -1 is -inf but for
 the corner (-1, -1) = 0 / -gamma, column -1 is -inf), so the borders run the same code.
-Only :mod:`._dispatch` calls the entry points; :mod:`._kernels` stays the scalar reference.
+The same lanes serve the barycentre objective (N series against one centre: value, gradient
+matrix by the backward recursion over the union of the lanes' bands, and each lane's
+Jacobian by the scalar kernel's own function) and DTW (N pairs of the silhouette's matrix;
+min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
+:mod:`._kernels` stays the scalar reference.
 """
 
 import numpy as np
 from numba import njit, prange
 
 from ._consts import _EXP_NEGLIGIBLE
-from ._kernels import _is_pow2, _jacobian_product_sq_euc, _reduce_objgrad
+from ._kernels import _is_pow2, _jacobian_product_sq_euc, _reduce_objgrad, _unrank_upper
 from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vload, vlt, vmax,
                     vmin, vmul, vsqrt, vstore, vsub)
 from ._vlibm import vexp_care, vlog_care
@@ -482,3 +486,72 @@ def _objgrad_lockstep_par(Z, Xs, gamma, nw):
     Gs = np.empty((ns, m, d))
     _objgrad_lockstep_inner(Z, Xs, gamma, nw, vals, Gs)
     return _reduce_objgrad(vals, Gs)
+
+
+# ---------------------------------- DTW ------------------------------------
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _dtw_lanes(x, y, m, n, d, P, C):
+    """DTW of the N lane-interleaved pairs, tslearn's ``_njit_dtw`` (no mask) on every lane:
+    A[i, j] = cost + min(up, left, diagonal) with the padded predecessors +inf but the
+    corner (-1, -1) = 0, and the result sqrt(A[m - 1, n - 1]). Costs and accumulated values
+    are finite and >= 0, so the order of the three-way min cannot change the double. P and
+    C: two rows of (n + 1) * N doubles."""
+    W = (n + 1) * N
+    for q in range(W):
+        P[q] = np.inf
+    for l in range(N):
+        P[l] = 0.0
+    for i in range(m):
+        for l in range(N):
+            C[l] = np.inf
+        for j in range(n):
+            dist = splat(0.0)
+            for k in range(d):
+                diff = vsub(vload(x, (i * d + k) * N), vload(y, (j * d + k) * N))
+                dist = vadd(dist, vmul(diff, diff))
+            best = vmin(vmin(vload(P, (j + 1) * N), vload(C, j * N)), vload(P, j * N))
+            vstore(C, (j + 1) * N, vadd(dist, best))
+        P, C = C, P
+    return vsqrt(vload(P, n * N))
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _dtw_upper_groups(X, g0, g1, step, out):
+    """out[i, j] = out[j, i] = DTW(X[i], X[j]) for the pairs i < j of lane groups g0, g0 +
+    step, .. < g1 (pair p is the p-th of the row-major upper triangle)."""
+    nts, n, d = X.shape
+    npairs = nts * (nts - 1) // 2
+    x = np.empty(n * d * N)
+    y = np.empty(n * d * N)
+    P = np.empty((n + 1) * N)
+    C = np.empty((n + 1) * N)
+    for g in range(g0, g1, step):
+        for l in range(N):
+            i, j = _unrank_upper(min(g * N + l, npairs - 1), nts, 1)
+            for s in range(n):
+                for k in range(d):
+                    x[(s * d + k) * N + l] = X[i, s, k]
+                    y[(s * d + k) * N + l] = X[j, s, k]
+        v = _dtw_lanes(x, y, n, n, d, P, C)
+        for l in range(N):
+            p = g * N + l
+            if p < npairs:
+                i, j = _unrank_upper(p, nts, 1)
+                out[i, j] = lane(v, l)
+                out[j, i] = lane(v, l)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _dtw_upper_lockstep(X, out):
+    """The DTW matrix's upper triangle (and its mirror) = the scalar ``_dtw_upper_range``."""
+    npairs = X.shape[0] * (X.shape[0] - 1) // 2
+    _dtw_upper_groups(X, 0, (npairs + N - 1) // N, 1, out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _dtw_upper_lockstep_par(X, nw, out):
+    """:func:`_dtw_upper_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+    npairs = X.shape[0] * (X.shape[0] - 1) // 2
+    ngroups = (npairs + N - 1) // N
+    for w in prange(nw):
+        _dtw_upper_groups(X, w, ngroups, nw, out)

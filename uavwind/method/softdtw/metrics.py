@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._checks import _as_dataset, _as_series, _check_gamma, _same_features, _use_parallel
-from ._dispatch import _objgrad, _sdtw_cross
-from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _dtw_value, _n_workers,
-                       _objgrad_range, _sdtw_upper_par_inner, _sdtw_upper_range, _sdtw_value)
+from ._dispatch import _dtw_upper, _objgrad, _sdtw_cross
+from ._kernels import (_dtw_value, _n_workers, _objgrad_range, _sdtw_upper_par_inner,
+                       _sdtw_upper_range, _sdtw_value)
 from ._libm import _libm_selfcheck
 
 
@@ -79,14 +79,8 @@ def dtw_pdist(X: ArrayLike, parallel: bool | None = None) -> np.ndarray:
     """Full symmetric DTW matrix (= tslearn _cdist_dtw(X)), zero diagonal."""
     X = _as_dataset(X, "X")
     _same_features(X, X, "X", "X")
-    nts = X.shape[0]
-    out = np.zeros((nts, nts))
-    npairs = nts * (nts - 1) // 2
-    nw = _n_workers(_use_parallel(parallel), npairs)
-    if nw > 1:
-        _dtw_upper_par_inner(X, nw, out)
-    else:
-        _dtw_upper_range(X, 0, npairs, 1, out)
+    out = np.zeros((X.shape[0], X.shape[0]))
+    _dtw_upper(X, out, _use_parallel(parallel))
     return out
 
 
