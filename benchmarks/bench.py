@@ -274,30 +274,50 @@ print(t1 - t0, t2 - t1, t3 - t2, t4 - t3)
 """
 
 
-def bench_cold_compile(report):
-    """The numba compile a fresh clone pays once: each figure in a new process with an
-    empty numba cache (NUMBA_CACHE_DIR in a temporary folder)."""
+def _cold_run(extra_env):
+    """One cold process (empty numba cache): its step times and its whole wall time."""
     import subprocess
     import tempfile
 
-    print("\n== cold numba compile (empty numba cache) ==")
     with tempfile.TemporaryDirectory() as tmp:
-        env = {**os.environ, "NUMBA_CACHE_DIR": tmp}
+        env = {**os.environ, "NUMBA_CACHE_DIR": tmp, **extra_env}
         t0 = time.perf_counter()
         out = subprocess.run([sys.executable, "-c", _COLD], env=env, check=True,
                              capture_output=True, text=True).stdout.split()
         total = time.perf_counter() - t0
-    imp, serial, first_loop, threaded = map(float, out[-4:])
+    return (*map(float, out[-4:]), total)
+
+
+def bench_cold_compile(report, repeats=3):
+    """The numba compile a fresh clone pays once: each figure in a new process with an
+    empty numba cache (NUMBA_CACHE_DIR in a temporary folder), the engine's lockstep kernels
+    and its scalar reference (UAVWIND_SOFTDTW_LOCKSTEP=0) alternating, ``repeats`` each;
+    medians."""
+    print(f"\n== cold numba compile (empty numba cache, median of {repeats}) ==")
+    runs = {"lockstep": [], "scalar": []}
+    for _ in range(repeats):
+        runs["lockstep"].append(_cold_run({}))
+        runs["scalar"].append(_cold_run({"UAVWIND_SOFTDTW_LOCKSTEP": "0"}))
+    med = {k: np.median(np.array(v), axis=0) for k, v in runs.items()}
+    imp, serial, first_loop, threaded, total = med["lockstep"]
     print(f"  import uavwind: {imp:.1f} s; soft-DTW kernels a loop uses (softdtw.warmup()): "
           f"{serial:.1f} s; the rest of a first loop (simulation, scoring): {first_loop:.1f} s; "
           f"threaded kernels (warmup(parallel=True)), compiled only when used: {threaded:.1f} s; "
           f"whole process {total:.1f} s")
+    sc = med["scalar"]
+    print(f"  the same with the scalar kernels: softdtw.warmup() {sc[1]:.1f} s, threaded "
+          f"{sc[3]:.1f} s, whole process {sc[4]:.1f} s (warmup, lockstep runs: "
+          f"{', '.join(f'{r[1]:.1f}' for r in runs['lockstep'])} s; scalar runs: "
+          f"{', '.join(f'{r[1]:.1f}' for r in runs['scalar'])} s)")
     report["cold_compile"] = {"import": imp, "softdtw_serial": serial,
                               "first_loop_rest": first_loop, "softdtw_threaded": threaded,
-                              "process": total,
+                              "process": total, "repeats": repeats,
+                              "scalar": {"softdtw_serial": sc[1], "softdtw_threaded": sc[3],
+                                         "process": sc[4]},
                               "command": "NUMBA_CACHE_DIR=<empty> python -c <import uavwind; "
                                          "softdtw.warmup(); one loop; "
-                                         "softdtw.warmup(parallel=True)>, each step timed"}
+                                         "softdtw.warmup(parallel=True)>, each step timed; "
+                                         "with and without UAVWIND_SOFTDTW_LOCKSTEP=0"}
 
 
 def bench_where_time_goes(report, n_loops=20):

@@ -22,4 +22,4 @@ def compiled_kernels():
     compiling the same kernels at the same time."""
     from uavwind.method import softdtw
 
-    softdtw.warmup(parallel=True)
+    softdtw.warmup(parallel=True, every=True)

@@ -159,6 +159,12 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
             "threaded kernels, compiled only when used (warmup(parallel=True))":
                 c["softdtw_threaded"],
             "the whole process": c["process"]}.items()}})
+        if "scalar" in c:  # the scalar kernels, cold, alternating with the lockstep runs
+            out["compile"]["scalar kernels (s)"] = pd.Series({
+                "soft-DTW kernels a loop uses (softdtw.warmup())": c["scalar"]["softdtw_serial"],
+                "threaded kernels, compiled only when used (warmup(parallel=True))":
+                    c["scalar"]["softdtw_threaded"],
+                "the whole process": c["scalar"]["process"]}).round(1)
     return out
 
 

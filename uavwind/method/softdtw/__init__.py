@@ -41,15 +41,18 @@ def silhouette_score(X: ArrayLike, labels: ArrayLike, metric: str = "dtw",
     return silhouette(X, labels, metric=metric, gamma=gamma, parallel=parallel)
 
 
-def warmup(parallel: bool = False) -> KMeansResult:
+def warmup(parallel: bool = False, every: bool = False) -> KMeansResult:
     """Compile (or load from numba's on-disk cache) the kernels, once per process.
 
     Parameters
     ----------
     parallel : bool
         Also the threaded (``prange``) variants. A loop of :func:`uavwind.score_loop`
-        uses only the serial ones, which is all the default compiles; the threaded ones
-        otherwise compile on their first use.
+        uses only the serial ones; the threaded ones otherwise compile on their first use.
+    every : bool
+        Also the kernels of the other entry points (:func:`soft_dtw`, :func:`soft_dtw_grad`,
+        the soft-DTW silhouette). By default only what a loop uses compiles: k-means (soft-DTW
+        values and the barycentre objective) and the DTW silhouette.
     """
     rng = np.random.RandomState(0)
     X = rng.randn(4, 6, 3)
@@ -57,9 +60,11 @@ def warmup(parallel: bool = False) -> KMeansResult:
         r = fit(X, n_clusters=2, gamma=0.5, max_iter=2, max_iter_barycenter=2,
                 parallel=par)
         silhouette(X, np.array([0, 0, 1, 1]), metric="dtw", parallel=par)
-        silhouette(X, np.array([0, 0, 1, 1]), metric="softdtw", gamma=0.5,
-                   parallel=par)
-    for g in (0.5, 0.1):
-        soft_dtw(X[0], X[1], g)
-        soft_dtw_grad(X[0], X[1], g)
+        if every:
+            silhouette(X, np.array([0, 0, 1, 1]), metric="softdtw", gamma=0.5,
+                       parallel=par)
+    if every:
+        for g in (0.5, 0.1):
+            soft_dtw(X[0], X[1], g)
+            soft_dtw_grad(X[0], X[1], g)
     return r
