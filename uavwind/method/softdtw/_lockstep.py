@@ -1,4 +1,5 @@
-"""The lockstep soft-DTW value kernel: ``N`` (series, centre) pairs per vector, one per lane.
+"""The lockstep kernels (soft-DTW value, value + gradient, DTW): ``N`` pairs per vector, one
+per lane.
 
 Every lane runs tslearn 0.10.0's arithmetic, operation for operation and in its order, on its
 own pair, so its result is the same double as the scalar kernel's
