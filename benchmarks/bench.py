@@ -183,12 +183,13 @@ def bench_paper_profile(report, engine):
     cores = os.cpu_count() or 1
     print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
     print(f"  estimated: {one_core / 60:.1f} min on one core, {one_core / cores / 60:.1f} min on "
-          f"{cores} cores (per-loop medians x loop counts by environment count)")
+          f"{cores} cores (point-mass per-loop medians x loop counts by environment count; "
+          "the multirotor's flights and its 6-channel clustering cost more, so this is a floor)")
     from uavwind.study.fill import needed_entries
     entries = needed_entries("all", "paper", readings="all", engine=engine)
     unique_rows = sum(e.n_rows for e in entries)
-    print(f"  {len(entries)} cache entries, {unique_rows} loops or CEM samples once shared "
-          f"settings are counted once (both readings)")
+    print(f"  {len(entries)} cache entries, {unique_rows} result rows (loops, CEM samples, "
+          f"closed-loop belief reports) once shared settings are counted once (both readings)")
     report["paper_profile"] = {"loops": n_loops_total("paper"), "engine": engine,
                                "entries": len(entries), "unique_loops": unique_rows,
                                "estimated_seconds_one_core": one_core,
@@ -200,7 +201,24 @@ def bench_paper_profile(report, engine):
               f"{peak:.0f} MiB (sum of RSS over the process tree, sampled every 0.5 s)")
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
+                                       measured_commit=_commit(),
                                        **where_the_fill_goes(times))
+
+
+def _commit():
+    """The checkout's short commit id, with ``+changes`` when the tree differs from it."""
+    import subprocess
+
+    root_dir = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root_dir,
+                              capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=root_dir, capture_output=True, text=True,
+                               check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown (not a git checkout)"
+    return head + ("+changes" if dirty else "")
 
 
 def where_the_fill_goes(times):

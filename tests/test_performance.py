@@ -38,10 +38,10 @@ def test_paper_and_compile_tables_show_the_new_figures():
     assert t["paper"].loc["cache entries (chunks of <= 50 loops, whole CEM runs)", "value"] == "346"
     assert t["paper"].loc["of which filling the result cache (min)", "value"] == "19.0"
     assert t["fill"].loc[("exp1", "inferred"), "CPU (min)"] == 1.0
-    assert t["fill"].loc[("exp6", "halves"), "CPU per row (s)"] == 0.2
+    assert t["fill"].loc[("exp6", "halves"), "CPU per row (ms)"] == 200.0
     line = summary_lines({**report, "cores": 2, "machine": "x86_64", "python": "3.11",
                           "numpy": "2"})["fill"]
-    assert "19.0 of the build's 20.0 min" in line and "300 loops and CEM samples" in line
+    assert "19.0 of the build's 20.0 min" in line and "300 result rows (loops, CEM samples" in line
     assert "75% under the inferred reading only" in line
     assert line.count("exp1 (inferred) 75%") == 1 and "fits in a 10-minute build" in line
     slow = {**report["paper_profile"], "by_experiment": [
@@ -52,6 +52,21 @@ def test_paper_and_compile_tables_show_the_new_figures():
     assert "would have 540 s on 2 cores: 20.0x fewer CPU-seconds" in line
     assert t["compile"].loc["soft-DTW kernels a loop uses (softdtw.warmup())",
                             "wall time (s)"] == 17.4
+
+
+def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses():
+    compile_ = {"import": 2.3, "softdtw_serial": 28.4}
+    met = {"measured_seconds": 540.0, "peak_tree_rss_mib": 1500.0, "cpu_percent": 195.0}
+    line = summary_lines({"paper_profile": met, "cold_compile": compile_})["paper"]
+    assert "9.0 min wall, met" in line and "under 2 GB" in line and "CPU 195%, met" in line
+    assert "30.7 s, 0.7 s over 30 s" in line
+    missed = {"measured_seconds": 3432.0, "peak_tree_rss_mib": 2132.0, "cpu_percent": 180.0}
+    line = summary_lines({"paper_profile": missed})["paper"]
+    assert "57.2 min wall, 5.7x the 10 minutes" in line and "84 MiB over 2 GB" in line
+    assert "CPU 180%, under 190%" in line and "compile" not in line
+    header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
+        "spread": "2026-11-24 03:00 UTC", "paper": "2026-11-24 04:44 UTC"}})["header"]
+    assert header.endswith("since: spread 2026-11-24 03:00 UTC; paper 2026-11-24 04:44 UTC.")
 
 
 def test_the_closed_loop_section_shows_flights_and_the_measured_run():
