@@ -195,13 +195,18 @@ def bench_paper_profile(report, engine):
                                "estimated_seconds_one_core": one_core,
                                "estimated_seconds_all_cores": one_core / cores}
     if os.environ.get("FULL") == "1":
-        wall, peak, cpu, times = _measure_paper_book()
+        wall, peak, peak_pss, cpu, times = _measure_paper_book()
         print(f"  measured (FULL=1): make book PROFILE=paper from an empty result cache into a "
               f"temporary folder: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
-              f"{peak:.0f} MiB (sum of RSS over the process tree, sampled every 0.5 s)")
+              f"{peak:.0f} MiB summed RSS, {peak_pss:.0f} MiB summed PSS (over the process "
+              "tree, sampled every 0.5 s)")
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
+                                       peak_tree_pss_mib=peak_pss,
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
                                        measured_commit=_commit(),
+                                       measured_how="make bench FULL=1: the venv and numba "
+                                       "cache as they were, memory summed over the process "
+                                       "tree every 0.5 s",
                                        **where_the_fill_goes(times))
 
 
@@ -234,8 +239,8 @@ def where_the_fill_goes(times):
 def _measure_paper_book():
     """``make book PROFILE=paper`` into a temporary book folder with an empty result
     cache (the venv and the numba cache as they are); return (wall seconds, peak summed
-    RSS of the process tree in MiB, CPU time of the waited-for process tree as % of wall,
-    the fill's ``--times`` record)."""
+    RSS and peak summed PSS of the process tree in MiB, CPU time of the waited-for process
+    tree as % of wall, the fill's ``--times`` record)."""
     import shutil
     import subprocess
     import tempfile
@@ -259,11 +264,12 @@ def _measure_paper_book():
                                  f"BOOK={book}", f"RUN_FLAGS=--times {times}"], env=env,
                                 stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL)
-        root, peak = psutil.Process(proc.pid), 0.0
+        root, peak, peak_pss = psutil.Process(proc.pid), 0.0, 0.0
         while proc.poll() is None:
-            try:
-                procs = [root, *root.children(recursive=True)]
-                peak = max(peak, sum(p.memory_info().rss for p in procs) / 2 ** 20)
+            try:  # RSS counts shared pages once per process; PSS splits them among sharers
+                mem = [p.memory_full_info() for p in [root, *root.children(recursive=True)]]
+                peak = max(peak, sum(m.rss for m in mem) / 2 ** 20)
+                peak_pss = max(peak_pss, sum(m.pss for m in mem) / 2 ** 20)
             except psutil.Error:
                 pass
             time.sleep(0.5)
@@ -272,7 +278,7 @@ def _measure_paper_book():
         if proc.returncode:
             raise RuntimeError(f"make book PROFILE=paper failed with exit code {proc.returncode}")
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
-        return wall, peak, 100 * cpu / wall, json.loads(times.read_text())
+        return wall, peak, peak_pss, 100 * cpu / wall, json.loads(times.read_text())
 
 
 _COLD = """

@@ -60,9 +60,12 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
     line = summary_lines({"paper_profile": met, "cold_compile": compile_})["paper"]
     assert "9.0 min wall, met" in line and "under 2 GB" in line and "CPU 195%, met" in line
     assert "30.7 s, 0.7 s over 30 s" in line
-    missed = {"measured_seconds": 3432.0, "peak_tree_rss_mib": 2132.0, "cpu_percent": 180.0}
+    missed = {"measured_seconds": 3432.0, "peak_tree_rss_mib": 2132.0, "cpu_percent": 180.0,
+              "peak_tree_pss_mib": 1700.0}
     line = summary_lines({"paper_profile": missed})["paper"]
-    assert "57.2 min wall, 5.7x the 10 minutes" in line and "84 MiB over 2 GB" in line
+    assert "57.2 min wall, 5.7x the 10 minutes" in line
+    assert "2132 MiB (RSS summed over the process tree), 84 MiB over 2 GB" in line
+    assert "1700 MiB (PSS summed over the process tree), under 2 GB" in line
     assert "CPU 180%, under 190%" in line and "compile" not in line
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
         "spread": "2026-11-24 03:00 UTC", "paper": "2026-11-24 04:44 UTC"}})["header"]
