@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import uavwind as uw
+from uavwind.analysis.tables import source_commit
 from uavwind.method.clustering import default_engine
 
 OUT = Path(__file__).resolve().parent / "benchmark.json"
@@ -203,27 +204,11 @@ def bench_paper_profile(report, engine):
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
                                        peak_tree_pss_mib=peak_pss,
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
-                                       measured_commit=_commit(),
+                                       measured_commit=source_commit(mark_changes=True),
                                        measured_how="make bench FULL=1: the venv and numba "
                                        "cache as they were, memory summed over the process "
                                        "tree every 0.5 s",
                                        **where_the_fill_goes(times))
-
-
-def _commit():
-    """The checkout's short commit id, with ``+changes`` when the tree differs from it."""
-    import subprocess
-
-    root_dir = Path(__file__).resolve().parents[1]
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root_dir,
-                              capture_output=True, text=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=root_dir, capture_output=True, text=True,
-                               check=True).stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown (not a git checkout)"
-    return head + ("+changes" if dirty else "")
 
 
 def where_the_fill_goes(times):

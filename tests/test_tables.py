@@ -34,3 +34,25 @@ def test_paper_values_load_with_sources():
     assert set(load_paper_values("exp2")["n_env"]) == {6, 20}
     with pytest.raises(ValueError, match="unknown experiment"):
         load_paper_values("exp9")
+
+
+def test_source_commit_marks_a_changed_tree_and_says_unknown_outside_git(monkeypatch):
+    import re
+    import subprocess
+
+    head = tables.source_commit()
+    assert re.fullmatch(r"[0-9a-f]{4,40}|unknown", head)
+    marked = tables.source_commit(mark_changes=True)
+    assert marked in (head, head + "+changes")
+    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                           capture_output=True, text=True,
+                           cwd=tables.__file__.rsplit("/", 1)[0]).stdout.strip()
+    if head != "unknown":
+        assert marked == (head + "+changes" if dirty else head)
+
+    def no_git(*args, **kwargs):
+        raise FileNotFoundError("git")
+
+    monkeypatch.setattr(subprocess, "run", no_git)
+    assert tables.source_commit() == "unknown"
+    assert tables.source_commit(mark_changes=True) == "unknown"

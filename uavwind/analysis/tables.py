@@ -23,8 +23,8 @@ from ..study.registry import EXPERIMENTS, get_experiment
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 
-__all__ = ["summary_table", "comparison_table", "provenance", "SUMMARIES", "REFERENCES",
-           "maxmean_table", "cem_table"]
+__all__ = ["summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+           "REFERENCES", "maxmean_table", "cem_table"]
 
 
 def maxmean_table(df: pd.DataFrame, by: Iterable[str]) -> pd.DataFrame:
@@ -135,16 +135,26 @@ def provenance(df: pd.DataFrame) -> str:
     a = df.attrs
     return (f"Made by experiment {a.get('experiment', '?')} under the {a.get('reading', '?')!r} "
             f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
-            f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {_commit()}.")
+            f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {source_commit()}.")
 
 
 
-def _commit():
+def source_commit(mark_changes: bool = False) -> str:
+    """The short commit id of the checkout uavwind runs from (``"unknown"`` outside a git
+    checkout); with ``mark_changes``, ``"+changes"`` appended when tracked files differ
+    from that commit (for figures measured from a working tree)."""
     import subprocess
+
+    def git(*args):
+        return subprocess.run(["git", *args], capture_output=True, text=True,
+                              cwd=Path(__file__).resolve().parent, timeout=5).stdout.strip()
+
     try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                             text=True, cwd=Path(__file__).resolve().parent, timeout=5)
-        return out.stdout.strip() or "unknown"
+        head = git("rev-parse", "--short", "HEAD") or "unknown"
+        if mark_changes and head != "unknown" and git("status", "--porcelain",
+                                                      "--untracked-files=no"):
+            head += "+changes"
+        return head
     except (OSError, subprocess.SubprocessError):
         return "unknown"
 
