@@ -12,9 +12,19 @@ RUN_FLAGS ?=# extra flags for `make results`, e.g. RUN_FLAGS="--times times.json
 SCHEDULER ?=# a dask.distributed scheduler address: `make book SCHEDULER=tcp://host:8786` fills the cache on that cluster
 BOOK    ?= book
 GEN     := $(BOOK)/generated
+NB_DIR  ?= notebooks# the pages' sources (a test points it at a folder of its own)
+# timeouts [s]: no build step may hang. A cell over CELL_TIMEOUT fails its page with the cell
+# shown; a page over PAGE_TIMEOUT (kernel start, a hung kernel) is killed; the fill and the
+# HTML build have their own. Pages read the cache; the fill is where the computing is.
+CELL_TIMEOUT ?= 600
+PAGE_TIMEOUT ?= 1200
+FILL_TIMEOUT ?= $(if $(filter quick,$(PROFILE)),1800,10800)
+HTML_TIMEOUT ?= 1200
+PIP_TIMEOUT  ?= 1800
+TIMEOUT := timeout --kill-after=20
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
 # registry has its notebook, and each notebook its line in book/_toc.yml)
-NOTEBOOKS := $(basename $(notdir $(wildcard notebooks/*.md)))
+NOTEBOOKS := $(basename $(notdir $(wildcard $(NB_DIR)/*.md)))
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py uavwind/*/*.py uavwind/*/*/*.py uavwind/study/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
@@ -50,7 +60,7 @@ help:  ## list the targets
 $(STAMP): environment.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "uavwind pins need Python 3.11, got " + sys.version'
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --disable-pip-version-check --quiet -r environment.txt
+	$(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet -r environment.txt
 	touch $@
 
 venv: $(STAMP)  ## build .venv from environment.txt (only when missing or outdated)
@@ -64,7 +74,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # every result the book shows, under the readings its pages show, in one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
-	$(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
+	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then
@@ -80,11 +90,14 @@ $(GEN)/.profile: FORCE
 	@mkdir -p $(GEN)
 	@echo "$(PROFILE)" | cmp -s - $@ || echo "$(PROFILE)" > $@
 
-$(GEN)/%.ipynb: notebooks/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
+$(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
-	$(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
-	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb
+	@$(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
+	    --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 \
+	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb \
+	  || { rc=$$?; echo "book: page $< failed (exit $$rc$$( [ $$rc -ge 124 ] && echo ': over PAGE_TIMEOUT=$(PAGE_TIMEOUT) s' ))" \
+	       "-- the cell is named above; a cell over CELL_TIMEOUT=$(CELL_TIMEOUT) s is shown in full" >&2; exit 1; }
 	$(BIN)/python -c "$$HIDE_INJECTED" $(GEN)/.src/$*.out.ipynb
 	mv $(GEN)/.src/$*.out.ipynb $@
 
@@ -100,7 +113,7 @@ $(PLOTLYJS): $(STAMP)
 
 $(HTML): $(EXECUTED) $(MATHJAX) $(PLOTLYJS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
          $(BOOK)/_config.yml $(BOOK)/_toc.yml
-	$(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
+	$(TIMEOUT) $(HTML_TIMEOUT) $(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
 	touch $@
 
 lab: $(STAMP)  ## JupyterLab on the notebooks (open the .md files as notebooks)

@@ -1,0 +1,82 @@
+"""The book's build never hangs: every page runs under a cell timeout and a page timeout,
+a page that exceeds either fails the build naming the page and the cell, and no cell that
+needs a live kernel (a widget) runs in the build."""
+import os
+import re
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: What a live-widget cell calls: it needs a kernel and a front end, so it cannot run in a build.
+LIVE = re.compile(r"\bexplorer\(\)|\bipywidgets\b|\binteract(ive)?\(")
+
+
+def _code_cells(md: Path):
+    """(tags, source) of every ``{code-cell}`` of a MyST notebook."""
+    text = md.read_text()
+    for m in re.finditer(r"```\{code-cell\}[^\n]*\n(.*?)```", text, flags=re.S):
+        body = m.group(1)
+        tags = re.search(r"^:tags:\s*\[([^\]]*)\]", body, flags=re.M)
+        yield ({t.strip() for t in tags.group(1).split(",")} if tags else set()), body
+
+
+def test_no_live_widget_cell_executes_in_the_build():
+    live = [(md.name, src.strip()[:60]) for md in sorted((ROOT / "notebooks").glob("*.md"))
+            for tags, src in _code_cells(md) if LIVE.search(src) and "skip-execution" not in tags]
+    assert not live, f"cells that need a live kernel but run in the build: {live}"
+    # and the tag is honoured: papermill runs cells through nbclient, which skips it
+    from nbclient import NotebookClient
+    assert NotebookClient.skip_cells_with_tag.default_value == "skip-execution"
+
+
+def _make_page(tmp_path, source, **timeouts):
+    nb_dir = tmp_path / "nb"
+    nb_dir.mkdir()
+    (nb_dir / "hangs.md").write_text(
+        "---\njupytext:\n  text_representation:\n    extension: .md\n    format_name: myst\n"
+        "kernelspec:\n  display_name: Python 3\n  language: python\n  name: python3\n---\n\n"
+        "# A page that hangs\n\n```{code-cell} ipython3\nprint('first cell')\n```\n\n"
+        f"```{{code-cell}} ipython3\n{source}\n```\n")
+    book = tmp_path / "book"
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "results")}
+    env.pop("MPLBACKEND", None)
+    args = ["make", "-C", str(ROOT), "--no-print-directory", "-o", "results", f"BOOK={book}",
+            f"NB_DIR={nb_dir}", "PROFILE=quick"] + [f"{k}={v}" for k, v in timeouts.items()]
+    t0 = time.monotonic()
+    proc = subprocess.run(args + [f"{book}/generated/hangs.ipynb"], env=env, capture_output=True,
+                          text=True, timeout=300)
+    return proc, time.monotonic() - t0, book
+
+
+@pytest.mark.skipif(os.environ.get("UAVWIND_SKIP_BOOK") == "1", reason="UAVWIND_SKIP_BOOK=1")
+def test_a_hung_cell_fails_its_page_naming_the_page_and_the_cell(tmp_path):
+    proc, took, book = _make_page(tmp_path, "import time\ntime.sleep(3600)  # the hung cell",
+                                  CELL_TIMEOUT=5)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert took < 120, took
+    assert "hangs.md failed" in out, out[-2000:]
+    assert "time.sleep(3600)" in out, out[-2000:]  # the cell, shown
+    assert not (book / "generated" / "hangs.ipynb").exists()  # nothing partial becomes a page
+
+
+@pytest.mark.skipif(os.environ.get("UAVWIND_SKIP_BOOK") == "1", reason="UAVWIND_SKIP_BOOK=1")
+def test_a_page_over_its_page_timeout_is_stopped(tmp_path):
+    proc, took, book = _make_page(tmp_path, "import time\ntime.sleep(3600)",
+                                  CELL_TIMEOUT=3600, PAGE_TIMEOUT=10)
+    out = proc.stdout + proc.stderr
+    assert proc.returncode != 0
+    assert took < 120, took
+    assert "hangs.md failed" in out and "over PAGE_TIMEOUT=10 s" in out, out[-2000:]
+    assert not (book / "generated" / "hangs.ipynb").exists()
+
+
+def test_every_long_build_step_has_a_timeout():
+    make = (ROOT / "Makefile").read_text()
+    for step in ("pip install", "-m uavwind run all", "$(BIN)/papermill", "jupyter-book build"):
+        lines = [ln for ln in make.splitlines() if step in ln and not ln.lstrip().startswith("#")]
+        assert lines and all("$(TIMEOUT)" in ln for ln in lines), step
+    assert "--execution-timeout $(CELL_TIMEOUT)" in make
