@@ -249,7 +249,7 @@ def _quat_from_matrix(M, q):
 def _se3(P, s, f, u, R, Rd, aux):
     """``SE3Control.update`` for one environment: the state row s (20,) and the flat-output row
     f (11,) = ``x`` (3), ``x_dot`` (3), ``x_ddot`` (3), ``yaw``, ``yaw_dot`` -> the unclipped
-    motor speeds u (4,) and, in aux (17,), ``cmd_thrust`` [N], ``cmd_moment`` (3) [N m],
+    motor speeds u (4,) and, in aux (14,), ``cmd_thrust`` [N], ``cmd_moment`` (3) [N m],
     ``cmd_q`` (4), ``cmd_acc`` (3) [m/s^2] (``F_des / m``) and ``cmd_w`` (3) [rad/s]; R and
     Rd (3, 3) are scratch (Rd ends as the desired attitude)."""
     m = P[0]

@@ -242,7 +242,8 @@ class Multirotor:
         ``"neuralfly"``.
     tilt_limit : float
         Largest tilt of the thrust from up [deg], in (0, 90]; default 90 (the paper's
-        commands flown as stated).
+        commands flown as stated). Reference flights ignore it (RotorPy's SE3 controller has
+        no tilt limit).
     control_rate : float
         Command updates per second [Hz], in [10, 10000]; default 100 (RotorPy's).
     substeps : int
@@ -468,7 +469,9 @@ class Multirotor:
         The vehicle starts hovering (level, at rest, rotors at hover speed) at the reference's
         position at t = 0. Every control step (``1 / control_rate``) the controller reads the
         state and the reference's flat output at the step's start, as RotorPy's
-        ``simulate`` does. ``ValueError`` if the reference goes below the ground (z < 0)
+        ``simulate`` does; ``tilt_limit`` does not apply (``SE3Control`` has none: the
+        record's ``tilt_limited`` is 0, ``motor_limited`` counts clipped motor commands).
+        ``ValueError`` if the reference goes below the ground (z < 0)
         within the flight (before flying), or if an environment does (naming it and when).
         (Checked inputs: call it through :func:`uavwind.simulate` /
         :func:`uavwind.simulate_flight`.)"""
@@ -509,10 +512,15 @@ class Multirotor:
                 b3 = _body_z_batch(S[:, 6:10])
                 u_held = _clipped_se3(P, S, C)
             control_step(P, S, T, C, 2, self.substeps, h, clipped)
+            finite = np.isfinite(S).all(axis=1)
+            if not finite.all():
+                i = int(np.argmin(finite))
+                raise ValueError(f"environment {i}: the multirotor's state became non-finite at "
+                                 f"t = {(k + 1) * h_ctrl:.4g} s flying the reference (winds or "
+                                 f"forces too large for float64); check the wind speeds")
             below = S[:, 2] < 0.0
-            if below.any() or not np.all(np.isfinite(S[:, 0:3])):
-                i = int(np.argmax(below)) if below.any() else int(
-                    np.argmin(np.isfinite(S[:, 0:3]).all(axis=1)))
+            if below.any():
+                i = int(np.argmax(below))
                 raise ValueError(
                     f"environment {i} would go below the ground (z = {S[i, 2]:.4g} m) at "
                     f"t = {(k + 1) * h_ctrl:.4g} s flying the reference: the flight is refused "
