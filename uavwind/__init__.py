@@ -39,6 +39,7 @@ from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # no
 from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
 from .sim.multirotor import Multirotor  # noqa: E402
+from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
 from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402
@@ -57,7 +58,8 @@ __all__ = [
     "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
     "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
-    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude",
+    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude", "Reference", "Hover",
+    "Lemniscate", "WaypointSpline",
     # method
     "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
     "estimate_wind", "ClosedLoop", "run_episodes",

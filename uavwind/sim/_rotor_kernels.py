@@ -16,11 +16,19 @@ Parameter vector ``P`` (:func:`uavwind.sim.multirotor.Multirotor.packed`)::
     0 mass, 1 g, 2:11 inertia (row-major), 11:20 inverse inertia, 20:23 c_Dx, c_Dy, c_Dz,
     23 k_eta, 24 k_m, 25 k_d, 26 k_z, 27 k_h, 28 k_flap, 29 tau_m, 30 rotor speed min,
     31 rotor speed max, 32:44 rotor positions (4 x 3, body frame), 44:48 rotor directions,
-    48:64 thrust-and-moments to rotor forces (4 x 4), 64 k_w, 65 kp_att, 66 kd_att, 67 aero
+    48:64 thrust-and-moments to rotor forces (4 x 4), 64 k_w, 65 kp_att, 66 kd_att, 67 aero,
+    68:71 SE3 kp_pos, 71:74 SE3 kd_pos, 74 SE3 kp_att, 75 SE3 kd_att (``SE3Control``'s gains)
+
+Flat-output row (mode 2, ``SE3Control``), 11 numbers: ``x`` (3) [m], ``x_dot`` (3) [m/s],
+``x_ddot`` (3) [m/s^2], ``yaw`` [rad], ``yaw_dot`` [rad/s] (the jerk and snap RotorPy's flat
+outputs carry are not used by ``SE3Control``).
 
 One :func:`control_step` is ``Multirotor.step`` with a fixed-step integrator: the command is
 mapped to motor speeds from the state at the start of the step and clipped, then held (with
-the wind) for ``n_sub`` classical RK4 substeps, and the quaternion is renormalised.
+the wind) for ``n_sub`` classical RK4 substeps, and the quaternion is renormalised. The
+command is RotorPy's ``cmd_ctatt`` (mode 0), ``cmd_ctbr`` (mode 1), or the motor speeds of
+``rotorpy.controllers.quadrotor_control.SE3Control.update`` flying a flat output (mode 2,
+position control; :func:`se3_commands` gives all its outputs).
 """
 
 import math
@@ -198,13 +206,124 @@ def _cmd_ctbr(P, s, T, wd, u):
 
 
 @njit(**_NB)
+def _quat_from_matrix(M, q):
+    """scipy ``Rotation.from_matrix(M).as_quat()`` for an orthonormal M (Shepperd's method,
+    the branch of the largest of the diagonal and the trace, then normalised), into q (4,)."""
+    tr = M[0, 0] + M[1, 1] + M[2, 2]
+    c = 0
+    best = M[0, 0]
+    if M[1, 1] > best:
+        c = 1
+        best = M[1, 1]
+    if M[2, 2] > best:
+        c = 2
+        best = M[2, 2]
+    if tr > best:
+        c = 3
+    if c == 0:
+        q[0] = 1 - tr + 2 * M[0, 0]
+        q[1] = M[1, 0] + M[0, 1]
+        q[2] = M[2, 0] + M[0, 2]
+        q[3] = M[2, 1] - M[1, 2]
+    elif c == 1:
+        q[0] = M[1, 0] + M[0, 1]
+        q[1] = 1 - tr + 2 * M[1, 1]
+        q[2] = M[2, 1] + M[1, 2]
+        q[3] = M[0, 2] - M[2, 0]
+    elif c == 2:
+        q[0] = M[2, 0] + M[0, 2]
+        q[1] = M[2, 1] + M[1, 2]
+        q[2] = 1 - tr + 2 * M[2, 2]
+        q[3] = M[1, 0] - M[0, 1]
+    else:
+        q[0] = M[2, 1] - M[1, 2]
+        q[1] = M[0, 2] - M[2, 0]
+        q[2] = M[1, 0] - M[0, 1]
+        q[3] = 1 + tr
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for i in range(4):
+        q[i] = q[i] / n
+
+
+@njit(**_NB)
+def _se3(P, s, f, u, R, Rd, aux):
+    """``SE3Control.update`` for one environment: the state row s (20,) and the flat-output row
+    f (11,) = ``x`` (3), ``x_dot`` (3), ``x_ddot`` (3), ``yaw``, ``yaw_dot`` -> the unclipped
+    motor speeds u (4,) and, in aux (14,), ``cmd_thrust`` [N], ``cmd_moment`` (3) [N m],
+    ``cmd_q`` (4), ``cmd_acc`` (3) [m/s^2] (``F_des / m``) and ``cmd_w`` (3) [rad/s]; R and
+    Rd (3, 3) are scratch (Rd ends as the desired attitude)."""
+    m = P[0]
+    g = P[1]
+    F0 = m * ((-(P[68] * (s[0] - f[0])) - P[71] * (s[3] - f[3])) + f[6])
+    F1 = m * ((-(P[69] * (s[1] - f[1])) - P[72] * (s[4] - f[4])) + f[7])
+    F2 = m * (((-(P[70] * (s[2] - f[2])) - P[73] * (s[5] - f[5])) + f[8]) + g)
+    _rotmat(s[6:10], R)
+    u1 = F0 * R[0, 2] + F1 * R[1, 2] + F2 * R[2, 2]          # F_des . b3
+    nF = math.sqrt(F0 * F0 + F1 * F1 + F2 * F2)
+    b30 = F0 / nF
+    b31 = F1 / nF
+    b32 = F2 / nF
+    c0 = math.cos(f[9])
+    c1 = math.sin(f[9])
+    x0 = b31 * 0.0 - b32 * c1                                # b3_des x c1_des
+    x1 = b32 * c0 - b30 * 0.0
+    x2 = b30 * c1 - b31 * c0
+    nx = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    b20 = x0 / nx
+    b21 = x1 / nx
+    b22 = x2 / nx
+    Rd[0, 0] = b21 * b32 - b22 * b31                         # b1_des = b2_des x b3_des
+    Rd[1, 0] = b22 * b30 - b20 * b32
+    Rd[2, 0] = b20 * b31 - b21 * b30
+    Rd[0, 1] = b20
+    Rd[1, 1] = b21
+    Rd[2, 1] = b22
+    Rd[0, 2] = b30
+    Rd[1, 2] = b31
+    Rd[2, 2] = b32
+    S = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            a = Rd[0, i] * R[0, j] + Rd[1, i] * R[1, j] + Rd[2, i] * R[2, j]
+            b = R[0, i] * Rd[0, j] + R[1, i] * Rd[1, j] + R[2, i] * Rd[2, j]
+            S[i, j] = 0.5 * (a - b)
+    e0, e1, e2 = -S[1, 2], S[0, 2], -S[0, 1]
+    w0, w1, w2 = s[10], s[11], s[12]
+    kp, kd = P[74], P[75]
+    a0 = -kp * e0 - kd * w0
+    a1 = -kp * e1 - kd * w1
+    a2 = -kp * e2 - kd * (w2 - f[10])
+    I = P[2:11]
+    Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
+    Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
+    Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
+    M0 = I[0] * a0 + I[1] * a1 + I[2] * a2 + (w1 * Iw2 - w2 * Iw1)
+    M1 = I[3] * a0 + I[4] * a1 + I[5] * a2 + (w2 * Iw0 - w0 * Iw2)
+    M2 = I[6] * a0 + I[7] * a1 + I[8] * a2 + (w0 * Iw1 - w1 * Iw0)
+    _speeds(P, u1, M0, M1, M2, u)
+    aux[0] = u1
+    aux[1] = M0
+    aux[2] = M1
+    aux[3] = M2
+    _quat_from_matrix(Rd, aux[4:8])
+    aux[8] = F0 / m
+    aux[9] = F1 / m
+    aux[10] = F2 / m
+    aux[11] = a0
+    aux[12] = a1
+    aux[13] = a2
+
+
+@njit(**_NB)
 def control_step(P, S, T, C, mode, n_sub, h, clipped):
     """Advance every environment by one control step of ``n_sub * h`` [s], in place.
 
     ``S`` (n, 20) states, wind columns already set for this step; ``T`` (n,) collective
-    thrust [N]; ``C`` (n, 4) attitude quaternions (``mode`` 0, ``cmd_ctatt``) or (n, 3) body
-    rates (``mode`` 1, ``cmd_ctbr``); ``clipped`` (n,) counts the steps in which a motor
-    command was clipped to the motors' range.
+    thrust [N]; ``C`` (n, 4) attitude quaternions (``mode`` 0, ``cmd_ctatt``), (n, 3) body
+    rates (``mode`` 1, ``cmd_ctbr``) or (n, 11) flat-output rows (``mode`` 2, ``SE3Control``:
+    then ``T`` is an output, the commanded collective thrust ``cmd_thrust`` of the step);
+    ``clipped`` (n,) counts the steps in which a motor command was clipped to the motors'
+    range.
     """
     n = S.shape[0]
     R = np.empty((3, 3))
@@ -215,12 +334,16 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
     k3 = np.empty(20)
     k4 = np.empty(20)
     tmp = np.empty(20)
+    aux = np.empty(14)
     for i in range(n):
         s = S[i]
         if mode == 0:
             _cmd_ctatt(P, s, T[i], C[i], u, R, Rd)
-        else:
+        elif mode == 1:
             _cmd_ctbr(P, s, T[i], C[i], u)
+        else:
+            _se3(P, s, C[i], u, R, Rd, aux)
+            T[i] = aux[0]
         hit = False
         for k in range(4):                                   # np.clip(cmd, min, max)
             c = min(max(u[k], P[30]), P[31])
@@ -270,3 +393,19 @@ def motor_commands(P, S, T, C, mode):
         else:
             _cmd_ctbr(P, S[i], T[i], C[i], out[i])
     return out
+
+
+@njit(**_NB)
+def se3_commands(P, S, F):
+    """``SE3Control.update`` for a batch: states S (n, 20), flat-output rows F (n, 11) ->
+    ``(cmd_motor_speeds (n, 4) [rad/s] (unclipped), cmd_thrust (n,) [N], cmd_moment (n, 3)
+    [N m], cmd_q (n, 4) [i, j, k, w], cmd_acc (n, 3) [m/s^2], cmd_w (n, 3) [rad/s])``."""
+    n = S.shape[0]
+    u = np.empty((n, 4))
+    aux = np.empty((n, 14))
+    R = np.empty((3, 3))
+    Rd = np.empty((3, 3))
+    for i in range(n):
+        _se3(P, S[i], F[i], u[i], R, Rd, aux[i])
+    return u, aux[:, 0].copy(), aux[:, 1:4].copy(), aux[:, 4:8].copy(), aux[:, 8:11].copy(), \
+        aux[:, 11:14].copy()

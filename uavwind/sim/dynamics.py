@@ -28,6 +28,7 @@ import numpy as np
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 from .multirotor import Multirotor
+from .references import Reference
 from ..core.checks import check_array, check_scalar
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindModel
@@ -38,10 +39,32 @@ if TYPE_CHECKING:
 __all__ = ["simulate", "simulate_flight", "max_stable_dt"]  # Flight: uavwind.sim.flight
 
 
+def _prepare_reference(reference, wind, uav, dt, duration, start_position):
+    """Checks of a reference flight: ``n`` samples."""
+    if not isinstance(wind, WindModel):
+        raise TypeError(f"wind must be a WindModel, got {type(wind).__name__}")
+    if not isinstance(uav, Multirotor):
+        raise TypeError(f"a reference needs a multirotor: a {type(reference).__name__} is "
+                        f"tracked by a position controller, which the point mass "
+                        f"({type(uav).__name__}) does not have; fly it with uav=Multirotor()")
+    if start_position is not None:
+        raise ValueError("start_position: a reference flight starts hovering at the reference's "
+                         "position at t = 0; move the reference instead")
+    dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
+    if duration / dt > MAX_STEPS:
+        raise ValueError(f"dt = {dt:g} s over duration = {duration:g} s asks for "
+                         f"{duration / dt:.3g} steps per environment; at most {MAX_STEPS:,} are "
+                         f"allowed: use dt >= {duration / MAX_STEPS:g} s")
+    n = _n_steps(dt, duration)
+    uav.check_grid(dt)
+    return n, float(dt)
+
+
 def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     if not isinstance(thrust, (ThrustSequence, AttitudeSequence)):
-        raise TypeError(f"thrust must be a ThrustSequence or an AttitudeSequence, got "
-                        f"{type(thrust).__name__}")
+        raise TypeError(f"thrust must be a ThrustSequence, an AttitudeSequence or a Reference, "
+                        f"got {type(thrust).__name__}")
     if not isinstance(wind, WindModel):
         raise TypeError(f"wind must be a WindModel, got {type(wind).__name__}")
     if not isinstance(uav, (UAV, Multirotor)):
@@ -178,7 +201,8 @@ def _vehicle(uav, vehicle):
     return UAV() if uav is None else uav
 
 
-def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | None = None,
+def simulate(thrust: ThrustSequence | AttitudeSequence | Reference, wind: WindModel,
+             uav: UAV | Multirotor | None = None,
              dt: float = 0.1, duration: float = 12.0, start_altitude: float = 10.0,
              start_position: ArrayLike | None = None,
              vehicle: UAV | Multirotor | None = None) -> np.ndarray:
@@ -186,8 +210,12 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | No
 
     Parameters
     ----------
-    thrust : ThrustSequence
-        The open-loop action, shared by all environments.
+    thrust : ThrustSequence, AttitudeSequence or Reference
+        The open-loop action, shared by all environments; or a position reference
+        (:mod:`uavwind.sim.references`) a multirotor tracks with RotorPy's SE3 controller,
+        starting hovering at the reference's position at t = 0 (``start_altitude`` is then
+        unused and ``start_position`` refused); a reference flight that would go below the
+        ground (z = 0) is refused with a ``ValueError``.
     wind : WindModel
         ``n_env`` environments (e.g. a :class:`~uavwind.sim.wind.CombinedWind`).
     uav : UAV or Multirotor, optional
@@ -215,6 +243,9 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | No
     (1, 120, 3)
     """
     uav = _vehicle(uav, vehicle)
+    if isinstance(thrust, Reference):
+        n, dt = _prepare_reference(thrust, wind, uav, dt, duration, start_position)
+        return uav.fly_reference(thrust, wind, dt, n)
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
     if isinstance(uav, Multirotor):
@@ -222,14 +253,19 @@ def simulate(thrust: ThrustSequence, wind: WindModel, uav: UAV | Multirotor | No
     return _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=False)
 
 
-def simulate_flight(thrust: ThrustSequence, wind: WindModel,
+def simulate_flight(thrust: ThrustSequence | AttitudeSequence | Reference, wind: WindModel,
                     uav: UAV | Multirotor | None = None, dt: float = 0.1,
                     duration: float = 12.0, start_altitude: float = 10.0,
                     start_position: ArrayLike | None = None,
                     vehicle: UAV | Multirotor | None = None) -> Flight:
     """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too (and,
-    for a multirotor, its attitudes, body rates, rotor speeds and specific forces)."""
+    for a multirotor, its attitudes, body rates, rotor speeds and specific forces; for a
+    reference flight, the reference positions, the commanded thrusts and the aerodynamic
+    forces)."""
     uav = _vehicle(uav, vehicle)
+    if isinstance(thrust, Reference):
+        n, dt = _prepare_reference(thrust, wind, uav, dt, duration, start_position)
+        return uav.fly_reference(thrust, wind, dt, n, record_all=True)
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
     if isinstance(uav, Multirotor):

@@ -13,10 +13,17 @@ coefficient (``c_Dx, c_Dy, c_Dz, k_d, k_z, k_h, k_flap``) times ``mass / 0.5``; 
 the motor time constant, the rotor speed range and the attitude gains unchanged. Every linear
 and angular acceleration at a given state is then the hummingbird's: hover at 469.2 rad/s, a
 thrust-to-weight ratio of 10.2 (200.5 N at 2 kg), the tuned attitude loop as RotorPy tunes it.
-Two drag presets: ``"rotorpy"`` (the full aerodynamics, scaled) and ``"paper"`` (the paper's
+Three presets: ``"rotorpy"`` (the full aerodynamics, scaled), ``"paper"`` (the paper's
 frame drag, ``1/2 rho C_D S`` of :data:`~uavwind.sim.vehicle.PAPER_UAV` on every body axis,
 which equals the point mass's ``-k |v_air| v_air`` exactly, and no rotor drag, lift or
-flapping).
+flapping) and ``"neuralfly"``, the quadrotor of Neural-Fly's wind-tunnel flights (see
+:meth:`Multirotor.neural_fly`: its mass, thrust-to-weight ratio and size from the article,
+RotorPy's aerodynamics scaled to it).
+
+*Position control.* :meth:`Multirotor.fly_reference` flies a position reference
+(:mod:`uavwind.sim.references`) with RotorPy's ``SE3Control`` (its default gains), ported to
+the kernels and held to RotorPy's own controller by the tests; it starts hovering at the
+reference's position at t = 0 and refuses a flight that would go below the ground (z = 0).
 
 *The commands.* The paper applies a world-frame force ``F`` per segment and does not
 compensate gravity; a multirotor turns its body to point its thrust. Each segment flies
@@ -56,12 +63,15 @@ from .flight import Flight
 from .vehicle import PAPER_UAV
 
 if TYPE_CHECKING:
+    from .references import Reference
     from .wind import WindModel
 
-__all__ = ["Multirotor", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command"]
+__all__ = ["Multirotor", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command",
+           "NEURAL_FLY"]
 
-#: Drag presets: RotorPy's full aerodynamics (scaled), or the paper's frame drag alone.
-PRESETS = ("rotorpy", "paper")
+#: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
+#: quadrotor with RotorPy's aerodynamics.
+PRESETS = ("rotorpy", "paper", "neuralfly")
 #: How a flight starts: at rest over the ground, or moving with the air mass.
 STARTS = ("hover", "drifting")
 #: The pip extra that installs RotorPy.
@@ -70,6 +80,17 @@ EXTRA = "multirotor"
 BASE_MASS = 0.5
 #: RotorPy's gravity [m/s^2] (``Multirotor.g``).
 GRAVITY = 9.81
+#: The quadrotor of Neural-Fly's flights (O'Connell et al., "Neural-Fly enables rapid learning
+#: for agile flight in strong winds", Science Robotics 7(66), eabm6597, 2022; arXiv 2205.06908,
+#: "UAV Design"): "weighs 2.6 kg with a thrust to weight ratio of 2.2", "a wide-X configuration,
+#: measuring 85 cm in width, 75 cm in length, and 93 cm diagonally". Assumed here (the article
+#: gives no more): the 93 cm diagonal is hub to hub and the hubs lie on a rectangle of the
+#: footprint's 75 : 85 aspect, so at x = +-0.3077 m (length), y = +-0.3487 m (width).
+NEURAL_FLY = {"mass": 2.6, "thrust_to_weight": 2.2, "width": 0.85, "length": 0.75,
+              "diagonal": 0.93}
+#: ``SE3Control``'s position gains (``kp_pos`` [1/s^2], ``kd_pos`` [1/s]; RotorPy 3.0.0 fixes them).
+SE3_KP_POS = (6.5, 6.5, 15.0)
+SE3_KD_POS = (4.0, 4.0, 9.0)
 #: Coefficients scaled by mass / BASE_MASS (mass similarity).
 _SCALED = ("mass", "Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Ixz", "k_eta", "k_m", "c_Dx", "c_Dy",
            "c_Dz", "k_d", "k_z", "k_h", "k_flap")
@@ -84,16 +105,44 @@ def _hummingbird() -> dict:
     return quad_params
 
 
-def rotorpy_params(preset: str = "rotorpy", mass: float = 2.0) -> dict:
+def _neural_fly_hubs() -> tuple[float, float]:
+    """Hub offsets (x along the length, y along the width) [m] of the Neural-Fly quadrotor."""
+    half = NEURAL_FLY["diagonal"] / 2
+    n = math.hypot(NEURAL_FLY["length"], NEURAL_FLY["width"])
+    return half * NEURAL_FLY["length"] / n, half * NEURAL_FLY["width"] / n
+
+
+def default_mass(preset: str) -> float:
+    """The mass a preset flies at unless told otherwise [kg]: 2 (the paper's UAV), or 2.6
+    for ``"neuralfly"`` (the article's)."""
+    return NEURAL_FLY["mass"] if preset == "neuralfly" else 2.0
+
+
+def rotorpy_params(preset: str = "rotorpy", mass: float | None = None) -> dict:
     """The vehicle as a RotorPy ``quad_params`` dict (for ``rotorpy.vehicles.multirotor
-    .Multirotor``): ``hummingbird_params`` scaled to ``mass`` [kg], with the ``preset``'s
-    drag. Needs RotorPy (``ImportError`` naming the extra otherwise)."""
+    .Multirotor``): ``hummingbird_params`` scaled to ``mass`` [kg] (default: the preset's,
+    :func:`default_mass`), with the ``preset``'s drag. ``"neuralfly"`` also moves the hubs to
+    the Neural-Fly quadrotor's (:data:`NEURAL_FLY`), scales each moment of inertia by the
+    square of its arm's growth (``I ~ m L^2``) and sets the top rotor speed to its
+    thrust-to-weight ratio 2.2. Needs RotorPy (``ImportError`` naming the extra otherwise)."""
     check_choice(preset, "preset", PRESETS)
+    if mass is None:
+        mass = default_mass(preset)
     mass = check_scalar(mass, "mass", low=0.0, low_inclusive=False, high=1e3)
     base = _hummingbird()
     f = mass / BASE_MASS
     qp = {k: (v * f if k in _SCALED else v) for k, v in base.items()}
     qp["rotor_pos"] = {k: np.array(v, dtype=float) for k, v in base["rotor_pos"].items()}
+    if preset == "neuralfly":
+        hx, hy = _neural_fly_hubs()
+        old = [float(abs(v[0])) for v in base["rotor_pos"].values()][0]  # hummingbird d / sqrt 2
+        qp["rotor_pos"] = {k: np.array([math.copysign(hx, v[0]), math.copysign(hy, v[1]), 0.0])
+                           for k, v in base["rotor_pos"].items()}
+        qp["Ixx"] = qp["Ixx"] * (hy / old) ** 2           # roll: arms along y
+        qp["Iyy"] = qp["Iyy"] * (hx / old) ** 2           # pitch: arms along x
+        qp["Izz"] = qp["Izz"] * (hx * hx + hy * hy) / (2 * old * old)
+        qp["rotor_speed_max"] = math.sqrt(NEURAL_FLY["thrust_to_weight"] * mass * GRAVITY
+                                          / (4 * qp["k_eta"]))
     if preset == "paper":
         c = PAPER_UAV.drag_factor  # 1/2 rho C_D S [kg/m], isotropic: the point mass's drag
         qp.update(c_Dx=c, c_Dy=c, c_Dz=c, k_d=0.0, k_z=0.0, k_h=0.0, k_flap=0.0)
@@ -101,7 +150,7 @@ def rotorpy_params(preset: str = "rotorpy", mass: float = 2.0) -> dict:
 
 
 @lru_cache(maxsize=32)
-def _packed(preset, mass):
+def _packed(preset, mass):  # mass resolved (a float)
     """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
     qp = rotorpy_params(preset, mass)
     inertia = np.array([[qp["Ixx"], qp["Ixy"], qp["Ixz"]],
@@ -114,7 +163,7 @@ def _packed(preset, mass):
                          np.hstack([np.cross(qp["rotor_pos"][key], np.array([0, 0, 1]))
                                     .reshape(-1, 1)[0:2] for key in qp["rotor_pos"]]),
                          (k * direction).reshape(1, -1)))
-    P = np.zeros(68)
+    P = np.zeros(76)
     P[0], P[1] = qp["mass"], GRAVITY
     P[2:11] = inertia.ravel()
     P[11:20] = np.linalg.inv(inertia).ravel()
@@ -127,6 +176,9 @@ def _packed(preset, mass):
     P[48:64] = np.linalg.inv(f_to_TM).ravel()
     P[64:67] = [qp.get("k_w", 1.0), qp.get("kp_att", 3000.0), qp.get("kd_att", 360.0)]
     P[67] = 1.0
+    P[68:71] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
+    P[71:74] = SE3_KD_POS  # with its own defaults)
+    P[74:76] = [qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)]
     P.setflags(write=False)
     return P
 
@@ -178,15 +230,20 @@ class Multirotor:
 
     Parameters
     ----------
-    preset : {"rotorpy", "paper"}
-        Drag: RotorPy's full aerodynamics, or the paper's frame drag alone.
+    preset : {"rotorpy", "paper", "neuralfly"}
+        RotorPy's hummingbird with its full aerodynamics, the same with the paper's frame
+        drag alone, or Neural-Fly's quadrotor with RotorPy's aerodynamics
+        (:meth:`neural_fly`).
     start : {"hover", "drifting"}
-        At rest over the ground, or moving with the air mass.
-    mass : float
-        [kg], in (0, 1000]; default 2 (the paper's UAV).
+        At rest over the ground, or moving with the air mass (reference flights start
+        hovering at the reference: ``"hover"`` only).
+    mass : float, optional
+        [kg], in (0, 1000]; default the preset's: 2 (the paper's UAV), 2.6 for
+        ``"neuralfly"``.
     tilt_limit : float
         Largest tilt of the thrust from up [deg], in (0, 90]; default 90 (the paper's
-        commands flown as stated).
+        commands flown as stated). Reference flights ignore it (RotorPy's SE3 controller has
+        no tilt limit).
     control_rate : float
         Command updates per second [Hz], in [10, 10000]; default 100 (RotorPy's).
     substeps : int
@@ -201,7 +258,7 @@ class Multirotor:
 
     preset: str = "rotorpy"
     start: str = "hover"
-    mass: float = 2.0
+    mass: float | None = None
     tilt_limit: float = 90.0
     control_rate: float = 100.0
     substeps: int = 4
@@ -209,7 +266,8 @@ class Multirotor:
     def __post_init__(self):
         check_choice(self.preset, "preset", PRESETS)
         check_choice(self.start, "start", STARTS)
-        object.__setattr__(self, "mass", check_scalar(self.mass, "mass", low=0.0,
+        mass = default_mass(self.preset) if self.mass is None else self.mass
+        object.__setattr__(self, "mass", check_scalar(mass, "mass", low=0.0,
                                                       low_inclusive=False, high=1e3))
         object.__setattr__(self, "tilt_limit", check_scalar(
             self.tilt_limit, "tilt_limit", low=0.0, low_inclusive=False, high=90.0))
@@ -218,6 +276,33 @@ class Multirotor:
         object.__setattr__(self, "substeps", check_scalar(self.substeps, "substeps", low=1,
                                                           high=100, integer=True))
         self.packed  # needs RotorPy: fail here, with the extra named, not mid-flight
+
+    @classmethod
+    def neural_fly(cls, **kwargs) -> Multirotor:
+        """The quadrotor of Neural-Fly's wind-tunnel flights (O'Connell et al., Science
+        Robotics 7(66), eabm6597, 2022, "UAV Design"), ``preset="neuralfly"``:
+
+        * mass 2.6 kg and thrust-to-weight ratio 2.2 (the article: "weighs 2.6 kg with a
+          thrust to weight ratio of 2.2"): top rotor speed 695.9 rad/s, 56.1 N at full speed;
+        * hubs at x = +-0.308 m, y = +-0.349 m (the article's wide-X frame, "85 cm in width,
+          75 cm in length, and 93 cm diagonally"; assumed: the diagonal is hub to hub and the
+          hubs keep the 75 : 85 aspect; its tilted motors are not modelled);
+        * everything the article does not give is RotorPy's hummingbird scaled by mass
+          similarity (as for the other presets): ``k_eta``, ``k_m`` and every drag coefficient
+          times 2.6 / 0.5, so hover at 469.2 rad/s; inertia times 5.2 and the square of each
+          axis's arm growth (Ixx 0.160, Iyy 0.125, Izz 0.274 kg m^2); motor time constant,
+          attitude gains and SE3 gains RotorPy's.
+
+        ``kwargs`` are the other fields (``start``, ``control_rate``, ...; ``mass`` too, to
+        scale the same vehicle).
+
+        >>> mr = Multirotor.neural_fly()
+        >>> mr.mass, round(mr.max_thrust / mr.weight, 3)
+        (2.6, 2.2)
+        """
+        if "preset" in kwargs:
+            raise TypeError("neural_fly() sets preset='neuralfly'; give the other fields only")
+        return cls(preset="neuralfly", **kwargs)
 
     # -- the vehicle --------------------------------------------------------- #
     @property
@@ -374,6 +459,99 @@ class Multirotor:
                       specific_forces=rec["f"], tilt_limited=limited_steps / n_ctrl,
                       motor_limited=float(clipped.sum()) / (n_ctrl * n_env))
 
+    def fly_reference(self, reference: Reference, wind: WindModel, dt: float, n: int,
+                      record_all: bool = False) -> np.ndarray | Flight:
+        """Fly the position ``reference`` with RotorPy's ``SE3Control`` through every
+        environment of ``wind`` for ``n`` samples of ``dt`` [s]: positions (n_env, n, 3) [m],
+        or with ``record_all`` a :class:`~uavwind.sim.flight.Flight` that also carries the
+        reference positions, the commanded collective thrusts and the aerodynamic forces.
+
+        The vehicle starts hovering (level, at rest, rotors at hover speed) at the reference's
+        position at t = 0. Every control step (``1 / control_rate``) the controller reads the
+        state and the reference's flat output at the step's start, as RotorPy's
+        ``simulate`` does; ``tilt_limit`` does not apply (``SE3Control`` has none: the
+        record's ``tilt_limited`` is 0, ``motor_limited`` counts clipped motor commands).
+        ``ValueError`` if the reference goes below the ground (z < 0)
+        within the flight (before flying), or if an environment does (naming it and when).
+        (Checked inputs: call it through :func:`uavwind.simulate` /
+        :func:`uavwind.simulate_flight`.)"""
+        from ._rotor_kernels import control_step
+
+        if self.start != "hover":
+            raise ValueError(f"start = {self.start!r}: a reference flight starts hovering at "
+                             f"the reference's position at t = 0; use start='hover'")
+        per = self.check_grid(dt)
+        P = self.packed
+        n_env = wind.n_env
+        h_ctrl = 1.0 / self.control_rate
+        h = h_ctrl / self.substeps
+        n_ctrl = n * per
+        t_ctrl = np.arange(n_ctrl) * h_ctrl
+        flat = reference.flat_output(np.append(t_ctrl, n * dt))
+        F = np.column_stack([flat["x"], flat["x_dot"], flat["x_ddot"], flat["yaw"],
+                             flat["yaw_dot"]])
+        low = int(np.argmin(F[:, 2]))
+        if F[low, 2] < 0.0:
+            raise ValueError(f"reference: its path goes below the ground (z = {F[low, 2]:.4g} m "
+                             f"at t = {min(low, n_ctrl) * h_ctrl:.4g} s); keep it above z = 0")
+        start = F[0, 0:3].copy()
+        S = self.initial_states(start, np.zeros((n_env, 3)))
+        T = np.empty(n_env)
+        clipped = np.zeros(n_env, dtype=np.int64)
+        positions = np.empty((n_env, n, 3))
+        if record_all:
+            rec = {k: np.empty((n_env, n, w)) for k, w in
+                   (("v", 3), ("wind", 3), ("q", 4), ("w", 3), ("rotors", 4), ("f", 3),
+                    ("fa", 3), ("thrust", 3))}
+            commands = np.empty((n_env, n))
+        for k in range(n_ctrl):
+            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, 11)))
+            S[:, 13:16] = wind._velocity(t_ctrl[k], S[:, 0:3])
+            last = (k + 1) % per == 0
+            if record_all and last:  # the command held over the step, for the sensors
+                b3 = _body_z_batch(S[:, 6:10])
+                u_held = _clipped_se3(P, S, C)
+            control_step(P, S, T, C, 2, self.substeps, h, clipped)
+            finite = np.isfinite(S).all(axis=1)
+            if not finite.all():
+                i = int(np.argmin(finite))
+                raise ValueError(f"environment {i}: the multirotor's state became non-finite at "
+                                 f"t = {(k + 1) * h_ctrl:.4g} s flying the reference (winds or "
+                                 f"forces too large for float64); check the wind speeds")
+            below = S[:, 2] < 0.0
+            if below.any():
+                i = int(np.argmax(below))
+                raise ValueError(
+                    f"environment {i} would go below the ground (z = {S[i, 2]:.4g} m) at "
+                    f"t = {(k + 1) * h_ctrl:.4g} s flying the reference: the flight is refused "
+                    f"(a multirotor does not fly through the floor); check the winds and the "
+                    f"reference's height")
+            if last:
+                j = (k + 1) // per - 1
+                positions[:, j] = S[:, 0:3]
+                if record_all:
+                    rec["v"][:, j] = S[:, 3:6]
+                    rec["wind"][:, j] = S[:, 13:16]
+                    rec["q"][:, j] = S[:, 6:10]
+                    rec["w"][:, j] = S[:, 10:13]
+                    rec["rotors"][:, j] = S[:, 16:20]
+                    rec["f"][:, j] = _specific_force(P, S, u_held)
+                    rec["fa"][:, j] = _aero_force(P, S, u_held)
+                    rec["thrust"][:, j] = T[:, None] * b3
+                    commands[:, j] = T
+        if not record_all:
+            return positions
+        times = (np.arange(n) + 1) * dt
+        return Flight(times=times, positions=positions, ground_velocities=rec["v"],
+                      air_velocities=rec["v"] - rec["wind"], winds=rec["wind"],
+                      thrust=rec["thrust"], start=start, attitudes=rec["q"],
+                      body_rates=rec["w"], rotor_speeds=rec["rotors"], specific_forces=rec["f"],
+                      tilt_limited=0.0, motor_limited=float(clipped.sum()) / (n_ctrl * n_env),
+                      references=np.broadcast_to(reference.positions(times),
+                                                 (n_env, n, 3)).copy(),
+                      thrust_commands=commands,
+                      aero_forces=rec["fa"])
+
 
 def _body_z(q) -> np.ndarray:
     """The body's z axis in the world frame for the quaternion q [i, j, k, w]."""
@@ -400,3 +578,29 @@ def _specific_force(P, S, U):
                   np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)],
                  axis=1)
     return np.einsum("nji,nj->ni", R, acc)
+
+
+def _body_z_batch(Q) -> np.ndarray:
+    """The body's z axis (n, 3) in the world frame for quaternions Q (n, 4) [i, j, k, w]."""
+    Q = Q / np.linalg.norm(Q, axis=1, keepdims=True)
+    x, y, z, w = Q.T
+    return np.stack([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)], axis=1)
+
+
+def _clipped_se3(P, S, C):
+    from ._rotor_kernels import se3_commands
+    return np.clip(se3_commands(P, S, C)[0], P[30], P[31])
+
+
+def _aero_force(P, S, U):
+    """World-frame aerodynamic force [N] on the vehicle at the states ``S``: ``m dv/dt`` less
+    gravity and the rotors' nominal thrust ``R e_z sum k_eta omega^2`` (frame drag, rotor
+    drag, induced inflow and translational lift: the simulated counterpart of Neural-Fly's
+    ``fa``). ``U`` (the held motor commands) does not change it (only the motors' rates)."""
+    from ._rotor_kernels import state_derivative
+
+    vdot = state_derivative(P, S, U)[:, 3:6]
+    m = P[0]
+    nominal = P[23] * np.sum(S[:, 16:20] ** 2, axis=1)
+    gravity = np.array([0.0, 0.0, m * P[1]])
+    return m * vdot + gravity - nominal[:, None] * _body_z_batch(S[:, 6:10])
