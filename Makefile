@@ -75,6 +75,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
+	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind realflights --profile $(PROFILE) --jobs $(JOBS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then

@@ -24,6 +24,9 @@ def _setting():
 
 #: qualified name -> a call with valid arguments and ``**BAD``
 CALLS = {
+    "uavwind.analysis.real_flights.compute_rows": lambda: __import__(
+        "uavwind.analysis.real_flights", fromlist=["compute_rows"]).compute_rows(
+        [object()], **BAD),
     "uavwind.method.clustering.score_loop": lambda: uw.score_loop(
         np.random.default_rng(0).normal(size=(4, 5, 3)), [0, 0, 1, 1], **BAD),
     "uavwind.method.search.evaluate": lambda: __import__(

@@ -1,6 +1,6 @@
 """The layer contract, read from the code's own imports (every import, function-local too).
 
-    core < sim < method < study < analysis < report < (cli, the package's face)
+    core < data < sim < method < study < analysis < report < (cli, the package's face)
 
 * a module imports only modules of its own layer or of a lower one;
 * ``uavwind.core`` imports nothing else of uavwind;
@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1] / "uavwind"
-LAYERS = ["core", "sim", "method", "study", "analysis", "report"]
+LAYERS = ["core", "data", "sim", "method", "study", "analysis", "report"]
 #: modules outside the layers: the version (importable from anywhere), the old paths, the top
 TOP = {"uavwind", "uavwind.cli", "uavwind.__main__"}
 ANYWHERE = {"uavwind._version"}

@@ -127,6 +127,14 @@ CALLS = {
         closed_loop.accuracy_over_time(_episodes())),
     "reliability_diagram": lambda f: plotting.reliability_diagram(
         closed_loop.reliability(_episodes(), by=("vehicle", "policy"))),
+    "real_vs_simulated": lambda f: plotting.real_vs_simulated(pd.DataFrame({
+        "condition": ["nowind", "35wind", "70p20sint"], "wind_speed": [0.0, 4.2, 8.5],
+        "fitted": [False, True, False],
+        **{f"{c}_{k}": [1.0, 2.0, 3.0] for c in ("tilt_deg", "force", "tracking_rms")
+           for k in ("sim", "real", "real_min", "real_max")}})),
+    "channel_pair_heatmap": lambda f: plotting.channel_pair_heatmap(pd.DataFrame({
+        "condition_a": ["nowind"] * 2, "condition_b": ["35wind"] * 2,
+        "channel": ["position", "attitude"], "mean": [40.0, 90.0]})),
     "manoeuvre_plot": lambda f: plotting.manoeuvre_plot(
         closed_loop.manoeuvres(_episodes()), "a", "multirotor"),
 }

@@ -27,7 +27,7 @@ def test_every_experiment_has_its_notebook_and_every_notebook_a_page():
 
 def test_the_makefile_lists_no_notebook_by_name():
     make = (ROOT / "Makefile").read_text()
-    assert "$(wildcard notebooks/*.md)" in make
+    assert "$(wildcard $(NB_DIR)/*.md)" in make and "NB_DIR  ?= notebooks" in make
     assert not any(re.search(rf"\b{n}\b", make) for n in NOTEBOOKS if n != "notebooks")
 
 

@@ -7,6 +7,7 @@ and the silhouette score rewards thrust sequences that separate the groups.
 The package is layered, data flowing one way (a layer imports only the layers below it):
 
 * :mod:`uavwind.core` -- input checks, seeding, workers, atomic writes, statistics;
+* :mod:`uavwind.data` -- measured flights (Neural-Fly's, read from a folder you name);
 * :mod:`uavwind.sim` -- vehicles, actions, winds, Dryden turbulence, dynamics,
   observations, and the :class:`~uavwind.sim.setting.Setting` one loop flies;
 * :mod:`uavwind.method` -- clustering (and its fast engine), search, the physics baseline;
@@ -27,6 +28,7 @@ from ._version import __version__
 
 _compat.install()  # the flat module paths of 0.1 keep working for one release
 
+from .data.neuralfly import RealFlight, load_neuralfly  # noqa: E402
 from .method.baseline import estimate_wind  # noqa: E402
 from .method.closed_loop import ClosedLoop, run_episodes  # noqa: E402
 from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
@@ -43,7 +45,7 @@ from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
 from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402
-from .sim.wind import CombinedWind, ConstantWind, ShearWind, WindModel  # noqa: E402
+from .sim.wind import CombinedWind, ConstantWind, ShearWind, SinusoidalWind, WindModel  # noqa: E402
 from .study.builders import (direction_settings, environment_count_settings,  # noqa: E402
                              make_group, make_setting, range_similarity_settings)
 from .study.conditions import (PAPER_SCENARIOS, SPEED_RANGES, WindCondition,  # noqa: E402
@@ -55,11 +57,14 @@ __all__ = [
     # sim
     "UAV", "PAPER_UAV", "ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
     "MAX_THRUST", "PAPER_EXAMPLE", "WindModel", "ConstantWind", "ShearWind", "CombinedWind",
+    "SinusoidalWind",
     "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
     "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
     "Setting", "Multirotor", "AttitudeSequence", "sample_attitude", "Reference", "Hover",
     "Lemniscate", "WaypointSpline",
+    # data
+    "load_neuralfly", "RealFlight",
     # method
     "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
     "estimate_wind", "ClosedLoop", "run_episodes",

@@ -14,7 +14,8 @@ that a test cannot reach elsewhere). Figures:
 * :func:`paper_vs_replication` -- reported vs regenerated values;
 * beyond the paper: the inference fits, noise, observations, the baseline, the multirotor,
   the future work (:func:`future_grid`) and the closed loop (:func:`closed_loop_curves`,
-  :func:`reliability_diagram`, :func:`manoeuvre_plot`).
+  :func:`reliability_diagram`, :func:`manoeuvre_plot`), the real flights
+  (:func:`real_vs_simulated`, :func:`channel_pair_heatmap`).
 """
 
 from __future__ import annotations
@@ -43,7 +44,8 @@ __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowch
            "dryden_spectrum", "paper_vs_replication", "panel_grid", "closed_loop_curves",
            "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
            "predicted_vs_paper", "noise_curves", "observation_bars", "baseline_vs_clustering",
-           "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp"]
+           "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp",
+           "real_vs_simulated", "channel_pair_heatmap"]
 
 GROUP_COLOURS = ("tab:blue", "tab:orange")
 
@@ -616,4 +618,55 @@ def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
             ax.set_ylabel("mean thrust (N)")
             ax.legend(fontsize=7)
     fig.suptitle(f"{scenario}, {vehicle}", fontsize=9)
+    return fig
+
+
+def real_vs_simulated(table) -> Figure:
+    """Exp 13: tilt [deg], aerodynamic force along the wind [N] and tracking error [m]
+    against wind speed, the real flights' mean with their spread over controllers (bars:
+    min to max) beside the simulation's (``table``:
+    :func:`uavwind.analysis.figure8.prediction_table`); the fitted condition is circled."""
+    plt = _plt()
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
+    panels = (("tilt_deg", "mean tilt [deg]"), ("force", "aerodynamic force along x [N]"),
+              ("tracking_rms", "tracking error, RMS [m]"))
+    x = table["wind_speed"].to_numpy(float)
+    sin = (table["condition"] == "70p20sint").to_numpy()
+    x = np.where(sin, x + 0.25, x)  # 8.5 + 2.4 sin t beside the steady 8.5
+    for ax, (c, label) in zip(axes, panels):
+        real = table[f"{c}_real"].to_numpy(float)
+        err = np.vstack([real - table[f"{c}_real_min"], table[f"{c}_real_max"] - real])
+        ax.errorbar(x, real, yerr=np.clip(err, 0, None), fmt="o", color="black", capsize=3,
+                    label="real (5 controllers: mean, min-max)")
+        ax.plot(x, table[f"{c}_sim"], "s", color="tab:red", mfc="none",
+                label="simulated (SE3, 5 gust seeds)")
+        fit = table["fitted"].to_numpy(bool)
+        ax.plot(x[fit], table[f"{c}_sim"][fit], "o", ms=14, mfc="none", color="tab:blue",
+                label="drag fitted here")
+        ax.set(xlabel="wind speed [m/s]", ylabel=label)
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=7, loc="upper left")
+    return fig
+
+
+def channel_pair_heatmap(pairs, title: str = "") -> Figure:
+    """Exp 13: mean score over controllers of every pair of wind conditions (rows) in every
+    channel (columns) (``pairs``: :func:`uavwind.analysis.real_flights.pair_table`)."""
+    plt = _plt()
+    pairs = pairs.assign(pair=pairs["condition_a"] + " vs " + pairs["condition_b"])
+    grid = pairs.pivot(index="pair", columns="channel", values="mean")
+    grid = grid.reindex(index=list(dict.fromkeys(pairs["pair"])),
+                        columns=list(dict.fromkeys(pairs["channel"])))
+    fig, ax = plt.subplots(figsize=(1.3 * grid.shape[1] + 3, 0.42 * grid.shape[0] + 1.6),
+                           constrained_layout=True)
+    im = ax.imshow(grid.to_numpy(float), vmin=0, vmax=100, cmap="viridis", aspect="auto")
+    for i in range(grid.shape[0]):
+        for j in range(grid.shape[1]):
+            v = grid.iat[i, j]
+            ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=8,
+                    color="white" if v < 60 else "black")
+    ax.set_xticks(range(grid.shape[1]), [c.replace("_", " ") for c in grid.columns], fontsize=8)
+    ax.set_yticks(range(grid.shape[0]), grid.index, fontsize=8)
+    ax.set_title(title or "Mean score over controllers")
+    fig.colorbar(im, ax=ax, label="score (0-100)")
     return fig

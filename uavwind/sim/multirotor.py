@@ -66,7 +66,7 @@ if TYPE_CHECKING:
     from .references import Reference
     from .wind import WindModel
 
-__all__ = ["Multirotor", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command",
+__all__ = ["Multirotor", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command", "DRAG_KEYS",
            "NEURAL_FLY"]
 
 #: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
@@ -149,10 +149,17 @@ def rotorpy_params(preset: str = "rotorpy", mass: float | None = None) -> dict:
     return qp
 
 
+#: The drag coefficients :attr:`Multirotor.drag_scale` multiplies: frame drag (``c_D``),
+#: rotor drag (``k_d``) and induced inflow (``k_z``).
+DRAG_KEYS = ("c_Dx", "c_Dy", "c_Dz", "k_d", "k_z")
+
+
 @lru_cache(maxsize=32)
-def _packed(preset, mass):  # mass resolved (a float)
+def _packed(preset, mass, drag_scale=1.0):  # mass resolved (a float)
     """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
     qp = rotorpy_params(preset, mass)
+    if drag_scale != 1.0:
+        qp.update({k: qp.get(k, 0.0) * drag_scale for k in DRAG_KEYS})
     inertia = np.array([[qp["Ixx"], qp["Ixy"], qp["Ixz"]],
                         [qp["Ixy"], qp["Iyy"], qp["Iyz"]],
                         [qp["Ixz"], qp["Iyz"], qp["Izz"]]])
@@ -248,6 +255,9 @@ class Multirotor:
         Command updates per second [Hz], in [10, 10000]; default 100 (RotorPy's).
     substeps : int
         RK4 steps per command update, in [1, 100]; default 4 (2.5 ms at 100 Hz).
+    drag_scale : float
+        Factor on the drag coefficients :data:`DRAG_KEYS` [-], in (0, 100]; default 1 (the
+        preset's). Experiment 13 fits it to real flights at one wind speed.
 
     Examples
     --------
@@ -262,6 +272,7 @@ class Multirotor:
     tilt_limit: float = 90.0
     control_rate: float = 100.0
     substeps: int = 4
+    drag_scale: float = 1.0
 
     def __post_init__(self):
         check_choice(self.preset, "preset", PRESETS)
@@ -275,6 +286,8 @@ class Multirotor:
             self.control_rate, "control_rate", low=10.0, high=1e4))
         object.__setattr__(self, "substeps", check_scalar(self.substeps, "substeps", low=1,
                                                           high=100, integer=True))
+        object.__setattr__(self, "drag_scale", float(check_scalar(
+            self.drag_scale, "drag_scale", low=0.0, low_inclusive=False, high=100.0)))
         self.packed  # needs RotorPy: fail here, with the extra named, not mid-flight
 
     @classmethod
@@ -308,7 +321,7 @@ class Multirotor:
     @property
     def packed(self) -> np.ndarray:
         """The kernels' parameter vector (read-only)."""
-        return _packed(self.preset, self.mass)
+        return _packed(self.preset, self.mass, self.drag_scale)
 
     @property
     def gravity(self) -> float:
@@ -345,7 +358,10 @@ class Multirotor:
 
     def quad_params(self) -> dict:
         """This vehicle as RotorPy's ``quad_params`` (for ``rotorpy``'s own ``Multirotor``)."""
-        return rotorpy_params(self.preset, self.mass)
+        qp = rotorpy_params(self.preset, self.mass)
+        if self.drag_scale != 1.0:
+            qp.update({k: qp.get(k, 0.0) * self.drag_scale for k in DRAG_KEYS})
+        return qp
 
     # -- flying -------------------------------------------------------------- #
     def initial_states(self, start_position, winds0) -> np.ndarray:

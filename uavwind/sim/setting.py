@@ -273,6 +273,8 @@ class Setting:
                     del fields["noise"][k]
         if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
+            if fields["uav"].get("drag_scale") == 1.0:  # added later: earlier keys kept
+                del fields["uav"]["drag_scale"]
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

@@ -32,7 +32,8 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 
-__all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "MAX_WIND"]
+__all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "SinusoidalWind",
+           "MAX_WIND"]
 
 
 class WindModel(ABC):
@@ -113,6 +114,41 @@ class ConstantWind(WindModel):
 
     def __repr__(self):
         return f"ConstantWind(n_env={self.n_env})"
+
+
+class SinusoidalWind(WindModel):
+    """Uniform wind whose speed swings about a mean:
+    ``v_wind(t, r) = mean + amplitude sin(2 pi t / period)`` [m/s] (Neural-Fly's
+    ``70p20sint`` condition is 8.5 + 2.4 sin t m/s: ``period = 2 pi``).
+
+    Parameters
+    ----------
+    mean, amplitude : array_like, shape (n_env, 3)
+        [m/s], each component in [-1000, 1000].
+    period : float
+        [s], in (0, 1e6].
+
+    Examples
+    --------
+    >>> w = SinusoidalWind([[-8.5, 0, 0]], [[-2.4, 0, 0]], period=2 * np.pi)
+    >>> w.velocity(np.pi / 2, [[0, 0, 2]])[0].round(6).tolist()
+    [-10.9, 0.0, 0.0]
+    """
+
+    def __init__(self, mean, amplitude, period=2 * np.pi):
+        self.mean = _check_velocities(mean, "mean")
+        self.amplitude = _check_velocities(amplitude, "amplitude")
+        if self.amplitude.shape != self.mean.shape:
+            raise ValueError(f"amplitude must have the shape of mean {self.mean.shape}, got "
+                             f"{self.amplitude.shape}")
+        self.period = check_scalar(period, "period", low=0.0, low_inclusive=False, high=1e6)
+        self.n_env = self.mean.shape[0]
+
+    def _velocity(self, t, positions):
+        return self.mean + self.amplitude * np.sin(2 * np.pi * t / self.period)
+
+    def __repr__(self):
+        return f"SinusoidalWind(n_env={self.n_env}, period={self.period:g})"
 
 
 class ShearWind(WindModel):

@@ -1,0 +1,198 @@
+"""Experiment 13: the real-flight analysis on small flights the tests write (its rows, its
+CIs over controllers, its verified cache), the simulated twin (wind, drag fit, flights in
+the real flights' format) and the ranking verdict."""
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import uavwind as uw
+from uavwind.analysis import figure8, real_flights as rf
+from uavwind.data import load_neuralfly
+from uavwind.sim.multirotor import Multirotor
+
+from test_neuralfly import write_flight
+
+FORCES = {"nowind": 0.5, "35wind": -3.0, "100wind": -15.0}
+TILTS = {"nowind": 0.08, "35wind": 0.13, "100wind": 0.5}
+SMALL = rf.RealFlightStudy(max_laps=3, n_samples=40)
+
+
+@pytest.fixture(scope="module")
+def flights(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("nf")
+    for k, ctl in enumerate(("A", "B", "C")):
+        for cond in FORCES:
+            write_flight(folder, ctl, cond, laps=5, force=FORCES[cond], tilt=TILTS[cond],
+                         seed=10 * k + len(cond), rate=25.0)
+    return load_neuralfly(folder)
+
+
+@pytest.fixture(scope="module")
+def rows(flights):
+    return rf.compute_rows(flights, SMALL, n_jobs=1)
+
+
+def test_every_pair_channel_and_controller_has_its_row(rows):
+    cl = rows[rows.kind == "cluster"]
+    assert len(cl) == 3 * 6 * (3 + 1)  # pairs x channels x (controllers + pooled)
+    assert len(rows[rows.kind == "loco"]) == 3 * 6 * 3
+    assert len(rows[rows.kind == "flight"]) == 9
+    assert cl["score"].between(0, 100).all()
+    assert (cl["n_windows"] == np.where(cl["controller"] == "pooled", 18, 6)).all()
+    assert rows.loc[rows.kind == "loco", "accuracy"].between(0, 1).all()
+
+
+def test_the_channels_that_carry_the_wind_separate_it(rows):
+    """The flights differ by force and tilt only (the same path, the same noise level)."""
+    ch = rf.channel_table(rows).set_index("channel")
+    for c in ("aero_force", "attitude"):
+        assert ch.loc[c, "pairs_separated"] == 3 and ch.loc[c, "loco_accuracy"] == 1.0
+        assert ch.loc[c, "mean"] > 90
+    assert ch.loc["position", "mean"] < ch.loc["attitude", "mean"]
+    pairs = rf.pair_table(rows)
+    assert len(pairs) == 18 and (pairs["n_controllers"] == 3).all()
+    assert (pairs["ci_low"] <= pairs["mean"]).all() and (pairs["mean"] <= pairs["ci_high"]).all()
+
+
+def test_the_flight_rows_are_the_laps_means(rows, flights):
+    ft = rf.flight_table(rows).set_index("condition")
+    for cond, force in FORCES.items():
+        assert ft.loc[cond, "aero_force_x"] == pytest.approx(force, abs=0.05)
+        assert ft.loc[cond, "tilt_deg"] == pytest.approx(np.degrees(TILTS[cond]), abs=1e-9)
+        assert ft.loc[cond, "n_controllers"] == 3
+    assert (rows.loc[rows.kind == "flight", "n_laps"] == 3).all()
+
+
+def test_rows_do_not_depend_on_the_number_of_workers(flights, rows):
+    again = rf.compute_rows(flights, SMALL, n_jobs=2)
+    pd.testing.assert_frame_equal(rows, again)
+
+
+def test_the_design_and_the_study_are_checked(flights):
+    with pytest.raises(ValueError, match=r"missing \(controller, condition\)"):
+        rf.compute_rows(flights[1:], SMALL)
+    with pytest.raises(ValueError, match="at least two wind conditions"):
+        rf.compute_rows([f for f in flights if f.condition == "nowind"], SMALL)
+    with pytest.raises(ValueError, match="not among the flights'"):
+        rf.compute_rows(flights, rf.RealFlightStudy(conditions=("70wind", "nowind")))
+    with pytest.raises(TypeError, match="flights"):
+        rf.compute_rows("flights", SMALL)
+    with pytest.raises(ValueError, match="channels must be among"):
+        rf.RealFlightStudy(channels=("altitude",))
+    with pytest.raises(TypeError, match="conditions"):
+        rf.RealFlightStudy(conditions="nowind")
+    for bad in ({"max_laps": -1}, {"n_samples": 2}, {"max_iter": 0}, {"drop_first": 1.5}):
+        with pytest.raises((ValueError, TypeError), match=next(iter(bad))):
+            rf.RealFlightStudy(**bad)
+    with pytest.raises(TypeError, match="max_itr"):
+        rf.compute_rows(flights, SMALL, max_itr=3)
+
+
+def test_the_cache_is_read_back_and_a_tampered_copy_is_recomputed(flights, tmp_path,
+                                                                 monkeypatch):
+    monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
+    first = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights, n_jobs=1)
+    path, = (tmp_path / "exp13").glob("real-*.parquet")
+    calls = []
+    real_compute = rf.compute_rows
+    monkeypatch.setattr(rf, "compute_rows", lambda *a, **k: calls.append(1) or real_compute(*a, **k))
+    again = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights)
+    assert calls == [] and again.equals(first)
+    forged = pd.read_parquet(path)
+    forged.loc[forged.index[0], "score"] = 100.0  # a changed number, the digest kept
+    forged.attrs = dict(pd.read_parquet(path).attrs)
+    forged.to_parquet(path, index=False)
+    with pytest.warns(UserWarning, match="not trusted"):
+        fixed = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights, n_jobs=1)
+    assert calls == [1] and fixed.equals(first)
+    path.write_bytes(b"not parquet")
+    with pytest.warns(UserWarning, match="not trusted"):
+        fixed = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights, n_jobs=1)
+    assert fixed.equals(first)
+    with pytest.raises(ValueError, match="profile"):
+        rf.real_flight_rows(profile="full", flights=flights)
+
+
+def test_ranking_verdict_checks_only_what_the_real_flights_can_order():
+    real = pd.DataFrame({"channel": ["a", "b", "c"], "mean": [90.0, 60.0, 58.0],
+                         "ci_low": [85.0, 50.0, 50.0], "ci_high": [95.0, 70.0, 66.0]})
+
+    def sim(means):
+        return pd.DataFrame({"channel": ["a", "b", "c"], "mean": means,
+                             "ci_low": means, "ci_high": means})
+
+    v = figure8.ranking_verdict(real, sim([99.0, 70.0, 80.0]))
+    assert v["verdict"] == "yes" and v["agree"] == [("a", "b"), ("a", "c")]
+    assert v["real_unordered"] == [("b", "c")]
+    assert figure8.ranking_verdict(real, sim([50.0, 70.0, 80.0]))["verdict"] == "no"
+    v = figure8.ranking_verdict(real, sim([100.0, 99.9, 99.5]))
+    assert v["verdict"] == "cannot decide" and v["sim_tied"] == [("a", "b"), ("a", "c")]
+
+
+def test_sinusoidal_wind_is_its_closed_form():
+    w = uw.SinusoidalWind([[-8.5, 0, 0], [1, 2, 3]], [[-2.4, 0, 0], [0, 0, 1]], period=2 * np.pi)
+    for t in (0.0, 0.3, 7.0):
+        np.testing.assert_allclose(w.velocity(t, np.zeros((2, 3))),
+                                   [[-8.5 - 2.4 * np.sin(t), 0, 0], [1, 2, 3 + np.sin(t)]])
+    with pytest.raises(ValueError, match="amplitude must have the shape"):
+        uw.SinusoidalWind([[1, 0, 0]], [[1, 0, 0], [1, 0, 0]])
+    with pytest.raises(ValueError, match="period"):
+        uw.SinusoidalWind([[1, 0, 0]], [[1, 0, 0]], period=0.0)
+
+
+def test_drag_scale_multiplies_the_drag_and_nothing_else():
+    base, twice = Multirotor.neural_fly(), Multirotor.neural_fly(drag_scale=2.0)
+    for v in (1.0, 5.0):
+        assert twice.drag_force(v) == pytest.approx(2 * base.drag_force(v), rel=1e-12)
+    assert twice.max_thrust == base.max_thrust and twice.hover_speed == base.hover_speed
+    qp, q2 = base.quad_params(), twice.quad_params()
+    assert q2["k_d"] == 2 * qp["k_d"] and q2["c_Dx"] == 2 * qp["c_Dx"] and q2["k_eta"] == qp["k_eta"]
+    s = uw.make_setting("light constant", "light constant", 2, uav=Multirotor())
+    assert s.key() == uw.make_setting("light constant", "light constant", 2,
+                                      uav=Multirotor(drag_scale=1.0)).key()
+    assert s.key() != uw.make_setting("light constant", "light constant", 2,
+                                      uav=Multirotor(drag_scale=0.5)).key()
+    for bad in (0.0, -1.0, float("nan"), 1e3):
+        with pytest.raises(ValueError, match="drag_scale"):
+            Multirotor(drag_scale=bad)
+
+
+def test_a_simulated_flight_reads_as_a_real_one():
+    f = figure8.simulated_flight(Multirotor.neural_fly(), "100wind", seed=1, duration=20.0)
+    assert f.controller == "seed 1" and f.wind_speed == 12.1
+    assert f.p.shape == (1000, 3) and f.R.shape == (1000, 3, 3)
+    assert f.p[:, 2].min() > 0.5  # flown above the floor
+    w = rf.flight_laps(f, ("aero_force", "tracking_error"))
+    assert len(w["starts"]) == 1
+    assert w["aero_force"][..., 0].mean() < -10  # the drag points downwind, along -x
+    assert np.all(np.abs(np.linalg.det(f.R) - 1) < 1e-9)
+    with pytest.raises(ValueError, match="condition"):
+        figure8.simulated_flight(Multirotor.neural_fly(), "gale")
+    with pytest.raises(TypeError, match="vehicle"):
+        figure8.simulated_flight(uw.UAV(), "nowind")
+
+
+def test_the_drag_fit_hits_its_target():
+    study = rf.RealFlightStudy(max_laps=1)
+    target = -3.0
+    scale = figure8.fit_drag_scale(target, study=study)
+    v = Multirotor.neural_fly(drag_scale=scale)
+    got = figure8._mean_force_x(v, "35wind", study) - figure8._mean_force_x(v, "nowind", study)
+    assert got == pytest.approx(target, rel=1e-3)
+    with pytest.raises(ValueError, match="target must be negative"):
+        figure8.fit_drag_scale(2.0)
+
+
+def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(rf.__file__).rsplit("/uavwind/", 1)[0],
+           "UAVWIND_RESULTS": str(tmp_path)}
+    run = [sys.executable, "-m", "uavwind", "realflights", "--profile", "quick"]
+    p = subprocess.run(run, env=env, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and "Experiment 13 is skipped" in p.stdout
+    p = subprocess.run(run + ["--folder", str(tmp_path / "none")], env=env, capture_output=True,
+                       text=True, timeout=120)
+    assert p.returncode == 2 and "existing folder" in p.stderr

@@ -1,0 +1,384 @@
+"""Experiment 13, real flights: does causal curiosity's clustering tell the winds apart on
+Neural-Fly's wind-tunnel flights, and through which channel?
+
+This module owns :class:`RealFlightStudy` (what is clustered and how), :func:`real_flight_rows`
+(every score of the experiment, cached in the result folder under a digest of the flights'
+bytes and the study's parameters, verified on every read) and the summaries the page shows:
+:func:`pair_table`, :func:`channel_table` and :func:`flight_table`.
+
+The design (the page says it in prose):
+
+* *Windows.* One window per reference lap of the figure-8 (6.28 s), the first lap dropped
+  (the start-up ramp), resampled to the paper's 120 samples (:func:`uavwind.data.flight_laps`).
+  Each channel is divided by its standard deviation over every window of every flight, so
+  soft-DTW's ``gamma = 0.5`` means the same in every channel (the paper's positions, in
+  metres, have a standard deviation of the same order).
+* *Per controller.* For every pair of wind conditions, every channel and every controller,
+  the laps of the two flights are clustered with the project's soft-DTW k-means and scored
+  with the DTW silhouette (:func:`uavwind.score_loop`, the paper's rule: 0 unless the
+  clusters are the two flights).
+* *Pooled.* The same with every controller's laps together (one clustering per pair and
+  channel): do the winds separate across controllers?
+* *Leave one controller out.* Each lap of the held-out controller is given the condition of
+  its nearest lap (DTW) among the other controllers' laps of the pair; the accuracy is the
+  share right.
+* *Replicates.* Each (controller, condition) is ONE flight, so its laps are not independent:
+  the controllers are the replicates, and every CI is a bootstrap over controllers.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import warnings
+from dataclasses import asdict, dataclass
+from itertools import combinations
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .._version import __version__
+from ..core.checks import check_instance, check_scalar
+from ..core.io import atomic_write
+from ..core.parallel import check_jobs
+from ..core.stats import bootstrap_ci
+from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, flight_laps, load_neuralfly,
+                              neuralfly_folder)
+from ..method.clustering import ClusteringParams, score_loop
+from ..method.softdtw import dtw_pdist
+from ..study.cache import content_digest, results_dir
+
+__all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
+           "pair_table", "channel_table", "flight_table", "flights_digest"]
+
+#: Bump when a change alters the rows (part of the cache digest).
+REAL_VERSION = "1"
+
+
+@dataclass(frozen=True, kw_only=True)
+class RealFlightStudy:
+    """What Experiment 13 clusters on the real flights.
+
+    Attributes
+    ----------
+    n_samples : int
+        Samples per lap window (the paper's series length, 120).
+    drop_first : int
+        Laps dropped at the start of each flight (1: the start-up ramp).
+    max_laps : int
+        Laps kept per flight after that (0: all; the paper profile keeps all, 5 per
+        Neural-Fly flight).
+    channels : tuple of str
+        Of :data:`uavwind.data.CHANNELS`.
+    conditions : tuple of str
+        The wind conditions whose pairs are clustered (empty: every condition the flights
+        hold; the quick profile takes three). Every flight still gets its ``"flight"`` row.
+    max_iter : int
+        The soft-DTW k-means' cap on iterations (the paper's clustering otherwise). 10, not
+        the paper's 100: on lap windows the k-means keeps iterating on barycentre noise long
+        after its labels settle, and the score depends on the labels alone (the benchmark's
+        ``exp13`` section holds the scores at 10 against those at 100).
+    """
+
+    n_samples: int = 120
+    drop_first: int = 1
+    max_laps: int = 0
+    channels: tuple = tuple(CHANNELS)
+    conditions: tuple = ()
+    max_iter: int = 10
+
+    def __post_init__(self):
+        object.__setattr__(self, "n_samples", check_scalar(self.n_samples, "n_samples", low=4,
+                                                           high=10_000, integer=True))
+        object.__setattr__(self, "drop_first", check_scalar(self.drop_first, "drop_first",
+                                                            low=0, high=100, integer=True))
+        object.__setattr__(self, "max_laps", check_scalar(self.max_laps, "max_laps", low=0,
+                                                          high=10_000, integer=True))
+        if isinstance(self.channels, str) or not self.channels:
+            raise TypeError(f"channels must be a non-empty tuple of channel names, got "
+                            f"{self.channels!r}")
+        for ch in self.channels:
+            if ch not in CHANNELS:
+                raise ValueError(f"channels must be among {list(CHANNELS)}, got {ch!r}")
+        object.__setattr__(self, "channels", tuple(self.channels))
+        if isinstance(self.conditions, str):
+            raise TypeError(f"conditions must be a tuple of condition names, got "
+                            f"{self.conditions!r}")
+        for c in self.conditions:
+            if c not in CONDITIONS:
+                raise ValueError(f"conditions must be among {list(CONDITIONS)}, got {c!r}")
+        object.__setattr__(self, "conditions", tuple(self.conditions))
+        object.__setattr__(self, "max_iter", check_scalar(self.max_iter, "max_iter", low=1,
+                                                          high=10_000, integer=True))
+
+
+#: The study at each profile: the quick one keeps two laps per flight and three conditions
+#: (three pairs instead of ten).
+STUDIES = {"paper": RealFlightStudy(),
+           "quick": RealFlightStudy(max_laps=2, conditions=("nowind", "70wind", "100wind"))}
+
+
+def flights_digest(flights: list[RealFlight]) -> str:
+    """SHA-256 of the flights' labels and every array's bytes: what the rows depend on."""
+    h = hashlib.sha256()
+    for f in flights:
+        h.update(json.dumps([f.vehicle, f.trajectory, f.controller, f.condition]).encode())
+        for k in sorted(f.arrays):
+            h.update(k.encode())
+            h.update(np.ascontiguousarray(f.arrays[k], dtype=float).tobytes())
+    return h.hexdigest()
+
+
+def _windows(flights, study):
+    """{(controller, condition): {channel: (laps, n, d)}}, every channel scaled by its own
+    standard deviation over all windows, and the scales."""
+    laps = {}
+    for f in flights:
+        w = flight_laps(f, study.channels, study.n_samples, study.drop_first)
+        keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
+        laps[(f.controller, f.condition)] = {ch: w[ch][keep] for ch in study.channels}
+    scales = {ch: float(np.concatenate([v[ch] for v in laps.values()]).std())
+              for ch in study.channels}
+    for v in laps.values():
+        for ch in study.channels:
+            v[ch] = v[ch] / (scales[ch] if scales[ch] > 0 else 1.0)
+    return laps, scales
+
+
+def _check_design(flights):
+    """Controllers and conditions; ``ValueError`` unless every controller flew every
+    condition the flights hold (the pairs compare like with like) and there are two."""
+    controllers = sorted({f.controller for f in flights})
+    conditions = [c for c in CONDITIONS if any(f.condition == c for f in flights)]
+    have = {(f.controller, f.condition) for f in flights}
+    missing = [(k, c) for k in controllers for c in conditions if (k, c) not in have]
+    if missing:
+        raise ValueError(f"flights must hold every condition for every controller; missing "
+                         f"(controller, condition): {missing}")
+    if len(conditions) < 2:
+        raise ValueError(f"flights must hold at least two wind conditions, got {conditions}")
+    return controllers, conditions
+
+
+def _pair_task(laps, controllers, a, b, channel, params):
+    """The rows of one pair of conditions and one channel."""
+    rows = []
+    base = {"condition_a": a, "condition_b": b, "wind_a": CONDITIONS[a], "wind_b": CONDITIONS[b],
+            "channel": channel}
+    per = {k: (laps[(k, a)][channel], laps[(k, b)][channel]) for k in controllers}
+    for k in controllers:
+        xa, xb = per[k]
+        X = np.concatenate([xa, xb])
+        g = np.r_[np.zeros(len(xa), int), np.ones(len(xb), int)]
+        r = score_loop(X, g, **params)
+        rows.append({**base, "kind": "cluster", "controller": k, "score": r.score,
+                     "silhouette": r.silhouette, "correct": bool(r.correct), "n_windows": len(X)})
+    X = np.concatenate([np.concatenate(per[k]) for k in controllers])
+    g = np.concatenate([np.r_[np.zeros(len(per[k][0]), int), np.ones(len(per[k][1]), int)]
+                        for k in controllers])
+    owner = np.concatenate([[k] * (len(per[k][0]) + len(per[k][1])) for k in controllers])
+    r = score_loop(X, g, **params)
+    rows.append({**base, "kind": "cluster", "controller": "pooled", "score": r.score,
+                 "silhouette": r.silhouette, "correct": bool(r.correct), "n_windows": len(X)})
+    if len(controllers) > 1:
+        D = dtw_pdist(X)
+        for k in controllers:
+            held, train = owner == k, owner != k
+            nearest = np.flatnonzero(train)[np.argmin(D[np.ix_(held, train)], axis=1)]
+            acc = float(np.mean(g[nearest] == g[held]))
+            rows.append({**base, "kind": "loco", "controller": k, "accuracy": acc,
+                         "n_windows": int(held.sum())})
+    return rows
+
+
+def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightStudy(),
+                 n_jobs: int | None = None, **params) -> pd.DataFrame:
+    """Every row of Experiment 13's real-flight part, computed (no cache): ``kind``
+    ``"cluster"`` (``score``, ``silhouette``, ``correct`` per controller and ``"pooled"``),
+    ``"loco"`` (``accuracy`` of the held-out ``controller``) and ``"flight"`` (one row per
+    flight: mean tilt [deg], aerodynamic force [N], tracking error [m], thrust set-point,
+    over its kept laps, unscaled), for every pair of conditions and channel."""
+    check_instance(study, "study", RealFlightStudy)
+    params = ClusteringParams.from_kwargs({"max_iter": study.max_iter, **params},
+                                          "clustering parameters").to_dict()
+    if not isinstance(flights, (list, tuple)) or not flights:
+        raise TypeError("flights must be a non-empty list of RealFlight (uavwind.load_neuralfly)")
+    for f in flights:
+        check_instance(f, "flights[i]", RealFlight)
+    n_jobs = check_jobs(n_jobs)
+    controllers, conditions = _check_design(flights)
+    if study.conditions:
+        missing = [c for c in study.conditions if c not in conditions]
+        if missing:
+            raise ValueError(f"the study's conditions {missing} are not among the flights' "
+                             f"{conditions}")
+        conditions = [c for c in conditions if c in study.conditions]
+    laps, _ = _windows([f for f in flights if f.condition in conditions], study)
+    tasks = [(a, b, ch) for a, b in combinations(conditions, 2) for ch in study.channels]
+    from joblib import Parallel, delayed
+    out = Parallel(n_jobs=n_jobs)(delayed(_pair_task)(laps, controllers, a, b, ch, params)
+                                  for a, b, ch in tasks)
+    rows = [r for rs in out for r in rs]
+    rows += _flight_rows(flights, study)
+    df = pd.DataFrame(rows)
+    cols = ["kind", "controller", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
+            "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
+            "tilt_deg", "aero_force_x", "aero_force_norm", "tracking_rms", "thrust_sp",
+            "n_laps"]
+    for c in cols:
+        if c not in df.columns:
+            df[c] = np.nan
+    df = df[cols]
+    df["correct"] = df["correct"].astype("boolean")
+    return df
+
+
+def _flight_rows(flights, study):
+    rows = []
+    for f in flights:
+        w = flight_laps(f, ("tracking_error", "thrust", "aero_force"), study.n_samples,
+                        study.drop_first)
+        keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
+        fa = w["aero_force"][keep]
+        rows.append({"kind": "flight", "controller": f.controller, "condition": f.condition,
+                     "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"][keep].mean()),
+                     "aero_force_x": float(fa[..., 0].mean()),
+                     "aero_force_norm": float(np.linalg.norm(fa, axis=-1).mean()),
+                     "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"][keep],
+                                                                   axis=-1) ** 2).mean())),
+                     "thrust_sp": float(w["thrust"][keep].mean()),
+                     "n_laps": int(len(w["starts"][keep]))})
+    return rows
+
+
+def _path(results, digest):
+    return results_dir(results) / "exp13" / f"real-{digest[:24]}.parquet"
+
+
+def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "paper",
+                     results: os.PathLike | str | None = None, n_jobs: int | None = None,
+                     flights: list[RealFlight] | None = None) -> pd.DataFrame:
+    """Experiment 13's real-flight rows, from the cache or computed and stored.
+
+    Parameters
+    ----------
+    folder : path-like, optional
+        The Neural-Fly flights (default ``$UAVWIND_NEURALFLY``); or pass ``flights``.
+    profile : {"paper", "quick"}
+        The :data:`STUDIES` entry (the quick one keeps two laps per flight).
+    results : path-like, optional
+        The result folder; the table is kept in its ``exp13/`` folder under a digest of the
+        flights' bytes and the study, with the digest of its own content: a damaged or
+        altered copy is recomputed (with a warning), never trusted.
+    """
+    if profile not in STUDIES:
+        raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
+    study = STUDIES[profile]
+    if flights is None:
+        flights = load_neuralfly(neuralfly_folder(folder))
+    key = hashlib.sha256(json.dumps({"flights": flights_digest(flights), "study": asdict(study),
+                                     "version": REAL_VERSION}, sort_keys=True).encode()).hexdigest()
+    path = _path(results, key)
+    got = _read(path, key)
+    if got is not None:
+        return got
+    df = compute_rows(flights, study, n_jobs=n_jobs)
+    df.attrs.update(inputs=key, content=content_digest(df), profile=profile,
+                    uavwind_version=__version__, citation="Neural-Fly (O'Connell et al. 2022)")
+    atomic_write(path, lambda tmp: df.to_parquet(tmp, index=False))
+    return df
+
+
+def _read(path: Path, key: str) -> pd.DataFrame | None:
+    """The cached table if it is whole and unaltered; else None (with a warning if a file
+    was there)."""
+    if not path.exists():
+        return None
+    try:
+        df = pd.read_parquet(path)
+        ok = (df.attrs.get("inputs") == key
+              and df.attrs.get("content") == content_digest(df.reset_index(drop=True)))
+    except Exception as exc:  # unreadable: recompute
+        ok, why = False, f"{type(exc).__name__}: {exc}"
+    else:
+        why = "its content does not match its digest"
+    if ok:
+        return df
+    warnings.warn(f"{path.name}: cached Experiment 13 rows not trusted ({why}); recomputing",
+                  stacklevel=3)
+    return None
+
+
+# --------------------------------------------------------------------------- #
+# summaries (what the page shows)
+# --------------------------------------------------------------------------- #
+def _ci(values):
+    v = np.asarray(values, dtype=float)
+    if v.size < 2:
+        return float(v.mean()), np.nan, np.nan
+    return bootstrap_ci(v)
+
+
+def pair_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per pair of conditions and channel: the mean score over controllers with its
+    bootstrap CI over controllers, the share of controllers whose clusters are the two
+    flights, the pooled score, and the leave-one-controller-out accuracy with its CI."""
+    cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
+    pooled = rows[(rows["kind"] == "cluster") & (rows["controller"] == "pooled")]
+    loco = rows[rows["kind"] == "loco"]
+    out = []
+    keys = ["condition_a", "condition_b", "channel"]
+    for (a, b, ch), g in cl.groupby(keys, sort=False):
+        m, lo, hi = _ci(g["score"])
+        p = pooled[(pooled.condition_a == a) & (pooled.condition_b == b) & (pooled.channel == ch)]
+        lc = loco[(loco.condition_a == a) & (loco.condition_b == b) & (loco.channel == ch)]
+        am, alo, ahi = _ci(lc["accuracy"]) if len(lc) else (np.nan,) * 3
+        out.append({"condition_a": a, "condition_b": b, "channel": ch,
+                    "wind_a": g["wind_a"].iloc[0], "wind_b": g["wind_b"].iloc[0],
+                    "mean": m, "ci_low": lo, "ci_high": hi,
+                    "correct_rate": float(g["correct"].astype(float).mean()),
+                    "n_controllers": len(g), "pooled": float(p["score"].iloc[0]),
+                    "loco_accuracy": am, "loco_low": alo, "loco_high": ahi})
+    return pd.DataFrame(out)
+
+
+def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per channel, best first: its mean score over every pair and controller, with
+    a CI over controllers (each controller's mean over pairs is one replicate), the pooled
+    mean, the leave-one-controller-out accuracy (CI over controllers) and how many pairs
+    every controller separates."""
+    cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
+    pooled = rows[(rows["kind"] == "cluster") & (rows["controller"] == "pooled")]
+    loco = rows[rows["kind"] == "loco"]
+    out = []
+    for ch, g in cl.groupby("channel", sort=False):
+        per_ctl = g.groupby("controller")["score"].mean()
+        m, lo, hi = _ci(per_ctl.to_numpy())
+        acc = loco[loco.channel == ch].groupby("controller")["accuracy"].mean()
+        am, alo, ahi = _ci(acc.to_numpy()) if len(acc) else (np.nan,) * 3
+        pairs_all = g.groupby(["condition_a", "condition_b"])["correct"].all()
+        out.append({"channel": ch, "mean": m, "ci_low": lo, "ci_high": hi,
+                    "pooled": float(pooled[pooled.channel == ch]["score"].mean()),
+                    "loco_accuracy": am, "loco_low": alo, "loco_high": ahi,
+                    "pairs_separated": int(pairs_all.sum()), "n_pairs": len(pairs_all)})
+    df = pd.DataFrame(out).sort_values("mean", ascending=False, ignore_index=True)
+    df.insert(1, "rank", np.arange(1, len(df) + 1))
+    return df
+
+
+def flight_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per condition: the mean over controllers of each flight's mean tilt [deg],
+    aerodynamic force along x and its norm [N], tracking error [m] and thrust set-point,
+    each with the spread over controllers (min, max)."""
+    fl = rows[rows["kind"] == "flight"]
+    out = []
+    for cond, g in fl.groupby("condition", sort=False):
+        row = {"condition": cond, "wind_speed": float(g["wind_speed"].iloc[0]),
+               "n_controllers": len(g)}
+        for c in ("tilt_deg", "aero_force_x", "aero_force_norm", "tracking_rms", "thrust_sp"):
+            row[c] = float(g[c].mean())
+            row[c + "_min"], row[c + "_max"] = float(g[c].min()), float(g[c].max())
+        out.append(row)
+    return pd.DataFrame(out).sort_values(["wind_speed", "condition"], ignore_index=True)

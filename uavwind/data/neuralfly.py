@@ -1,0 +1,284 @@
+"""The Neural-Fly wind-tunnel flights: a reader for their CSV format, and lap windows.
+
+This module owns :func:`load_neuralfly` (one :class:`RealFlight` per file of a folder the
+user names, or of ``$UAVWIND_NEURALFLY``), :data:`CONDITIONS` (the fan settings and their
+wind speeds [m/s]), :data:`CHANNELS` (what Experiment 13 clusters: position, tracking error,
+velocity, attitude, thrust set-point, aerodynamic force) and :func:`flight_laps` (one window
+per reference lap, the first lap dropped, resampled to the paper's series length).
+
+The data: O'Connell, Shi, Shi, Azizzadenesheli, Anandkumar, Yue and Chung, "Neural-Fly
+enables rapid learning for agile flight in strong winds", Science Robotics 7(66), 2022,
+doi:10.1126/scirobotics.abm6597; released at github.com/aerorobotics/neural-fly (folder
+``data/experiment``) "for personal and educational use only" -- read from where the user
+keeps them, never copied into this project, cited wherever a result from them is shown.
+
+The format (one row per sample, 50 Hz): ``t`` [s]; ``p``, ``p_d`` position and its reference
+[m]; ``v``, ``v_d`` [m/s]; ``q`` attitude quaternion; ``R`` body -> world rotation (3 x 3,
+nested list); ``w`` body rates [rad/s]; ``T_sp`` normalised thrust set-point; ``q_sp``
+attitude set-point; ``hover_throttle``; ``fa`` the authors' aerodynamic residual force [N];
+``pwm`` the four motor commands. Vector cells are Python list literals (``"[1.0, 2.0]"``);
+the first column is the row index. Files are ``<vehicle>_<trajectory>_<controller>_
+<condition>.csv`` or ``.csv.xz``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ..core.checks import check_scalar
+
+__all__ = ["RealFlight", "CONDITIONS", "CHANNELS", "COLUMNS", "ENV_VAR", "load_neuralfly",
+           "neuralfly_folder", "flight_laps", "channel_series", "tilt_degrees", "CITATION"]
+
+#: The environment variable naming the folder of the flights.
+ENV_VAR = "UAVWIND_NEURALFLY"
+#: How the pages cite the data.
+CITATION = ("O'Connell et al., Neural-Fly enables rapid learning for agile flight in strong "
+            "winds, Science Robotics 7(66), 2022, doi:10.1126/scirobotics.abm6597")
+#: Fan condition -> mean wind speed [m/s] at the vehicle (the data's README; ``70p20sint``
+#: is 8.5 + 2.4 sin t m/s, its mean given here).
+CONDITIONS: Mapping[str, float] = {"nowind": 0.0, "35wind": 4.2, "70wind": 8.5,
+                                   "70p20sint": 8.5, "100wind": 12.1}
+#: Column -> width of its vector (``R`` is 3 x 3, read row-major).
+COLUMNS: Mapping[str, int] = {"t": 1, "p": 3, "p_d": 3, "v": 3, "v_d": 3, "q": 4, "R": 9, "w": 3,
+                              "T_sp": 1, "q_sp": 4, "hover_throttle": 1, "fa": 3, "pwm": 4}
+_NAME = re.compile(r"^(?P<vehicle>[^_]+)_(?P<trajectory>[^_]+)_(?P<controller>.+)_"
+                   r"(?P<condition>[^_]+)\.csv(?:\.xz)?$")
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class RealFlight:
+    """One real flight: its labels and its columns as read-only arrays (n samples each).
+
+    ``t`` (n,) [s]; ``p``, ``p_d`` (n, 3) [m]; ``v``, ``v_d`` (n, 3) [m/s]; ``q``, ``q_sp``
+    (n, 4); ``R`` (n, 3, 3) body -> world; ``w`` (n, 3) [rad/s]; ``T_sp``, ``hover_throttle``
+    (n,) normalised; ``fa`` (n, 3) [N]; ``pwm`` (n, 4).
+    """
+
+    controller: str
+    condition: str
+    wind_speed: float
+    source: str
+    vehicle: str = "custom"
+    trajectory: str = "figure8"
+    arrays: Mapping[str, np.ndarray] = field(repr=False)
+
+    def __getattr__(self, name):
+        arrays = self.__dict__.get("arrays")
+        if arrays is not None and name in arrays:
+            return arrays[name]
+        raise AttributeError(name)
+
+    @property
+    def n_samples(self) -> int:
+        return len(self.arrays["t"])
+
+    @property
+    def duration(self) -> float:
+        """[s]"""
+        t = self.arrays["t"]
+        return float(t[-1] - t[0])
+
+
+def neuralfly_folder(folder: os.PathLike | str | None = None) -> Path:
+    """The folder of the flights: ``folder``, else ``$UAVWIND_NEURALFLY``; ``ValueError``
+    saying how to get the data when neither names an existing folder."""
+    if folder is None:
+        folder = os.environ.get(ENV_VAR) or None
+        if folder is None:
+            raise ValueError(
+                f"no folder of Neural-Fly flights: pass folder= or set ${ENV_VAR}. The flights "
+                f"are the authors' (github.com/aerorobotics/neural-fly, data/experiment; for "
+                f"personal and educational use, cite {CITATION})")
+    if not isinstance(folder, (str, os.PathLike)):
+        raise TypeError(f"folder must be a path, got {type(folder).__name__}")
+    path = Path(folder).expanduser()
+    if not path.is_dir():
+        raise ValueError(f"folder must be an existing folder of Neural-Fly flights, got "
+                         f"{str(path)!r}")
+    return path
+
+
+def load_neuralfly(folder: os.PathLike | str | None = None, trajectory: str = "figure8",
+                   ) -> list[RealFlight]:
+    """Every flight of ``trajectory`` in ``folder`` (else ``$UAVWIND_NEURALFLY``), one
+    :class:`RealFlight` per file, sorted by controller and wind speed.
+
+    Files of other trajectories are left alone; a file of ``trajectory`` with an unknown
+    condition, a missing or malformed column, ragged rows, a NaN, or times that do not
+    increase is a ``ValueError`` naming the file and the column.
+
+    Parameters
+    ----------
+    folder : path-like, optional
+    trajectory : str
+        The name's trajectory part (``"figure8"``: the lemniscate ``(1.25 sin t, 0,
+        0.75 sin 2t)``).
+    """
+    path = neuralfly_folder(folder)
+    if not isinstance(trajectory, str) or not trajectory:
+        raise TypeError(f"trajectory must be a non-empty str, got {trajectory!r}")
+    flights, seen = [], {}
+    for f in sorted(path.iterdir()):
+        m = _NAME.match(f.name)
+        if not f.is_file() or m is None or m["trajectory"] != trajectory:
+            continue
+        if m["condition"] not in CONDITIONS:
+            raise ValueError(f"{f.name}: unknown wind condition {m['condition']!r} (known: "
+                             f"{', '.join(CONDITIONS)})")
+        key = (m["vehicle"], m["controller"], m["condition"])
+        if key in seen:
+            raise ValueError(f"{f.name}: the same flight as {seen[key]} (one file per vehicle, "
+                             f"controller and condition)")
+        seen[key] = f.name
+        flights.append(RealFlight(controller=m["controller"], condition=m["condition"],
+                                  wind_speed=CONDITIONS[m["condition"]], source=f.name,
+                                  vehicle=m["vehicle"], trajectory=m["trajectory"],
+                                  arrays=read_columns(f)))
+    if not flights:
+        raise ValueError(f"no Neural-Fly flight of trajectory {trajectory!r} in {str(path)!r} "
+                         f"(files named <vehicle>_{trajectory}_<controller>_<condition>.csv or "
+                         f".csv.xz)")
+    order = list(CONDITIONS)
+    return sorted(flights, key=lambda fl: (fl.controller, fl.wind_speed, order.index(fl.condition)))
+
+
+def read_columns(file: os.PathLike | str) -> dict[str, np.ndarray]:
+    """The columns of one flight file as read-only float arrays (see the module text)."""
+    name = Path(file).name
+    try:
+        df = pd.read_csv(file, dtype=str, keep_default_na=False)
+    except Exception as exc:  # an unreadable file: say which
+        raise ValueError(f"{name}: cannot be read as CSV ({type(exc).__name__}: {exc})") from exc
+    missing = [c for c in COLUMNS if c not in df.columns]
+    if missing:
+        raise ValueError(f"{name}: missing column(s) {missing} (a Neural-Fly flight has "
+                         f"{list(COLUMNS)})")
+    if len(df) < 2:
+        raise ValueError(f"{name}: {len(df)} rows; a flight needs at least 2")
+    out = {}
+    for col, width in COLUMNS.items():
+        a = _vectors(df[col], name, col, width)
+        out[col] = a[:, 0] if width == 1 else a.reshape(-1, 3, 3) if col == "R" else a
+        out[col].setflags(write=False)
+    if not np.all(np.diff(out["t"]) > 0):
+        i = int(np.argmin(np.diff(out["t"]) > 0)) + 1
+        raise ValueError(f"{name}: column 't' must increase, row {i} is {out['t'][i]:g} after "
+                         f"{out['t'][i - 1]:g}")
+    return out
+
+
+def _vectors(cells: pd.Series, file: str, col: str, width: int) -> np.ndarray:
+    """(n, width) floats from a column of list literals (or plain numbers when width is 1)."""
+    text = cells.str.replace(r"[\[\]\s]", "", regex=True)
+    counts = np.where(text == "", 0, text.str.count(",") + 1)
+    bad = np.flatnonzero(counts != width)
+    if bad.size:
+        i = int(bad[0])
+        raise ValueError(f"{file}: column {col!r}, row {i}: {counts[i]} values, expected {width} "
+                         f"(ragged or empty cell {cells.iloc[i]!r})")
+    try:
+        flat = np.array(",".join(text).split(","), dtype=float)
+    except ValueError:
+        for i, cell in enumerate(text):
+            try:
+                np.array(cell.split(","), dtype=float)
+            except ValueError:
+                raise ValueError(f"{file}: column {col!r}, row {i}: not numbers: "
+                                 f"{cells.iloc[i]!r}") from None
+        raise
+    a = flat.reshape(-1, width)
+    if not np.all(np.isfinite(a)):
+        i = int(np.flatnonzero(~np.isfinite(a).all(axis=1))[0])
+        raise ValueError(f"{file}: column {col!r}, row {i}: NaN or infinite value "
+                         f"{cells.iloc[i]!r}")
+    return a
+
+
+# --------------------------------------------------------------------------- #
+# channels and lap windows
+# --------------------------------------------------------------------------- #
+def tilt_degrees(R: np.ndarray) -> np.ndarray:
+    """The angle between the body's z axis and up [deg], from rotations (..., 3, 3)."""
+    return np.degrees(np.arccos(np.clip(np.asarray(R)[..., 2, 2], -1.0, 1.0)))
+
+
+#: Channel -> (what it is, its unit). Experiment 13 clusters each.
+CHANNELS: Mapping[str, tuple[str, str]] = {
+    "position": ("position p", "m"),
+    "tracking_error": ("tracking error p - p_d", "m"),
+    "velocity": ("velocity v", "m/s"),
+    "attitude": ("body z axis in the world frame (tilt and its direction)", "1"),
+    "thrust": ("thrust set-point T_sp (normalised)", "1"),
+    "aero_force": ("aerodynamic residual force fa", "N"),
+}
+
+
+def channel_series(flight: RealFlight, channel: str) -> np.ndarray:
+    """The (n, d) series of ``channel`` (:data:`CHANNELS`) of ``flight``."""
+    a = flight.arrays
+    if channel == "position":
+        return a["p"]
+    if channel == "tracking_error":
+        return a["p"] - a["p_d"]
+    if channel == "velocity":
+        return a["v"]
+    if channel == "attitude":
+        return a["R"][:, :, 2]
+    if channel == "thrust":
+        return a["T_sp"][:, None]
+    if channel == "aero_force":
+        return a["fa"]
+    raise ValueError(f"channel must be one of {list(CHANNELS)}, got {channel!r}")
+
+
+def lap_starts(flight: RealFlight) -> np.ndarray:
+    """Times [s] at which the reference starts a lap: ``p_d``'s x crosses the centre of its
+    range upward (linear interpolation between samples); ``ValueError`` if it never does."""
+    t, x = flight.arrays["t"], flight.arrays["p_d"][:, 0]
+    c = 0.5 * (x.max() + x.min())
+    d = x - c
+    up = np.flatnonzero((d[:-1] < 0) & (d[1:] >= 0))
+    if x.max() - x.min() < 1e-6 or up.size < 2:
+        raise ValueError(f"{flight.source}: the reference p_d does not go round a lap (its x "
+                         f"crosses the centre of its range upward {up.size} time(s); a lap "
+                         f"needs two)")
+    return t[up] + (t[up + 1] - t[up]) * (-d[up]) / (d[up + 1] - d[up])
+
+
+def flight_laps(flight: RealFlight, channels=tuple(CHANNELS), n_samples: int = 120,
+                drop_first: int = 1) -> dict[str, np.ndarray]:
+    """One window per reference lap, the first ``drop_first`` laps dropped (the start-up
+    transient), each resampled (linear) to ``n_samples`` times equally spaced over the lap.
+
+    Returns ``{channel: (n_laps, n_samples, d)}`` plus ``"starts"`` (n_laps,) [s] and
+    ``"tilt"`` (n_laps, n_samples) [deg]. ``ValueError`` if no lap is left.
+    """
+    n_samples = check_scalar(n_samples, "n_samples", low=4, high=100_000, integer=True)
+    drop_first = check_scalar(drop_first, "drop_first", low=0, high=1000, integer=True)
+    for ch in channels:
+        if ch not in CHANNELS:
+            raise ValueError(f"channels must be among {list(CHANNELS)}, got {ch!r}")
+    starts = lap_starts(flight)
+    bounds = list(zip(starts[:-1], starts[1:]))[drop_first:]
+    if not bounds:
+        raise ValueError(f"{flight.source}: {len(starts) - 1} complete lap(s), none left after "
+                         f"dropping drop_first={drop_first}")
+    t = flight.arrays["t"]
+    times = np.stack([np.linspace(a, b, n_samples, endpoint=False) for a, b in bounds])
+    out = {}
+    for ch in channels:
+        y = channel_series(flight, ch)
+        out[ch] = np.stack([np.stack([np.interp(tt, t, y[:, k]) for k in range(y.shape[1])], -1)
+                            for tt in times])
+    tilt = tilt_degrees(flight.arrays["R"])
+    out["tilt"] = np.stack([np.interp(tt, t, tilt) for tt in times])
+    out["starts"] = times[:, 0].copy()
+    return out
