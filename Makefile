@@ -22,6 +22,8 @@ FILL_TIMEOUT ?= $(if $(filter quick,$(PROFILE)),1800,10800)
 HTML_TIMEOUT ?= 1200
 PIP_TIMEOUT  ?= 1800
 TIMEOUT := timeout --kill-after=20
+# pages read what the fill computed: a page that would compute a result fails, naming it
+READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
 # registry has its notebook, and each notebook its line in book/_toc.yml)
 NOTEBOOKS := $(basename $(notdir $(wildcard $(NB_DIR)/*.md)))
@@ -75,7 +77,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
-	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind realflights --profile $(PROFILE) --jobs $(JOBS)
+	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind analyses --profile $(PROFILE) --jobs $(JOBS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then
@@ -94,7 +96,7 @@ $(GEN)/.profile: FORCE
 $(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
-	@$(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
+	@$(READ_ONLY) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
 	    --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 \
 	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb \
 	  || { rc=$$?; echo "book: page $< failed (exit $$rc$$( [ $$rc -ge 124 ] && echo ': over PAGE_TIMEOUT=$(PAGE_TIMEOUT) s' ))" \

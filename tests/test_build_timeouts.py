@@ -80,3 +80,29 @@ def test_every_long_build_step_has_a_timeout():
         lines = [ln for ln in make.splitlines() if step in ln and not ln.lstrip().startswith("#")]
         assert lines and all("$(TIMEOUT)" in ln for ln in lines), step
     assert "--execution-timeout $(CELL_TIMEOUT)" in make
+
+
+def test_a_page_that_would_compute_fails_naming_what(tmp_path, monkeypatch):
+    """Pages run with UAVWIND_PAGES_READ_ONLY=1 (the Makefile sets it for papermill): a
+    result missing from the cache is an error naming it, not a silent computation."""
+    import uavwind as uw
+    from uavwind.core.io import READ_ONLY_ENV
+    from uavwind.study import run_experiment
+
+    make = (ROOT / "Makefile").read_text()
+    assert f"READ_ONLY := {READ_ONLY_ENV}=1" in make and "@$(READ_ONLY) $(TIMEOUT)" in make
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    with pytest.raises(RuntimeError, match="a page tried to compute the cache entry loops/"):
+        run_experiment("exp5", profile="quick", cases=[0], results=tmp_path, n_jobs=1,
+                       progress=False)
+    monkeypatch.setenv(READ_ONLY_ENV, "0")
+    df = run_experiment("exp5", profile="quick", cases=[0], results=tmp_path, n_jobs=1,
+                        progress=False)
+    monkeypatch.setenv(READ_ONLY_ENV, "1")  # now cached: read, never computed
+    again = run_experiment("exp5", profile="quick", cases=[0], results=tmp_path, n_jobs=1,
+                           progress=False)
+    assert again["score"].tolist() == df["score"].tolist()
+    from uavwind.analysis.filters import filter_comparison
+    s = uw.make_setting("light constant", "strong constant", 2, uav=uw.Multirotor())
+    with pytest.raises(RuntimeError, match="the filter comparison"):
+        filter_comparison(s, n_flights=1, results=tmp_path)

@@ -190,9 +190,16 @@ def test_the_drag_fit_hits_its_target():
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(rf.__file__).rsplit("/uavwind/", 1)[0],
            "UAVWIND_RESULTS": str(tmp_path)}
-    run = [sys.executable, "-m", "uavwind", "realflights", "--profile", "quick"]
+    run = [sys.executable, "-m", "uavwind", "analyses", "--profile", "quick"]
     p = subprocess.run(run, env=env, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0 and "Experiment 13 is skipped" in p.stdout
     p = subprocess.run(run + ["--folder", str(tmp_path / "none")], env=env, capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 2 and "existing folder" in p.stderr
+
+
+def test_a_page_never_computes_experiment_13(flights, tmp_path, monkeypatch):
+    from uavwind.core.io import READ_ONLY_ENV
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    with pytest.raises(RuntimeError, match="Experiment 13's real-"):
+        rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights)

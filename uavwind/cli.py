@@ -5,7 +5,8 @@
     python -m uavwind run all --reading all --profile paper --scheduler tcp://host:8786
     python -m uavwind run all --profile quick
     python -m uavwind run all --profile paper --reading all --no-tables   (what make book runs)
-    python -m uavwind realflights --profile paper [--folder DIR]   (Experiment 13's cache)
+    python -m uavwind analyses --profile paper [--folder DIR]   (the analyses pages read:
+        Exp 11's filter table; Exp 13 when Neural-Fly's flights are there)
 
 `run` first computes every missing result of the chosen experiments and readings in one
 pool of workers, longest task first, then prints each experiment's table from the cache.
@@ -75,10 +76,11 @@ def main(argv: Sequence[str] | None = None) -> int:
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
     sub.add_parser("list", help="list the experiments")
-    real = sub.add_parser("realflights", help="Experiment 13: Neural-Fly's real flights and "
-                          "their simulated twins into the result cache")
+    real = sub.add_parser("analyses", help="the analyses the pages read, into the result "
+                          "cache: Exp 11's filter table, Exp 13 (Neural-Fly's real flights and "
+                          "their simulated twins)")
     real.add_argument("--folder", default=None, help="the Neural-Fly flights (default "
-                      "$UAVWIND_NEURALFLY; without either, nothing is computed)")
+                      "$UAVWIND_NEURALFLY; without either, Exp 13 is skipped)")
     real.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     real.add_argument("--jobs", type=_jobs, default=-1)
     run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
@@ -103,8 +105,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                           "every entry (--jobs then applies to the tables only)")
     args = parser.parse_args(argv)
 
-    if args.command == "realflights":
-        return _realflights(args)
+    if args.command == "analyses":
+        return _analyses(args)
     if args.command == "list":
         for e in EXPERIMENTS.values():
             print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
@@ -182,27 +184,32 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _realflights(args) -> int:
-    """Fill Experiment 13's cache: the real rows, then the simulated ones (which fit the
-    drag on the real flights). No folder: say so and succeed (the page says the same)."""
+def _analyses(args) -> int:
+    """Fill the caches of the analyses the pages read: Exp 11's filter table, then Exp 13's
+    real rows and simulated ones (which fit the drag on the real flights; skipped, saying so,
+    without Neural-Fly's folder)."""
     from .analysis.figure8 import sim_rows
+    from .analysis.filters import filter_table
     from .analysis.real_flights import real_flight_rows
     from .data.neuralfly import ENV_VAR, neuralfly_folder
-    if args.folder is None and not os.environ.get(ENV_VAR):
-        print(f"realflights: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
-              f"skipped")
-        return 0
     try:
+        t0 = time.perf_counter()
+        ft = filter_table(profile=args.profile, n_jobs=args.jobs)
+        print(f"analyses: Exp 11's filter table, {len(ft)} rows in {time.perf_counter() - t0:.1f} s")
+        if args.folder is None and not os.environ.get(ENV_VAR):
+            print(f"analyses: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
+                  f"skipped")
+            return 0
         folder = neuralfly_folder(args.folder)
         t0 = time.perf_counter()
         real = real_flight_rows(folder, profile=args.profile, n_jobs=args.jobs)
         t1 = time.perf_counter()
         sim = sim_rows(real, profile=args.profile, n_jobs=args.jobs)
     except (ValueError, TypeError) as exc:
-        print(f"python -m uavwind realflights: error: {exc}", file=sys.stderr)
+        print(f"python -m uavwind analyses: error: {exc}", file=sys.stderr)
         return 2
-    print(f"realflights: {len(real)} real rows in {t1 - t0:.1f} s, {len(sim)} simulated rows "
-          f"in {time.perf_counter() - t1:.1f} s (drag scale {sim.attrs['drag_scale']:.3f})")
+    print(f"analyses: Exp 13, {len(real)} real rows in {t1 - t0:.1f} s, {len(sim)} simulated "
+          f"rows in {time.perf_counter() - t1:.1f} s (drag scale {sim.attrs['drag_scale']:.3f})")
     return 0
 
 

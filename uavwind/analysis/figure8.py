@@ -37,7 +37,7 @@ import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
-from ..core.io import atomic_write
+from ..core.io import atomic_write, refuse_to_compute
 from ..core.seeding import child_seed, root_seed
 from ..data.neuralfly import CONDITIONS, RealFlight
 from ..sim.dryden import DrydenWind
@@ -197,6 +197,7 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
             why = f"{type(exc).__name__}: {exc}"
         warnings.warn(f"{path.name}: cached simulated rows not trusted ({why}); recomputing",
                       stacklevel=2)
+    refuse_to_compute(f"Experiment 13's {path.name}")
     scale = fit_drag_scale(target, study=study)
     conditions = tuple(c for c in CONDITIONS
                        if not study.conditions or c in study.conditions or c == FIT_CONDITION)

@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import check_choice, check_instance, check_scalar
-from ..core.io import atomic_write
+from ..core.io import atomic_write, refuse_to_compute
 from ..core.parallel import check_jobs, pin_threads
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..method.baseline import two_means
@@ -44,7 +44,7 @@ from ..sim.setting import Setting
 from ..sim.wind import ConstantWind
 from ..study.cache import RESULTS_VERSION, results_dir
 
-__all__ = ["FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
+__all__ = ["filter_table", "FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
 
 #: The filters: RotorPy's names.
 FILTERS = ("ekf", "ukf")
@@ -185,6 +185,7 @@ def filter_comparison(setting: Setting, n_flights: int = 5, seed: int = 0, probe
         return pd.read_parquet(path)
     except Exception:  # missing or damaged: compute (and replace) it
         pass
+    refuse_to_compute(f"the filter comparison {path.name} ({setting.name or setting.key()})")
     root = root_seed(seed)
     drag = calibrate_drag(setting.uav, seed=child_seed(root, 10 ** 6))
     from joblib import Parallel, delayed
@@ -227,3 +228,33 @@ def _one_flight(setting, i, root, probe, kinds, drag):
                      "drag_x": float(drag[0]), "drag_y": float(drag[1]),
                      "drag_z": float(drag[2])})
     return rows
+
+
+def filter_table(profile: str = "quick", seed: int | None = None, n_jobs: int | None = None,
+                 results=None) -> pd.DataFrame:
+    """Experiment 11's filter table: both filters on hover probes and on the loops' actions
+    of each scenario of Exp 11 (its thrust-action, position, noise-free cases), ``n_flights``
+    3 at the paper profile and 1 otherwise; one row per scenario, kind of flight and filter
+    with the mean wind RMSE [m/s], the diverged environments, the share of flights whose
+    estimates split into the groups (``correct_rate``, in [0, 1]) and the flights run. Each
+    :func:`filter_comparison` is cached, so the fill computes this and the page reads it."""
+    from ..study.profiles import DEFAULT_SEED
+    from ..study.registry import EXPERIMENTS
+    seed = DEFAULT_SEED if seed is None else seed
+    n_flights = 3 if profile == "paper" else 1
+    rows = []
+    cases = [(c.labels["scenario"], c.setting) for c in EXPERIMENTS["exp11"].cases()
+             if c.labels["action"] == "thrust" and c.labels["observation"] == "position"
+             and c.labels["noise"] == "none"]
+    for scen, setting in cases:
+        for probe in (True, False):
+            df = filter_comparison(setting, n_flights=n_flights, seed=seed, probe=probe,
+                                   n_jobs=n_jobs, results=results)
+            for kind, sub in df.groupby("filter"):
+                rows.append({"scenario": scen,
+                             "flights": "hover probes" if probe else "the loops' actions",
+                             "filter": kind, "rmse": float(sub["rmse"].mean()),
+                             "diverged": int(sub["diverged"].sum()),
+                             "correct_rate": float(sub["correct"].mean()),
+                             "n_flights": len(sub)})
+    return pd.DataFrame(rows)

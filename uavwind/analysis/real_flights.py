@@ -41,7 +41,7 @@ import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
-from ..core.io import atomic_write
+from ..core.io import atomic_write, refuse_to_compute
 from ..core.parallel import check_jobs
 from ..core.stats import bootstrap_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, flight_laps, load_neuralfly,
@@ -284,6 +284,7 @@ def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "pa
     got = _read(path, key)
     if got is not None:
         return got
+    refuse_to_compute(f"Experiment 13's {path.name}")
     df = compute_rows(flights, study, n_jobs=n_jobs)
     df.attrs.update(inputs=key, content=content_digest(df), profile=profile,
                     uavwind_version=__version__, citation="Neural-Fly (O'Connell et al. 2022)")

@@ -18,7 +18,20 @@ import tempfile
 from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "check_target"]
+__all__ = ["atomic_write", "check_target", "READ_ONLY_ENV", "refuse_to_compute"]
+
+#: Set (to 1) while the book's pages run: a page reads what the fill computed and never
+#: computes it itself, so a result missing from the cache is an error naming it.
+READ_ONLY_ENV = "UAVWIND_PAGES_READ_ONLY"
+
+
+def refuse_to_compute(what: str) -> None:
+    """``RuntimeError`` naming ``what`` when :data:`READ_ONLY_ENV` is set (a page would
+    compute a result the fill should have made); nothing otherwise."""
+    if os.environ.get(READ_ONLY_ENV, "") not in ("", "0"):
+        raise RuntimeError(f"a page tried to compute {what}, which is not in the result cache: "
+                           f"pages read what `make results` computed ({READ_ONLY_ENV} is set); "
+                           f"run the fill first, or add this result to it")
 
 
 def check_target(path: os.PathLike | str, name: str = "path") -> Path:

@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.io import atomic_write as _write_atomically
+from ..core.io import refuse_to_compute
 from ..method.baseline import BASELINE_VERSION
 from ..method.clustering import DEFAULT_PARAMS
 
@@ -368,6 +369,7 @@ def cached(path, compute: Callable[[], pd.DataFrame], meta: dict,
         df = read_verified(path, expect)
         if df is not None:
             return df, True
+        refuse_to_compute(f"the cache entry {Path(path).parent.name}/{Path(path).name}")
         df = compute()
         for k, v in meta.items():
             df[k] = v
