@@ -1,9 +1,13 @@
 """Wind models: the shared contract, the shear power law, Dryden vs MIL-F-8785C."""
 
+import math
+
 import numpy as np
 import pytest
 
 import uavwind as uw
+from uavwind.sim.rollout import WindTable
+from uavwind.sim.wind import libm_pow
 
 
 def _models():
@@ -52,6 +56,26 @@ def test_shear_follows_power_law_and_floor():
     for z in (0.49, 0.0, -20.0):  # below the floor the wind is held
         assert np.array_equal(w.velocity(0.0, [[0, 0, z]] * 2), at_floor)
     assert np.array_equal(w.velocity(0.0, [[0, 0, 10.0]] * 2), ref)
+
+
+def test_shear_profile_is_libm_pow_on_every_cpu():
+    """The profile factor is libm's ``pow`` bit for bit, in the model and in the rollouts' wind
+    table. ``np.power`` is not: on an AVX-512 host numpy's own vector power differs from
+    libm's in the last bit in a few percent of calls (an AVX2 host calls libm), which changed
+    the trajectories of exp6's halves case 0 and the pinned digest of its rows
+    (tests/test_pins.py). On such a host ``np.power`` fails the same check."""
+    heights = np.concatenate([np.linspace(-5.0, 150.0, 3001), [0.5, 10.0, 10.0 + 2.0 ** -40]])
+    for alpha in (0.143, 0.1, 0.2, 1 / 7, 0.4):
+        w = uw.ShearWind([[2.0, 1.0, 0.0]] * len(heights), reference_height=10.0, alpha=alpha,
+                         floor=0.5)
+        expect = np.array([math.pow(max(z, 0.5) / 10.0, alpha) for z in heights])
+        assert np.array_equal(w.factor(heights), expect)
+        assert np.array_equal(libm_pow(np.maximum(heights, 0.5) / 10.0, alpha), expect)
+        pos = np.zeros((len(heights), 3))
+        pos[:, 2] = heights
+        assert np.array_equal(w.velocity(0.0, pos), expect[:, None] * [2.0, 1.0, 0.0])
+        got = WindTable(w, [0.0]).lookup(np.arange(len(heights)))(0, pos)
+        assert np.array_equal(got, expect[:, None] * [2.0, 1.0, 0.0])
 
 
 @pytest.mark.parametrize("kwargs, match", [

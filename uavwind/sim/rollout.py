@@ -28,7 +28,7 @@ import numpy as np
 from ..core.checks import check_array, check_instance, check_scalar
 from .multirotor import Multirotor, force_command
 from .vehicle import UAV, n_steps as _n_steps
-from .wind import CombinedWind, ConstantWind, ShearWind, WindModel
+from .wind import CombinedWind, ConstantWind, ShearWind, WindModel, libm_pow
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -127,7 +127,7 @@ class _Lookup:
         out = self.base.copy()
         if self.sh.size:
             z = np.maximum(positions[self.sh, 2], self.floor)
-            out[self.sh] = self.ref * ((z / self.height) ** self.alpha)[:, None]
+            out[self.sh] = self.ref * libm_pow(z / self.height, self.alpha)[:, None]
         if self.tb.size:
             out[self.tb] = self.table[k, self.env_tb]
         return out

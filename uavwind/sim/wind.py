@@ -21,6 +21,7 @@ the lazily generated, seeded gust history of :class:`DrydenWind`.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING
 
@@ -33,7 +34,23 @@ if TYPE_CHECKING:
 
 
 __all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "SinusoidalWind",
-           "MAX_WIND"]
+           "MAX_WIND", "libm_pow"]
+
+
+def libm_pow(base: ArrayLike, exponent: ArrayLike) -> np.ndarray:
+    """``base ** exponent`` element by element through the C library's ``pow``
+    (:func:`math.pow`), for positive finite bases: the same double on every x86-64 CPU.
+
+    ``np.power`` is not machine-independent: on a host with AVX-512 numpy dispatches float64
+    ``power`` (like ``exp``, ``log`` and ``arctan2``) to its own vector code, whose last bit
+    differs from libm's in a few percent of calls, while an AVX2 host calls libm. Through the
+    shear profile that made a loop's trajectories, and so its silhouette, depend on the
+    machine (tests/test_wind.py and tests/test_pins.py). The profile has one power per
+    environment and step, so the scalar calls cost microseconds per step.
+    """
+    b, e = np.broadcast_arrays(np.asarray(base, dtype=float), np.asarray(exponent, dtype=float))
+    return np.fromiter(map(math.pow, b.ravel().tolist(), e.ravel().tolist()), dtype=float,
+                       count=b.size).reshape(b.shape)
 
 
 class WindModel(ABC):
@@ -190,7 +207,7 @@ class ShearWind(WindModel):
     def factor(self, z: ArrayLike) -> np.ndarray:
         """Profile factor ``(max(z, floor)/z_ref)**alpha`` [-] for heights ``z`` [m]."""
         z = np.maximum(np.asarray(z, dtype=float), self.floor)
-        return (z / self.reference_height) ** self.alpha
+        return libm_pow(z / self.reference_height, self.alpha)  # not np.power: see libm_pow
 
     def _velocity(self, t, positions):
         return self.reference_velocities * self.factor(positions[:, 2])[:, None]
