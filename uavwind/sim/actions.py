@@ -188,7 +188,7 @@ def _check_rng(rng):
 
 def _change_times(rng, n_changes, duration, step):
     """Distinct change times on the grid ``step, 2 step, ... < duration``, sorted, after 0."""
-    step = check_scalar(step, "time_step", low=0.0, low_inclusive=False, high=duration)
+    step = check_scalar(step, "time_step", low=0.0, low_inclusive=False)
     slots = np.arange(1, int(np.ceil(duration / step - 1e-9))) * step
     n_changes = check_scalar(n_changes, "n_changes", low=0, high=len(slots), integer=True)
     chosen = np.sort(rng.choice(slots, size=n_changes, replace=False)) if n_changes else []
