@@ -1,3 +1,4 @@
+import math
 import pickle
 
 import numpy as np
@@ -93,3 +94,68 @@ def test_vector_round_trip_and_clipping():
     assert np.allclose(seq.directions, [[0, 0, 1], [2 ** -0.5, 2 ** -0.5, 0], [0, 0, 1]])
     with pytest.raises(ValueError, match="vector"):
         ThrustSequence.from_vector(raw[:-1], [0, 4, 8])
+
+
+# --------------------------------------------------------------------------- #
+# steps checked against their limits (issue 33)
+# --------------------------------------------------------------------------- #
+def test_sampled_attitudes_never_pass_their_limits():
+    from uavwind.sim.actions import sample_attitude
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        seq = sample_attitude(rng, tilt_step=0.3, magnitude_step=30.0)
+        assert np.abs(seq.angles[:, :2]).max() <= math.radians(30.0) + 1e-12
+        assert seq.thrusts.max() <= 50.0
+    paper = np.concatenate([sample_paper(rng, magnitude_step=30.0).magnitudes
+                            for _ in range(50)])
+    assert set(np.unique(paper)) == {0.0, 30.0}
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    ({"tilt_step": 0.0}, "tilt_step"), ({"tilt_step": 1.0}, "tilt_step"),
+    ({"max_tilt": np.nan}, "max_tilt"), ({"max_tilt": 2.0}, "max_tilt"),
+    ({"magnitude_step": 0.0}, "magnitude_step"), ({"magnitude_step": 60.0}, "magnitude_step"),
+    ({"max_magnitude": -1.0}, "max_magnitude"), ({"max_magnitude": np.nan}, "max_magnitude"),
+    ({"yaw_step": 0.0}, "yaw_step"), ({"yaw_step": np.nan}, "yaw_step"),
+    ({"time_step": 0.0}, "time_step"), ({"time_step": -1.0}, "time_step")])
+def test_sample_attitude_names_a_bad_step_or_limit(kwargs, word):
+    from uavwind.sim.actions import sample_attitude
+
+    with pytest.raises(ValueError, match=word):
+        sample_attitude(np.random.default_rng(0), **kwargs)
+
+
+@pytest.mark.parametrize("sampler, kwargs, word", [
+    ("paper", {"magnitude_step": 0.0}, "magnitude_step"),
+    ("paper", {"max_magnitude": np.nan}, "max_magnitude"),
+    ("paper", {"time_step": 0.0}, "time_step"), ("paper", {"axes": "diagonal"}, "axes"),
+    ("continuous", {"max_magnitude": -5.0}, "max_magnitude"),
+    ("continuous", {"time_step": np.nan}, "time_step")])
+def test_the_thrust_samplers_name_a_bad_step_or_limit(sampler, kwargs, word):
+    from uavwind.sim.actions import SAMPLERS
+
+    with pytest.raises(ValueError, match=word):
+        SAMPLERS[sampler](np.random.default_rng(0), **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, word", [
+    ({"max_tilt": np.nan}, "max_tilt"), ({"max_tilt": -0.1}, "max_tilt"),
+    ({"max_magnitude": np.nan}, "max_magnitude"), ({"max_magnitude": -1.0}, "max_magnitude")])
+def test_from_vector_names_a_bad_limit(kwargs, word):
+    from uavwind.sim.actions import AttitudeSequence
+
+    with pytest.raises(ValueError, match=word):
+        AttitudeSequence.from_vector(np.zeros(4), [0.0], **kwargs)
+    if "max_magnitude" in kwargs:
+        with pytest.raises(ValueError, match=word):
+            ThrustSequence.from_vector(np.zeros(4), [0.0], **kwargs)
+
+
+def test_euler_to_quaternion_refuses_bad_angles():
+    from uavwind.sim.actions import euler_to_quaternion
+
+    with pytest.raises(ValueError, match="angles"):
+        euler_to_quaternion([[0.0, np.nan, 0.0]])
+    with pytest.raises(ValueError, match="angles"):
+        euler_to_quaternion([[0.0, 0.0]])

@@ -289,3 +289,54 @@ def test_the_default_results_folder_is_the_user_cache_never_the_package(tmp_path
     assert cache.results_dir() == tmp_path / ".cache" / "uavwind" / "results"
     import uavwind
     assert Path(uavwind.__file__).parent not in cache.results_dir().parents
+
+
+# --------------------------------------------------------------------------- #
+# closed-loop chunks forged with a recomputed checksum (issue 33)
+# --------------------------------------------------------------------------- #
+def _episode_rows():
+    from uavwind.method.closed_loop.belief import Belief
+
+    rows = []
+    for episode, d in enumerate([0.3, -2.0, 800.0, -800.0]):
+        group = episode % 2
+        p0 = float(1 / (1 + np.exp(min(d, 700.0)))) if d < 700 else 0.0
+        b = Belief(p=np.array([p0, 1 - p0]), log_odds=d, weights=np.ones(4) / 4, spread=1.0)
+        rows.append({"episode": episode, "policy": "greedy", "test_group": group,
+                     "time": 1.0, "p_group_b": float(b.p[1]), "p_true": float(b.p[group]),
+                     "predicted": b.predicted, "correct": b.predicted == group,
+                     "log_loss": b.log_loss(group), "setting_key": "k", "seed": 0,
+                     "engine": "none"})
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("forgery", ["p_true 0, log_loss 0", "time NaN", "time 0",
+                                     "predicted the less probable", "negative episode"])
+def test_a_forged_closed_loop_chunk_is_moved_aside_and_recomputed(tmp_path, forgery):
+    good = _episode_rows()
+    expect = cache.Expected("k", 0, "none", len(good), kind="episodes")
+    assert cache._problem(good, expect) == ""
+    bad = good.copy()
+    if forgery == "p_true 0, log_loss 0":
+        row = int(np.flatnonzero(bad["p_true"] == 0.0)[0])
+        bad.loc[row, "log_loss"] = 0.0
+    elif forgery == "time NaN":
+        bad.loc[1, "time"] = np.nan
+    elif forgery == "time 0":
+        bad.loc[1, "time"] = 0.0
+    elif forgery == "predicted the less probable":
+        bad.loc[0, "predicted"] = 1 - bad.loc[0, "predicted"]
+        bad.loc[0, "correct"] = bad.loc[0, "predicted"] == bad.loc[0, "test_group"]
+    else:
+        bad["episode"] = bad["episode"] - 2
+        bad["test_group"] = bad["episode"] % 2
+        bad["p_true"] = np.where(bad["test_group"] == 1, bad["p_group_b"], 1 - bad["p_group_b"])
+        bad["correct"] = bad["predicted"] == bad["test_group"]
+    path = tmp_path / "chunk.parquet"
+    cache.atomic_write(bad, path)  # a forgery with its checksum recomputed
+    with pytest.warns(cache.CorruptChunkWarning):
+        assert cache.read_verified(path, expect) is None
+    assert not path.exists() and (tmp_path / "chunk.parquet.corrupt").exists()
+    df, hit = cache.cached(path, lambda: good.drop(columns=["setting_key", "seed", "engine"]),
+                           {"setting_key": "k", "seed": 0, "engine": "none"}, expect)
+    assert not hit and len(df) == len(good)

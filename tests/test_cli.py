@@ -125,3 +125,67 @@ def test_all_with_other_ids_is_a_clear_error(capsys):
     with pytest.raises(SystemExit):
         main(["run", "exp1", "all"])
     assert "'all' means every experiment" in capsys.readouterr().err
+
+
+def _group_kill(proc):
+    """End the subprocess this test started and its workers (its own session)."""
+    import signal
+
+    if proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+
+
+def test_a_signal_stops_a_run_with_two_workers_within_seconds(tmp_path):
+    """SIGTERM to the main process of `run exp12 --jobs 2` (entries that take minutes): it
+    stops within seconds, exit 130, with its workers; every recorded entry is on disk."""
+    import signal
+    import subprocess
+    import sys
+
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "r")}
+    out = tmp_path / "t.json"
+    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "exp12", "--profile",
+                             "paper", "--jobs", "2", "--no-tables", "--no-progress",
+                             "--times", str(out)], env=env, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and len(list((tmp_path / "r").rglob("*.lock"))) < 2:
+            time.sleep(0.2)  # both workers are computing an entry
+        proc.send_signal(signal.SIGTERM)
+        t0 = time.monotonic()
+        _, err = proc.communicate(timeout=20)
+        took = time.monotonic() - t0
+    finally:
+        _group_kill(proc)
+    assert proc.returncode == 130, err
+    assert took < 10, f"stopped {took:.1f} s after SIGTERM"
+    assert "Traceback" not in err
+    rec = json.loads(out.read_text())
+    assert rec["complete"] is False and rec["error"] == "interrupted"
+    stored = {p.name for p in (tmp_path / "r").rglob("*.parquet")}
+    assert len(stored) >= len(rec["entries"])  # nothing recorded is missing
+
+
+def test_a_silent_scheduler_is_a_clear_error_within_seconds(tmp_path):
+    import socket
+    import subprocess
+    import sys
+
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(4)  # accepts (the kernel's backlog) and never replies
+    port = server.getsockname()[1]
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "r")}
+    t0 = time.monotonic()
+    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "exp12", "--no-tables",
+                             "--no-progress", "--scheduler", f"tcp://127.0.0.1:{port}"],
+                            env=env, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        _, err = proc.communicate(timeout=60)
+    finally:
+        _group_kill(proc)
+        server.close()
+    assert proc.returncode == 2 and "no dask scheduler answered" in err, err
+    assert err.count("\n") == 1 and time.monotonic() - t0 < 30

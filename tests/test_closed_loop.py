@@ -362,3 +362,99 @@ def test_the_multirotor_keeps_thrust_because_zero_thrust_is_chaotic():
         end = uw.simulate(seq, wind, uav=mr, duration=8.0)[:, -1]
         steps[low] = np.linalg.norm(np.diff(end, axis=0), axis=1).max()
     assert steps[0.0] > 5 * steps[10.0]  # 0.01 m/s apart: metres apart after a free fall
+
+
+# --------------------------------------------------------------------------- #
+# nothing silently wrong (issue 33)
+# --------------------------------------------------------------------------- #
+def test_an_empty_action_set_is_refused_at_construction():
+    s = _scenario(*SCENARIOS[0])
+    with pytest.raises(ValueError, match="min_thrust = 50 N leaves no action"):
+        ClosedLoop(setting=s, magnitude_step=15.0, min_thrust=50.0)
+    assert len(ClosedLoop(setting=s, magnitude_step=10.0, min_thrust=50.0).actions) == 3
+
+
+def test_an_underpowered_multirotor_is_refused_as_simulate_refuses_it():
+    weak = uw.Multirotor(mass=0.1)  # 10 N at full rotor speed
+    s = _scenario(*SCENARIOS[0], uav=weak)
+    with pytest.raises(ValueError, match="thrust"):
+        uw.simulate(uw.PAPER_EXAMPLE, uw.ConstantWind([[1.0, 0.0, 0.0]]), uav=weak)
+    with pytest.raises(ValueError, match=r"setting.uav: .* at most 10\.0 N"):
+        ClosedLoop(setting=s)
+
+
+@pytest.mark.parametrize("groups, word", [
+    ([0, 0, 1, 2], "only 0 and 1"), ([0, 0, 0, 0], "at least 2"), ([0, 0, 1], "at least 2"),
+    ([0, 0.5, 1, 1], "only 0 and 1"), ([[0, 0], [1, 1]], "groups"), ([0, 0, 1, np.nan], "groups")])
+def test_evidence_refuses_groups_other_than_two_of_zero_and_one(groups, word):
+    with pytest.raises(ValueError, match=word):
+        Evidence(groups, 0.5)
+
+
+@pytest.mark.parametrize("kwargs, error, word", [
+    ({"sigma": np.nan}, ValueError, "sigma"), ({"sigma": -1.0}, ValueError, "sigma"),
+    ({"speeds": [0.0, 1.0, np.nan, 2.0]}, ValueError, "speeds"),
+    ({"speeds": [0.0, 1.0]}, ValueError, "speeds"),
+    ({"random": (True,)}, TypeError, "random"), ({"random": "yes"}, TypeError, "random")])
+def test_evidence_names_a_bad_noise_speed_or_kind(kwargs, error, word):
+    kw = {"sigma": 0.5, **kwargs}
+    with pytest.raises(error, match=word):
+        Evidence([0, 0, 1, 1], **kw)
+
+
+@pytest.mark.parametrize("what, word", [
+    ("nan observed", "observed"), ("nan predicted", "predicted"), ("far observed", "observed"),
+    ("far predicted", "predicted"), ("wrong members", "predicted"), ("wrong samples", "predicted"),
+    ("flat observed", "observed")])
+def test_evidence_refuses_observations_it_cannot_weigh(what, word):
+    t = np.linspace(0, 1, 5)[:, None] * np.ones(3)
+    pred = np.stack([t * v for v in (1.0, 1.1, 2.0, 2.1)])
+    y = t * 1.05
+    if what == "nan observed":
+        y = y.copy()
+        y[2, 1] = np.nan
+    elif what == "nan predicted":
+        pred = pred.copy()
+        pred[1, 2, 0] = np.nan
+    elif what == "far observed":
+        y = y + 1e160
+    elif what == "far predicted":
+        pred = pred * 1e160
+    elif what == "wrong members":
+        pred = pred[:3]
+    elif what == "wrong samples":
+        pred = pred[:, :4]
+    else:
+        y = y.ravel()
+    ev = Evidence([0, 0, 1, 1], 0.5)
+    with pytest.raises(ValueError, match=word):
+        ev.add(y, pred)
+    assert ev.n_obs == 0  # nothing half added
+    ev.add(t * 1.05, np.stack([t * v for v in (1.0, 1.1, 2.0, 2.1)]))
+    assert np.all(np.isfinite(ev.belief().p))
+
+
+@pytest.mark.parametrize("group", [2, -1, 0.5, "b"])
+def test_log_loss_refuses_a_group_other_than_zero_or_one(group):
+    b = Evidence([0, 0, 1, 1], 0.5).belief()
+    with pytest.raises(ValueError, match="group"):
+        b.log_loss(group)
+
+
+def test_the_planning_helpers_name_bad_input():
+    with pytest.raises(ValueError, match="k"):
+        directions(0, random=False)
+    with pytest.raises(TypeError, match="rng"):
+        held_out(_scenario(*SCENARIOS[0]).group_a, 0)
+    with pytest.raises(ValueError, match="max_magnitude"):
+        segment_actions(10.0, max_magnitude=np.nan)
+    rng = np.random.default_rng(0)
+    score = lambda plans: plans.sum(axis=1)  # noqa: E731
+    for kwargs, word in (({"n_elite": 9}, "n_elite"), ({"smoothing": 0.0}, "smoothing"),
+                         ({"n_actions": 0}, "n_actions"),
+                         ({"start": np.ones((2, 3))}, "start"),
+                         ({"incumbent": np.array([0, 5])}, "plans")):
+        kw = {"n_planned": 2, "n_actions": 3, "rng": rng, "n_samples": 8, "n_elite": 2,
+              "n_iter": 2, "smoothing": 0.5, **kwargs}
+        with pytest.raises(ValueError, match=word):
+            categorical_cem(score, **kw)

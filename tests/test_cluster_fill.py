@@ -71,10 +71,14 @@ def test_a_cluster_fill_stores_what_a_local_fill_stores(tmp_path, client):
 
 def test_an_interrupted_cluster_fill_resumes(tmp_path, client):
     stop = threading.Event()
-    stop.set()  # checked after each stored entry: stop after the first
+
+    class StopAfterFirst(list):  # the record of the first stored entry asks to stop
+        def append(self, item):
+            super().append(item)
+            stop.set()
     with pytest.raises(KeyboardInterrupt):
         fill.fill_cache(IDS, profile=TINY, results=tmp_path, readings="all", progress=False,
-                        scheduler=client, stop=stop)
+                        scheduler=client, stop=stop, times=StopAfterFirst())
     kept = _entries(tmp_path)
     total = len(fill.needed_entries(IDS, TINY, "all", results=tmp_path))
     assert 1 <= len(kept) < total
@@ -146,3 +150,81 @@ def test_an_unreachable_scheduler_is_a_value_error(tmp_path):
             fill.fill_cache(IDS, profile=TINY, results=tmp_path / "r", progress=False,
                             scheduler="tcp://127.0.0.1:9")
     assert not (tmp_path / "r").exists()
+
+
+# --------------------------------------------------------------------------- #
+# a scheduler address that is refused, silent or not dask fails fast (issue 33)
+# --------------------------------------------------------------------------- #
+class _FakeServer:
+    """A TCP server on 127.0.0.1 that accepts and then stays silent, or sends ``reply``."""
+
+    def __init__(self, reply=None):
+        import socket
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.port = self.sock.getsockname()[1]
+        self.reply, self.conns = reply, []
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            self.conns.append(conn)
+            if self.reply:
+                conn.sendall(self.reply)
+
+    def close(self):
+        self.sock.close()
+        for c in self.conns:
+            c.close()
+
+
+@pytest.mark.parametrize("kind, word", [
+    ("silent", "no dask scheduler answered"),
+    ("http", "is not a dask scheduler"),
+    ("refused", "cannot reach a dask scheduler")])
+def test_a_scheduler_address_that_is_not_a_dask_scheduler_fails_within_seconds(tmp_path,
+                                                                              kind, word):
+    import socket
+
+    if kind == "refused":
+        s = socket.socket()
+        s.bind(("127.0.0.1", 0))  # bound, never listening: connections are refused
+        port, server = s.getsockname()[1], s
+    else:
+        reply = b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" if kind == "http" else None
+        server = _FakeServer(reply)
+        port = server.port
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(ValueError, match=word):
+            fill.fill_cache(IDS, profile=TINY, results=tmp_path / "r", progress=False,
+                            scheduler=f"tcp://127.0.0.1:{port}")
+    finally:
+        server.close()
+    assert time.monotonic() - t0 < fill.PROBE_SECONDS + 3
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_stop_request_ends_the_wait_for_a_silent_scheduler(tmp_path):
+    server = _FakeServer()
+    stop = threading.Event()
+    threading.Timer(0.5, stop.set).start()
+    t0 = time.monotonic()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            fill.fill_cache(IDS, profile=TINY, results=tmp_path / "r", progress=False,
+                            scheduler=f"tcp://127.0.0.1:{server.port}", stop=stop)
+    finally:
+        server.close()
+    assert time.monotonic() - t0 < 2.0
+
+
+def test_a_real_scheduler_address_passes_the_probe(client):
+    fill._probe_scheduler(client.scheduler.address)  # no error, within the probe's time

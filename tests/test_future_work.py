@@ -157,3 +157,74 @@ def test_the_filters_find_a_known_wind_on_a_hover_probe(tmp_path):
         filter_comparison(s, kinds=("kalman",))
     with pytest.raises(TypeError, match="Multirotor"):
         filter_comparison(uw.make_setting("light constant", "strong constant", 2))
+
+
+# --------------------------------------------------------------------------- #
+# the filters refuse what they cannot use (issue 33)
+# --------------------------------------------------------------------------- #
+def test_the_drag_calibration_refuses_a_flight_too_short_or_too_slow(monkeypatch):
+    from uavwind.analysis import filters
+
+    mr = Multirotor()
+    for duration in (0.01, 1.0):
+        with pytest.raises(ValueError, match=r"duration must be >= 2 s for a drag fit"):
+            filters.calibrate_drag(mr, duration=duration)
+    with pytest.raises(ValueError, match="duration"):
+        filters.calibrate_drag(mr, duration=np.nan)
+    with pytest.raises(ValueError, match="seed"):
+        filters.calibrate_drag(mr, seed=-1)
+
+    def level(rng, n_changes, duration, max_magnitude):  # a level probe: nothing to fit
+        return AttitudeSequence([0.0], [mr.weight], [[0.0, 0.0, 0.0]])
+    monkeypatch.setattr(filters, "sample_attitude", level)
+    with pytest.raises(ValueError, match=r"RMS body velocity \(x .*, y .*\) is below 0.5 m/s"):
+        filters.calibrate_drag(mr)
+
+
+@pytest.fixture(scope="module")
+def short_flight():
+    from uavwind.analysis.filters import FILTER_DT
+
+    mr = Multirotor(start="hover")
+    hold = uw.ThrustSequence([0.0], [mr.weight], [[0.0, 0.0, 1.0]])
+    f = uw.simulate_flight(hold, uw.ConstantWind([[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]), uav=mr,
+                           dt=FILTER_DT, duration=0.5)
+    return f, hold, mr
+
+
+@pytest.mark.parametrize("change, error, word", [
+    ({"drag": [0.1, np.nan, 0.1]}, ValueError, "drag"), ({"drag": [0.1, 0.1]}, ValueError, "drag"),
+    ({"drag": [0.1, 0.0, 0.1]}, ValueError, "drag"), ({"env": 2}, ValueError, "env"),
+    ({"env": -1}, ValueError, "env"), ({"seed": -1}, ValueError, "seed"),
+    ({"kind": "kalman"}, ValueError, "kind"), ({"action": "hover"}, TypeError, "action"),
+    ({"flight": "point mass"}, ValueError, "multirotor")])
+def test_run_filter_names_what_it_cannot_use(short_flight, change, error, word):
+    from uavwind.analysis.filters import run_filter
+
+    f, hold, mr = short_flight
+    kw = {"flight": f, "action": hold, "vehicle": mr, "kind": "ekf", "drag": [0.1] * 3,
+          "env": 0, "seed": 0, **change}
+    if kw["flight"] == "point mass":
+        kw["flight"] = uw.simulate_flight(uw.PAPER_EXAMPLE, uw.ConstantWind([[1.0, 0, 0]]),
+                                          dt=0.01, duration=12.0)
+    with pytest.raises(error, match=word):
+        run_filter(**kw)
+
+
+def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
+    from uavwind.analysis.filters import filter_comparison
+    from uavwind.study.cache import CorruptChunkWarning, atomic_write
+
+    s = uw.make_setting("light constant", "strong constant", 2, uav=Multirotor(start="hover"))
+    df = filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path)
+    (path,) = (tmp_path / "filters").iterdir()
+    atomic_write(df.iloc[::-1].reset_index(drop=True), path)  # forged: checksum recomputed
+    with pytest.warns(CorruptChunkWarning, match="out of order"):
+        again = filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path)
+    assert again.equals(df)
+    df.to_parquet(path, index=False)  # written before tables carried a checksum: still read
+    assert filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path).equals(df)
+    for kwargs, error in (({"probe": "yes"}, TypeError), ({"kinds": ("ekf", "ekf")}, ValueError),
+                          ({"kinds": ()}, ValueError)):
+        with pytest.raises(error, match="probe|kinds"):
+            filter_comparison(s, n_flights=1, n_jobs=1, results=tmp_path, **kwargs)

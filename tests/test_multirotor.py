@@ -191,3 +191,30 @@ def test_a_setting_carries_its_vehicle_in_its_key():
                          uav=Multirotor(start="drifting"))
     assert len({pm.key(), mr.key(), hv.key()}) == 3
     assert mr.simulate(uw.PAPER_EXAMPLE).shape == (6, 120, 3)
+
+
+# --------------------------------------------------------------------------- #
+# bad input: refused, naming the parameter (issue 33)
+# --------------------------------------------------------------------------- #
+@pytest.mark.parametrize("force, tilt, word", [
+    ([np.nan, 0.0, 10.0], 90.0, "force"), ([0.0, 0.0, np.inf], 90.0, "force"),
+    ([1.0, 2.0], 90.0, "force"), ([0.0, 0.0, 10.0], -10.0, "tilt_limit"),
+    ([0.0, 0.0, 10.0], np.nan, "tilt_limit"), ([0.0, 0.0, 10.0], 0.0, "tilt_limit"),
+    ([0.0, 0.0, 10.0], 120.0, "tilt_limit")])
+def test_force_command_refuses_what_it_cannot_fly(force, tilt, word):
+    with pytest.raises(ValueError, match=word):
+        force_command(force, tilt_limit=tilt)
+
+
+def test_the_multirotor_checks_its_public_helpers():
+    mr = Multirotor()
+    with pytest.raises(ValueError, match="start_position"):
+        mr.initial_states([0.0, np.nan, 10.0], np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="winds0"):
+        mr.initial_states([0.0, 0.0, 10.0], np.zeros((2, 2)))
+    with pytest.raises(ValueError, match="dt"):
+        mr.check_grid(np.nan)
+    with pytest.raises(TypeError, match="action"):
+        mr.segment_commands([[0.0, 0.0, 10.0]])
+    with pytest.raises(TypeError, match="thrust"):
+        mr.check_thrust(np.array([10.0]))

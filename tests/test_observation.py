@@ -92,3 +92,36 @@ def test_consumer_noise_levels_are_the_cited_figures():
 def test_observe_refuses_a_gravity_that_is_not_a_number():
     with pytest.raises(ValueError, match="gravity"):
         observe(_flight(uw.ConstantWind([[0, 0, 0]])), "acceleration", gravity=float("nan"))
+
+
+# --------------------------------------------------------------------------- #
+# bad input named (issue 33)
+# --------------------------------------------------------------------------- #
+def _short_flight():
+    return uw.simulate_flight(uw.PAPER_EXAMPLE, uw.ConstantWind([[1.0, 0.0, 0.0]]),
+                              duration=12.0)
+
+
+@pytest.mark.parametrize("seed, error", [(-1, ValueError), (1.5, TypeError), ("0", TypeError)])
+def test_observe_names_a_bad_seed(seed, error):
+    from uavwind.sim.observation import observe
+
+    with pytest.raises(error, match="seed"):
+        observe(_short_flight(), "position", uw.Noise(position=1.0), seed=seed)
+
+
+def test_observe_refuses_what_is_not_a_flight():
+    from uavwind.sim.observation import observe
+
+    with pytest.raises(TypeError, match="flight"):
+        observe(np.zeros((2, 5, 3)), "position")
+
+
+@pytest.mark.parametrize("shape, rng, word", [
+    ((2, 5), np.random.default_rng(0), "shape"), ((2, 0, 3), np.random.default_rng(0), "shape"),
+    ((2, 5, 3), 0, "rng")])
+def test_gauss_markov_names_a_bad_shape_or_generator(shape, rng, word):
+    from uavwind.sim.observation import gauss_markov
+
+    with pytest.raises((ValueError, TypeError), match=word):
+        gauss_markov(shape, 0.1, 1.0, 10.0, rng)

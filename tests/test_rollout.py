@@ -88,3 +88,82 @@ def test_planning_fidelity_is_the_multirotor_s_substeps_only():
     assert ro.with_substeps(1).table is ro.table
     pm = Rollout.for_flight(uw.UAV(), ConstantWind([[1.0, 0, 0]]), 0.1, 2.0)
     assert pm.with_substeps(1) is pm
+
+
+# --------------------------------------------------------------------------- #
+# rows checked before any kernel runs (issue 33)
+# --------------------------------------------------------------------------- #
+def _rows(uav):
+    roll = Rollout.for_flight(uav, _wind("constant", "shear"), 0.1, 2.0)
+    env = np.arange(4)
+    return roll, roll.start(env, [0.0, 0.0, 10.0]), env, np.tile([0.0, 0.0, 20.0], (4, 1))
+
+
+@pytest.mark.parametrize("vehicle", ["point mass", "multirotor hover"])
+def test_advance_refuses_states_of_the_wrong_width(vehicle):
+    roll, states, env, forces = _rows(VEHICLES[vehicle])
+    other = 20 if states.shape[1] == 6 else 17
+    with pytest.raises(ValueError, match=r"states must have shape \(n_rows, "):
+        roll.advance(np.zeros((4, other)), env, forces, 0, 2)
+    with pytest.raises(ValueError, match="states"):
+        roll.advance(states[:, :, None], env, forces, 0, 2)
+
+
+@pytest.mark.parametrize("vehicle", ["point mass", "multirotor hover"])
+@pytest.mark.parametrize("what, word", [
+    ("nan state", "states"), ("nan force", "forces"), ("inf force", "forces"),
+    ("forces of 2 columns", "forces"), ("forces of 3 rows", "forces"),
+    ("env out of range", "env"), ("negative env", "env"), ("env of 3 rows", "env"),
+    ("float env", "env"), ("sample0 = -1", "sample0"), ("n = 1.5", "n")])
+def test_advance_names_what_is_wrong(vehicle, what, word):
+    roll, states, env, forces = _rows(VEHICLES[vehicle])
+    s0, n = 0, 2
+    if what == "nan state":
+        states = states.copy()
+        states[1, 3] = np.nan
+    elif what == "nan force":
+        forces = forces.copy()
+        forces[0, 0] = np.nan
+    elif what == "inf force":
+        forces = forces.copy()
+        forces[2, 2] = np.inf
+    elif what == "forces of 2 columns":
+        forces = forces[:, :2]
+    elif what == "forces of 3 rows":
+        forces = forces[:3]
+    elif what == "env out of range":
+        env = np.array([0, 1, 2, 4])
+    elif what == "negative env":
+        env = np.array([0, 1, 2, -1])
+    elif what == "env of 3 rows":
+        env = env[:3]
+    elif what == "float env":
+        env = env.astype(float)
+    elif what == "sample0 = -1":
+        s0 = -1
+    else:
+        n = 1.5
+    with pytest.raises((ValueError, TypeError), match=word):
+        roll.advance(states, env, forces, s0, n)
+
+
+def test_advance_refuses_a_zero_quaternion_and_more_thrust_than_the_rotors_make():
+    mr = uw.Multirotor(mass=0.1)  # 10 N at full rotor speed
+    roll, states, env, _ = _rows(mr)
+    states = states.copy()
+    states[0, 6:10] = 0.0
+    with pytest.raises(ValueError, match="quaternion"):
+        roll.advance(states, env, np.zeros((4, 3)), 0, 1)
+    roll, states, env, _ = _rows(mr)
+    with pytest.raises(ValueError, match=r"forces must be <= 10\.0 N"):
+        roll.advance(states, env, np.tile([0.0, 0.0, 40.0], (4, 1)), 0, 1)
+
+
+def test_start_and_the_wind_table_refuse_an_environment_out_of_range():
+    roll, _, _, _ = _rows(uw.UAV())
+    with pytest.raises(ValueError, match=r"env must hold environment indices in \[0, 3\]"):
+        roll.start([0, 7], [0.0, 0.0, 10.0])
+    with pytest.raises(ValueError, match="env"):
+        roll.table.velocity(0, np.array([5]), np.zeros((1, 3)))
+    with pytest.raises(ValueError, match="positions"):
+        roll.table.velocity(0, np.array([1]), np.zeros((2, 3)))

@@ -214,15 +214,17 @@ def _analyses(args) -> int:
 
 
 def _on_signals(stop: threading.Event) -> dict:
-    """SIGINT and SIGTERM ask the fill to stop after the entries under way (it checks between
-    entries, never inside a kernel); a second one stops at once. Returns the handlers they
-    replace."""
+    """SIGINT and SIGTERM ask the fill to stop: worker processes are stopped at once (the
+    entries they were computing are dropped, the finished ones are on disk), an entry
+    computed in this process finishes first (the fill checks between entries, never inside
+    a kernel); a second signal stops at once. Returns the handlers they replace."""
     def request(signum, frame):
         if stop.is_set():
             raise KeyboardInterrupt
         stop.set()
-        print(f"\n{signal.Signals(signum).name}: stopping after the entries under way "
-              f"(again to stop now)", file=sys.stderr)
+        print(f"\n{signal.Signals(signum).name}: stopping; finished entries are kept, "
+              f"workers' entries under way are dropped, one computed in this process "
+              f"finishes first (again to stop now)", file=sys.stderr)
     return {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
 
 

@@ -24,25 +24,29 @@ averaging it in.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
+import warnings
 
 import numpy as np
 import pandas as pd
 
-from ..core.checks import check_choice, check_instance, check_scalar
-from ..core.io import atomic_write, refuse_to_compute
+from ..core.checks import check_array, check_choice, check_instance, check_scalar
+from ..core.io import refuse_to_compute
 from ..core.parallel import check_jobs, pin_threads
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..method.baseline import two_means
-from ..sim.actions import ThrustSequence, sample_attitude
+from ..sim.actions import AttitudeSequence, ThrustSequence, sample_attitude
 from ..sim.dynamics import simulate_flight
+from ..sim.flight import Flight
 from ..sim.multirotor import Multirotor
 from ..sim.observation import rotorpy_imu_noise
 from ..sim.setting import Setting
 from ..sim.wind import ConstantWind
-from ..study.cache import RESULTS_VERSION, results_dir
+from ..study.cache import (CHECKSUM_KEY, RESULTS_VERSION, CorruptChunkWarning, atomic_write,
+                           content_digest, results_dir)
 
 __all__ = ["filter_table", "FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
 
@@ -56,6 +60,14 @@ FILTER_DT = 0.01
 FILTERS_VERSION = "1"
 #: The tail of a flight whose estimates are averaged [s].
 TAIL = 4.0
+#: Shortest calibration flight [s]: two attitude segments, time for the vehicle to reach
+#: speeds whose quadratic drag shows (0.01 s fitted c_D,y = 4930 from nothing).
+MIN_CALIBRATION = 2.0
+#: Smallest RMS body velocity [m/s] along each axis a drag coefficient is fitted from (the
+#: default 12-s flights reach 2 m/s or more; a level flight reaches 1e-15 m/s).
+MIN_EXCITATION = 0.5
+#: The comparison table's columns, in order.
+COLUMNS = ("filter", "flight", "rmse", "diverged", "correct", "drag_x", "drag_y", "drag_z")
 
 
 def _filter_class(kind):
@@ -91,9 +103,22 @@ def _commanded_thrust(vehicle, action, times):
 def calibrate_drag(vehicle: Multirotor, seed: int = 0, duration: float = 12.0) -> np.ndarray:
     """The drag coefficients ``(c_Dx, c_Dy, c_Dz)`` [N/(m/s)^2] a user would give the filters:
     fitted on a calibration flight in still air (attitude actions drawn from ``seed``), per
-    body axis, by least squares of ``a_b - T/m e_z = -(c/m) |v_b| v_b``."""
+    body axis, by least squares of ``a_b - T/m e_z = -(c/m) |v_b| v_b``.
+
+    Raises
+    ------
+    ValueError
+        If ``duration`` is below :data:`MIN_CALIBRATION` seconds, or the flight's RMS body
+        velocity along an axis stays below :data:`MIN_EXCITATION` (nothing to fit there).
+    """
     check_instance(vehicle, "vehicle", Multirotor)
-    action = sample_attitude(child_rng(root_seed(seed), 0),
+    root = root_seed(seed)
+    duration = check_scalar(duration, "duration", high=1e4)
+    if duration < MIN_CALIBRATION:
+        raise ValueError(f"duration must be >= {MIN_CALIBRATION:g} s for a drag fit (at least "
+                         f"two attitude segments: the vehicle needs time to reach speeds whose "
+                         f"quadratic drag shows), got {duration:g} s")
+    action = sample_attitude(child_rng(root, 0),
                              n_changes=max(int(math.ceil(duration)) - 1, 0), duration=duration,
                              max_magnitude=min(50.0, vehicle.max_thrust))
     f = simulate_flight(action, ConstantWind([[0.0, 0.0, 0.0]]), uav=vehicle, dt=FILTER_DT,
@@ -103,6 +128,13 @@ def calibrate_drag(vehicle: Multirotor, seed: int = 0, duration: float = 12.0) -
     T = _commanded_thrust(vehicle, action, f.times - FILTER_DT)
     drag = f.specific_forces[0].copy()
     drag[:, 2] -= T / vehicle.mass
+    rms = np.sqrt(np.mean(vb * vb, axis=0))
+    if np.any(rms < MIN_EXCITATION):
+        axes = ", ".join(f"{a} {v:.2g} m/s" for a, v, w in zip("xyz", rms, rms < MIN_EXCITATION)
+                         if w)
+        raise ValueError(f"calibrate_drag: the calibration flight's RMS body velocity ({axes}) "
+                         f"is below {MIN_EXCITATION:g} m/s, too slow to fit a quadratic drag "
+                         f"(the fit would read noise); fly longer or draw another seed")
     x = -np.abs(np.linalg.norm(vb, axis=1))[:, None] * vb / vehicle.mass
     return np.array([max(float(np.dot(x[:, i], drag[:, i]) / np.dot(x[:, i], x[:, i])), 1e-9)
                      for i in range(3)])
@@ -111,14 +143,33 @@ def calibrate_drag(vehicle: Multirotor, seed: int = 0, duration: float = 12.0) -
 def run_filter(flight, action, vehicle: Multirotor, kind: str, drag, env: int = 0,
                seed: int | np.random.SeedSequence | None = 0) -> np.ndarray:
     """The filter's wind estimate along one environment of a 100 Hz ``flight``, world frame
-    [m/s], shape (n_steps, 3) (NaN from the first non-finite step on)."""
+    [m/s], shape (n_steps, 3) (NaN from the first non-finite step on).
+
+    ``flight`` must be a multirotor's (:func:`~uavwind.sim.dynamics.simulate_flight` with
+    ``uav=Multirotor()``: attitudes, body rates, specific forces) of at least two samples,
+    ``drag`` three finite coefficients > 0 [N/(m/s)^2], ``env`` one of its environments.
+    """
+    check_choice(kind, "kind", FILTERS)
+    check_instance(flight, "flight", Flight)
+    check_instance(action, "action", (ThrustSequence, AttitudeSequence))
+    check_instance(vehicle, "vehicle", Multirotor)
+    if flight.attitudes is None or flight.specific_forces is None or flight.body_rates is None:
+        raise ValueError("flight must be a multirotor's (attitudes, body rates and specific "
+                         "forces): fly it with simulate_flight(..., uav=Multirotor()); a point "
+                         "mass has no attitude for the filters")
+    if flight.times.size < 2:
+        raise ValueError(f"flight must hold at least 2 samples, got {flight.times.size}")
+    drag = check_array(drag, "drag", shape=(3,))
+    if np.any(drag <= 0):
+        raise ValueError(f"drag must hold three coefficients > 0 [N/(m/s)^2], got "
+                         f"{drag.tolist()}")
+    env = check_scalar(env, "env", low=0, high=flight.n_env - 1, integer=True)
+    rng = np.random.default_rng(root_seed(seed))
     cls = _filter_class(kind)
     qp = vehicle.quad_params()
     qp.update(c_Dx=float(drag[0]), c_Dy=float(drag[1]), c_Dz=float(drag[2]))
     dt = float(flight.times[1] - flight.times[0])
     filt = cls(qp, dt=dt)
-    rng = np.random.default_rng(seed if isinstance(seed, np.random.SeedSequence)
-                                else np.random.SeedSequence(seed))
     accel_noise = rotorpy_imu_noise(dt).acceleration
     T = _commanded_thrust(vehicle, action, flight.times - dt)
     R = _rotation(flight.attitudes[env])
@@ -175,25 +226,86 @@ def filter_comparison(setting: Setting, n_flights: int = 5, seed: int = 0, probe
     check_instance(setting.uav, "setting.uav", Multirotor)
     n_flights = check_scalar(n_flights, "n_flights", low=1, high=1000, integer=True)
     seed = check_scalar(seed, "seed", low=0, high=2 ** 63 - 1, integer=True)
+    if not isinstance(probe, (bool, np.bool_)):
+        raise TypeError(f"probe must be a bool, got {type(probe).__name__}")
+    if isinstance(kinds, str):
+        kinds = (kinds,)
     kinds = tuple(check_choice(k, "kinds", FILTERS) for k in kinds)
+    if not kinds or len(set(kinds)) != len(kinds):
+        raise ValueError(f"kinds must name each filter of {list(FILTERS)} at most once, and "
+                         f"one at least, got {list(kinds)}")
     n_jobs = check_jobs(n_jobs)
     blob = json.dumps({"setting": setting.key(), "n_flights": n_flights, "seed": seed,
                        "probe": bool(probe), "kinds": kinds, "version": RESULTS_VERSION,
                        "filters": FILTERS_VERSION}, sort_keys=True)
     path = results_dir(results) / "filters" / f"{hashlib.sha256(blob.encode()).hexdigest()[:20]}.parquet"
-    try:
-        return pd.read_parquet(path)
-    except Exception:  # missing or damaged: compute (and replace) it
-        pass
+    cached = _read_table(path, n_flights, kinds, setting.n_env)
+    if cached is not None:
+        return cached
     refuse_to_compute(f"the filter comparison {path.name} ({setting.name or setting.key()})")
     root = root_seed(seed)
     drag = calibrate_drag(setting.uav, seed=child_seed(root, 10 ** 6))
     from joblib import Parallel, delayed
     chunks = Parallel(n_jobs=n_jobs)(delayed(_one_flight)(setting, i, root, probe, kinds, drag)
                                      for i in range(n_flights))
-    out = pd.DataFrame([r for rows in chunks for r in rows])
-    atomic_write(path, lambda tmp: out.to_parquet(tmp, index=False))
+    out = pd.DataFrame([r for rows in chunks for r in rows], columns=list(COLUMNS))
+    atomic_write(out, path)
     return out
+
+
+def _table_problem(df, n_flights, kinds, n_env):
+    """Why a cached comparison table cannot be trusted (empty string: it can)."""
+    if list(df.columns) != list(COLUMNS):
+        return f"columns {list(df.columns)}"
+    want = [(i, k) for i in range(n_flights) for k in kinds]
+    if len(df) != len(want):
+        return f"{len(df)} rows, expected {len(want)}"
+    if list(zip(df["flight"].tolist(), df["filter"].tolist())) != want:
+        return "rows out of order (flight by flight, each filter in turn)"
+    diverged = df["diverged"].to_numpy()
+    if df["diverged"].dtype.kind not in "iu" or np.any((diverged < 0) | (diverged > n_env)):
+        return f"diverged counts outside [0, {n_env}]"
+    rmse = df["rmse"].to_numpy(dtype=float)
+    if np.any(np.isnan(rmse) != (diverged == n_env)):
+        return "an rmse missing where some environment stayed finite, or the reverse"
+    ok = np.isfinite(rmse)
+    if np.any(np.isinf(rmse)) or np.any((rmse[ok] < 0) | (rmse[ok] > DIVERGED)):
+        return f"rmse outside [0, {DIVERGED:g}] m/s"
+    if df["correct"].dtype.kind != "b" or np.any(df["correct"].to_numpy() & (diverged > 0)):
+        return "a correct split where an environment diverged"
+    drag = df[["drag_x", "drag_y", "drag_z"]].to_numpy(dtype=float)
+    if not (np.all(np.isfinite(drag)) and np.all(drag > 0) and np.all(drag == drag[0])):
+        return "drag coefficients that are not one positive triple"
+    return ""
+
+
+def _read_table(path, n_flights, kinds, n_env):
+    """The cached table at ``path`` if it is there and can be trusted, else ``None`` (a
+    damaged or inconsistent one is reported with a :class:`CorruptChunkWarning` and
+    recomputed; one written before tables carried a checksum is checked by the rules
+    alone and given its checksum)."""
+    import pyarrow.parquet as pq
+
+    if not path.exists():
+        return None
+    try:
+        table = pq.read_table(path)
+        df = table.to_pandas()
+        stored = (table.schema.metadata or {}).get(CHECKSUM_KEY)
+        if stored is not None and stored.decode() != content_digest(df):
+            why = "its content does not match its checksum"
+        else:
+            why = _table_problem(df, n_flights, kinds, n_env)
+    except Exception as exc:  # pyarrow raises many types for damaged files
+        why = f"unreadable ({type(exc).__name__})"
+    if not why:
+        if stored is None:
+            with contextlib.suppress(OSError):
+                atomic_write(df, path)
+        return df
+    warnings.warn(f"cached filter table {path.name} failed verification ({why}): "
+                  f"recomputed", CorruptChunkWarning, stacklevel=3)
+    return None
 
 
 def _one_flight(setting, i, root, probe, kinds, drag):

@@ -62,9 +62,14 @@ def pin_threads() -> None:
 
 
 def stop_workers() -> None:
-    """Shut the reusable worker pool down at once (after an interrupt or an error)."""
+    """Shut the reusable worker pool down at once (after an interrupt or an error): its
+    workers are killed, whatever they are computing.
+
+    The pool is looked up with ``reuse=True``: with its default arguments
+    ``get_reusable_executor`` sees joblib's pool as configured differently, and first shuts
+    it down *waiting* for every pending task, which is what stopping must not do."""
     try:
         from joblib.externals.loky import get_reusable_executor
-        get_reusable_executor().shutdown(wait=False, kill_workers=True)
+        get_reusable_executor(reuse=True).shutdown(wait=False, kill_workers=True)
     except Exception:  # pragma: no cover - best effort on the way out
         pass

@@ -145,6 +145,7 @@ class ThrustSequence:
         """
         times = check_array(times, "times", ndim=1)
         vector = check_array(vector, "vector", shape=(4 * times.shape[0],))
+        max_magnitude = check_scalar(max_magnitude, "max_magnitude", low=0.0, high=1e6)
         v = vector.reshape(-1, 4)
         mags = np.clip(v[:, 0], 0.0, max_magnitude)
         dirs = v[:, 1:].copy()
@@ -187,10 +188,24 @@ def _check_rng(rng):
 
 def _change_times(rng, n_changes, duration, step):
     """Distinct change times on the grid ``step, 2 step, ... < duration``, sorted, after 0."""
+    step = check_scalar(step, "time_step", low=0.0, low_inclusive=False)
     slots = np.arange(1, int(np.ceil(duration / step - 1e-9))) * step
     n_changes = check_scalar(n_changes, "n_changes", low=0, high=len(slots), integer=True)
     chosen = np.sort(rng.choice(slots, size=n_changes, replace=False)) if n_changes else []
     return np.concatenate([[0.0], chosen])
+
+
+def _n_steps_within(limit, step, limit_name, step_name, high):
+    """``(limit, step, k)``: both checked (``limit`` in [0, high], ``step`` in (0, limit]) and
+    ``k`` the largest whole number with ``k step <= limit`` (so no draw passes the limit)."""
+    limit = check_scalar(limit, limit_name, low=0.0, high=high)
+    step = check_scalar(step, step_name, low=0.0, low_inclusive=False,
+                        high=limit if limit > 0 else None)
+    return limit, step, int(math.floor(limit / step + 1e-9))
+
+
+def _check_max_magnitude(max_magnitude):
+    return check_scalar(max_magnitude, "max_magnitude", low=0.0, high=1e6)
 
 
 def sample_paper(rng: np.random.Generator, n_changes: int = 6, duration: float = 12.0,
@@ -220,9 +235,13 @@ def sample_paper(rng: np.random.Generator, n_changes: int = 6, duration: float =
     """
     _check_rng(rng)
     duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    _, magnitude_step, top = _n_steps_within(max_magnitude, magnitude_step, "max_magnitude",
+                                             "magnitude_step", 1e6)
+    if axes not in ("positive", "signed"):
+        raise ValueError(f"axes must be 'positive' or 'signed', got {axes!r}")
     times = _change_times(rng, n_changes, duration, time_step)
     k = times.shape[0]
-    n_levels = int(round(max_magnitude / magnitude_step)) + 1
+    n_levels = top + 1
     mags = rng.integers(0, n_levels, size=k) * float(magnitude_step)
     if axes == "positive":
         dirs = _AXES[rng.integers(0, 3, size=k)]
@@ -241,6 +260,7 @@ def sample_continuous(rng: np.random.Generator, n_changes: int = 6, duration: fl
     uniform on the unit sphere; change times as in :func:`sample_paper`."""
     _check_rng(rng)
     duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    max_magnitude = _check_max_magnitude(max_magnitude)
     times = _change_times(rng, n_changes, duration, time_step)
     k = times.shape[0]
     mags = rng.uniform(0.0, max_magnitude, size=k)
@@ -267,7 +287,9 @@ MAX_TILT = math.radians(30.0)
 def euler_to_quaternion(angles) -> np.ndarray:
     """Quaternions [i, j, k, w] (scalar last, body -> world) of ZYX Euler ``angles`` (n, 3):
     roll about x, pitch about y, yaw about z [rad], applied yaw first (``R = Rz Ry Rx``)."""
-    a = np.atleast_2d(np.asarray(angles, dtype=float))
+    a = np.atleast_2d(check_array(angles, "angles"))
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"angles must have shape (3,) or (n, 3), got {np.shape(angles)}")
     cr, sr = np.cos(a[:, 0] / 2), np.sin(a[:, 0] / 2)
     cp, sp = np.cos(a[:, 1] / 2), np.sin(a[:, 1] / 2)
     cy, sy = np.cos(a[:, 2] / 2), np.sin(a[:, 2] / 2)
@@ -368,6 +390,8 @@ class AttitudeSequence:
         [-max_tilt, max_tilt] [rad], yaw wrapped to [-pi, pi)."""
         times = check_array(times, "times", ndim=1)
         vector = check_array(vector, "vector", shape=(4 * times.shape[0],))
+        max_magnitude = _check_max_magnitude(max_magnitude)
+        max_tilt = check_scalar(max_tilt, "max_tilt", low=0.0, high=math.pi / 2)
         v = vector.reshape(-1, 4)
         angles = np.column_stack([np.clip(v[:, 1:3], -max_tilt, max_tilt),
                                   (v[:, 3] + math.pi) % (2 * math.pi) - math.pi])
@@ -408,13 +432,17 @@ def sample_attitude(rng: np.random.Generator, n_changes: int = 6, duration: floa
     """
     _check_rng(rng)
     duration = check_scalar(duration, "duration", low=0, low_inclusive=False)
+    _, magnitude_step, n_thrust = _n_steps_within(max_magnitude, magnitude_step,
+                                                  "max_magnitude", "magnitude_step", 1e6)
+    _, tilt_step, n_tilt = _n_steps_within(max_tilt, tilt_step, "max_tilt", "tilt_step",
+                                           math.pi / 2)
+    yaw_step = check_scalar(yaw_step, "yaw_step", low=0.0, low_inclusive=False,
+                            high=2 * math.pi)
     times = _change_times(rng, n_changes, duration, time_step)
     k = times.shape[0]
-    thrusts = rng.integers(0, int(round(max_magnitude / magnitude_step)) + 1, size=k) * float(
-        magnitude_step)
-    n_tilt = int(round(max_tilt / tilt_step))
+    thrusts = rng.integers(0, n_thrust + 1, size=k) * float(magnitude_step)
     tilts = rng.integers(-n_tilt, n_tilt + 1, size=(k, 2)) * tilt_step
-    n_yaw = int(round(2 * math.pi / yaw_step))
+    n_yaw = int(math.floor(2 * math.pi / yaw_step + 1e-9))
     yaws = (rng.integers(0, n_yaw, size=k) * yaw_step + math.pi) % (2 * math.pi) - math.pi
     return AttitudeSequence(times, thrusts, np.column_stack([tilts, yaws]))
 

@@ -57,7 +57,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.checks import check_choice, check_scalar
+from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 from .vehicle import PAPER_UAV
@@ -215,8 +215,9 @@ def force_command(force, tilt_limit: float = 90.0) -> tuple[float, np.ndarray, b
     >>> round(T, 3), limited
     (12.99, True)
     """
-    F = np.asarray(force, dtype=float)
-    th = math.radians(tilt_limit)
+    F = check_array(force, "force", shape=(3,))
+    th = math.radians(check_scalar(tilt_limit, "tilt_limit", low=0.0, low_inclusive=False,
+                                   high=90.0))
     Fh = math.hypot(F[0], F[1])
     Fn = float(np.linalg.norm(F))
     if Fn == 0.0:
@@ -368,6 +369,8 @@ class Multirotor:
         """(n_env, 20) states at t = 0: level, no rates, rotors at hover speed, at
         ``start_position``; at rest (``"hover"``) or with the wind ``winds0`` (n_env, 3)
         (``"drifting"``)."""
+        start_position = check_array(start_position, "start_position", shape=(3,))
+        winds0 = check_array(winds0, "winds0", shape=(None, 3))
         n = winds0.shape[0]
         s = np.zeros((n, 20))
         s[:, 0:3] = start_position
@@ -380,6 +383,7 @@ class Multirotor:
     def check_grid(self, dt: float) -> int:
         """Control steps per recorded sample ``dt`` [s]; ``ValueError`` unless ``dt`` is a
         whole number of control steps."""
+        dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False, high=1e6)
         per = dt * self.control_rate
         k = int(round(per))
         if k < 1 or abs(per - k) > 1e-9 * max(1.0, per):
@@ -392,6 +396,7 @@ class Multirotor:
         ``action``: a :class:`~uavwind.sim.actions.ThrustSequence` through
         :func:`force_command`, an :class:`~uavwind.sim.actions.AttitudeSequence` as given
         (limited where its tilt exceeds ``tilt_limit``, then tilted to the limit)."""
+        check_instance(action, "action", (ThrustSequence, AttitudeSequence))
         if isinstance(action, ThrustSequence):
             return [force_command(v, self.tilt_limit) for v in action.vectors]
         out = []
@@ -407,6 +412,7 @@ class Multirotor:
 
     def check_thrust(self, thrust: ThrustSequence) -> None:
         """``ValueError`` if a segment asks for more thrust than the rotors make."""
+        check_instance(thrust, "thrust", (ThrustSequence, AttitudeSequence))
         too_much = thrust.magnitudes > self.max_thrust * (1 + 1e-12)
         if np.any(too_much):
             raise ValueError(f"thrust magnitudes must be <= {self.max_thrust:.1f} N for this "

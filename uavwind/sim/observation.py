@@ -31,15 +31,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-from ..core.checks import check_scalar
-from ..core.seeding import child_seed
-
-if TYPE_CHECKING:
-    from .flight import Flight
+from ..core.checks import check_instance, check_scalar
+from ..core.seeding import child_seed, root_seed
+from .flight import Flight
 
 __all__ = ["OBSERVATIONS", "ATTITUDE_CHANNELS", "POINT_MASS_OBSERVATIONS", "Noise",
            "CONSUMER_NOISE", "CONSUMER_SENSORS", "rotorpy_imu_noise", "gauss_markov", "observe", "check_observation",
@@ -153,9 +149,14 @@ def gauss_markov(shape: tuple[int, int, int], dt: float, sigma: float, tau: floa
         Step [s], standard deviation and correlation time [s].
     rng : numpy.random.Generator
     """
+    if (not isinstance(shape, tuple) or len(shape) != 3
+            or not all(isinstance(n, (int, np.integer)) and n >= 1 for n in shape)):
+        raise ValueError(f"shape must be a tuple of 3 positive integers (n_series, n_steps, "
+                         f"n_axes), got {shape!r}")
     dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False)
     sigma = check_scalar(sigma, "sigma", low=0.0)
     tau = check_scalar(tau, "tau", low=0.0, low_inclusive=False)
+    check_instance(rng, "rng", np.random.Generator, "numpy.random.Generator")
     phi = math.exp(-dt / tau)
     w = rng.standard_normal(shape)
     out = np.empty(shape)
@@ -210,7 +211,8 @@ def _small_rotation(axes6, angles):
 def observe(flight: Flight, observation: str = "position", noise: Noise | None = None,
             seed: int | np.random.SeedSequence | None = None,
             gravity: float = 9.81) -> np.ndarray:
-    """The channel ``observation`` of ``flight`` with ``noise`` added.
+    """The channel ``observation`` of ``flight`` with ``noise`` added (``ValueError`` or
+    ``TypeError`` naming a bad argument, such as a negative ``seed``).
 
     Parameters
     ----------
@@ -232,6 +234,7 @@ def observe(flight: Flight, observation: str = "position", noise: Noise | None =
         representation), the body rates [rad/s], or the IMU (accelerometer [m/s^2] and
         gyroscope [rad/s], body frame).
     """
+    check_instance(flight, "flight", Flight)
     check_observation(observation)
     gravity = check_scalar(gravity, "gravity", low=0.0, high=1e3)
     if observation in ATTITUDE_CHANNELS and flight.attitudes is None:
@@ -240,8 +243,7 @@ def observe(flight: Flight, observation: str = "position", noise: Noise | None =
     if noise is not None and not isinstance(noise, Noise):
         raise TypeError(f"noise must be a Noise or None, got {type(noise).__name__}")
     noise = noise or Noise()
-    rng = np.random.default_rng(seed if isinstance(seed, np.random.SeedSequence)
-                                else np.random.SeedSequence(seed))
+    rng = np.random.default_rng(root_seed(seed))
     shape = flight.positions.shape
     # draw every channel's standard normals in a fixed order, used or not, so a
     # channel's noise does not depend on which other channels are observed

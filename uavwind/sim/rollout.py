@@ -101,12 +101,31 @@ class WindTable:
     def velocity(self, k: int, env: np.ndarray, positions: np.ndarray) -> np.ndarray:
         """Wind [m/s] (n_rows, 3) at time ``times[k]`` for rows flying in environments
         ``env`` (n_rows,) at ``positions`` (n_rows, 3) [m]."""
-        return self.lookup(env)(k, positions)
+        lookup = self.lookup(env)
+        k = check_scalar(k, "k", low=0, high=self.times.shape[0] - 1, integer=True)
+        positions = check_array(positions, "positions", shape=(lookup.base.shape[0], 3))
+        return lookup(k, positions)
 
     def lookup(self, env: np.ndarray) -> _Lookup:
         """The wind of rows in environments ``env`` as a function ``(k, positions) ->
         (n_rows, 3)``, its per-row arrays gathered once (for a loop over steps)."""
-        return _Lookup(self, np.asarray(env, dtype=np.intp))
+        return _Lookup(self, self.check_env(env))
+
+    def check_env(self, env, n_rows: int | None = None) -> np.ndarray:
+        """``env`` as an index array after checking it: integers in ``[0, n_env)``, one
+        dimension (of length ``n_rows`` if given)."""
+        arr = np.asarray(env)
+        if arr.dtype.kind not in "iu" and not (arr.size == 0 and arr.dtype.kind == "f"):
+            raise TypeError(f"env must be an array of integers (environment indices), got "
+                            f"dtype {arr.dtype}")
+        want = "(n_rows,)" if n_rows is None else f"({n_rows},)"
+        if arr.ndim != 1 or (n_rows is not None and arr.shape[0] != n_rows):
+            raise ValueError(f"env must have shape {want}, one environment per row, got "
+                             f"{arr.shape}")
+        if arr.size and (arr.min() < 0 or arr.max() >= self.n_env):
+            raise ValueError(f"env must hold environment indices in [0, {self.n_env - 1}], "
+                             f"got {arr.min()} .. {arr.max()}")
+        return arr.astype(np.intp, copy=False)
 
 
 class _Lookup:
@@ -194,7 +213,7 @@ class Rollout:
     def start(self, env: ArrayLike, start_position: ArrayLike) -> np.ndarray:
         """States (n_rows, :func:`state_size`) at t = 0 of rows in environments ``env``,
         starting at ``start_position`` (3,) [m], as :func:`uavwind.simulate` starts them."""
-        env = np.asarray(env, dtype=np.intp)
+        env = self.table.check_env(env)
         start = check_array(start_position, "start_position", shape=(3,))
         if isinstance(self.uav, Multirotor):
             winds0 = self.table.velocity(0, env, np.broadcast_to(start, (env.size, 3)))
@@ -226,12 +245,46 @@ class Rollout:
         positions : ndarray, shape (n_rows, n, 3)
             Positions [m] after each step, as :func:`uavwind.simulate` records them.
         """
-        if not (0 <= sample0 and n >= 1 and sample0 + n <= self.n_samples):
+        sample0 = check_scalar(sample0, "sample0", low=0, integer=True)
+        n = check_scalar(n, "n", low=1, integer=True)
+        if sample0 + n > self.n_samples:
             raise ValueError(f"sample0 = {sample0} and n = {n}: samples {sample0}.."
                              f"{sample0 + n} lie outside the flight's 0..{self.n_samples}")
+        states, env, forces = self.check_rows(states, env, forces)
         if isinstance(self.uav, Multirotor):
-            return self._advance_multirotor(states, env, forces, sample0, n)
-        return self._advance_point_mass(states, env, forces, sample0, n)
+            states, positions = self._advance_multirotor(states, env, forces, sample0, n)
+        else:
+            states, positions = self._advance_point_mass(states, env, forces, sample0, n)
+        if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(states))):
+            raise ValueError("the rollout produced non-finite states (winds, states or forces "
+                             "too large for float64); check the wind speeds and the states")
+        return states, positions
+
+    def check_rows(self, states, env, forces) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(states, env, forces)`` of :meth:`advance` checked before any kernel reads them:
+        states (n_rows, :func:`state_size`) finite (a multirotor's attitude quaternion,
+        columns 6-9, of norm near 1), ``env`` indices of the table's environments, forces
+        (n_rows, 3) finite and, for a multirotor, within its rotors' thrust."""
+        width = state_size(self.uav)
+        what = "the multirotor's 20" if width == 20 else "the point mass's 6 (r, v_air)"
+        arr = np.asarray(states) if not isinstance(states, np.ndarray) else states
+        if arr.ndim != 2 or arr.shape[1] != width:
+            raise ValueError(f"states must have shape (n_rows, {width}) ({what} numbers per "
+                             f"row), got {np.shape(states)}")
+        states = check_array(states, "states", shape=(None, width))
+        rows = states.shape[0]
+        env = self.table.check_env(env, rows)
+        forces = check_array(forces, "forces", shape=(rows, 3))
+        if isinstance(self.uav, Multirotor):
+            qn = np.linalg.norm(states[:, 6:10], axis=1)
+            if np.any((qn < 0.5) | (qn > 2.0)):
+                raise ValueError(f"states: the attitude quaternions (columns 6-9) must have "
+                                 f"norm near 1, got norms {qn.min():g} .. {qn.max():g}")
+            top = float(np.linalg.norm(forces, axis=1).max()) if rows else 0.0
+            if top > self.uav.max_thrust * (1 + 1e-12):
+                raise ValueError(f"forces must be <= {self.uav.max_thrust:.1f} N for this "
+                                 f"multirotor (its rotors at full speed), got {top:g} N")
+        return states, env, forces
 
     def _advance_point_mass(self, states, env, forces, sample0, n):
         uav, dt = self.uav, self.dt

@@ -28,6 +28,7 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
 import os
 import warnings
 from collections.abc import Callable, Iterator
@@ -183,6 +184,11 @@ def _episode_problem(df):
     p_b = df["p_group_b"].to_numpy(dtype=float)
     p_true = df["p_true"].to_numpy(dtype=float)
     group = df["test_group"].to_numpy()
+    time = df["time"].to_numpy(dtype=float)
+    if not (np.all(np.isfinite(time)) and np.all(time > 0)):
+        return "report times that are not finite and > 0"
+    if np.any(df["episode"].to_numpy() < 0):
+        return "a negative episode"
     if not (np.all(np.isfinite(p_b)) and np.all((p_b >= 0) & (p_b <= 1))):
         return "probabilities outside [0, 1]"
     if np.any(np.abs(np.where(group == 1, p_b, 1.0 - p_b) - p_true) > 1e-12):
@@ -192,6 +198,8 @@ def _episode_problem(df):
     pred = df["predicted"].to_numpy()
     if not np.all(np.isin(pred, (0, 1))):
         return "a predicted group other than 0 or 1"
+    if np.any((p_b > 0.5) & (pred != 1)) or np.any((p_b < 0.5) & (pred != 0)):
+        return "a predicted group that is not the more probable one"
     if np.any(df["correct"].to_numpy(dtype=bool) != (pred == group)):
         return "a correct flag that contradicts the predicted group"
     loss = df["log_loss"].to_numpy(dtype=float)
@@ -200,6 +208,9 @@ def _episode_problem(df):
     sure = p_true > 1e-300
     if np.any(np.abs(loss[sure] + np.log(p_true[sure])) > 1e-9 * np.maximum(1.0, loss[sure])):
         return "log-losses that are not -log(p_true)"
+    # p_true at or below 1e-300 (0 where it underflows): -log(p_true) is at least 690.8 nats
+    if np.any(loss[~sure] < -math.log(1e-300) * (1 - 1e-9)):
+        return "a log-loss below -log(1e-300) for a p_true of at most 1e-300"
     return ""
 
 

@@ -134,9 +134,98 @@ def _compute_remote(entry):
     return df, time.process_time() - cpu0
 
 
-def _check_scheduler(scheduler):
+#: Seconds a scheduler address has to accept a connection and send dask's handshake.
+PROBE_SECONDS = 5.0
+#: The largest handshake a dask scheduler sends [bytes] (its first message is a few hundred).
+_HANDSHAKE_MAX = 1 << 20
+
+
+def _probe_scheduler(scheduler, stop=None, seconds=PROBE_SECONDS):
+    """Connect to the ``tcp://`` address ``scheduler`` and read the handshake a dask
+    scheduler sends on every new connection (an 8-byte length, then msgpack frames naming
+    its ``pickle-protocol``), within ``seconds``; ``ValueError`` naming the address if it
+    is refused, silent, or answers something else (an HTTP server waits silently; dask's own
+    client would wait for ever, or read "HTTP/1.1" as a length of exabytes). Checks
+    ``stop`` every 0.1 s (``KeyboardInterrupt`` once set). Other schemes are not probed."""
+    import errno
+    import select
+    import socket
+    import struct
+
+    from distributed.comm import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(scheduler)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"scheduler must be an address such as 'tcp://host:8786', got "
+                         f"{scheduler!r} ({exc})") from None
+    deadline = time.monotonic() + seconds
+
+    def left():
+        if stop is not None and stop.is_set():
+            raise KeyboardInterrupt
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            raise TimeoutError
+        return min(remaining, 0.1)
+
+    def read(sock, n):
+        data = b""
+        while len(data) < n:
+            sock.settimeout(left())
+            try:
+                chunk = sock.recv(n - len(data))
+            except (socket.timeout, BlockingIOError):
+                continue
+            if not chunk:
+                raise ConnectionResetError("the server closed the connection")
+            data += chunk
+        return data
+
+    sock = None
+    try:
+        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
+        family, kind, proto, _, addr = infos[0]
+        sock = socket.socket(family, kind, proto)
+        sock.setblocking(False)
+        err = sock.connect_ex(addr)
+        if err not in (0, errno.EINPROGRESS, errno.EWOULDBLOCK):
+            raise OSError(err, os.strerror(err))
+        while err:  # wait for the connection, a slice at a time
+            _, writable, _ = select.select([], [sock], [], left())
+            if writable:
+                err = sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
+                if err:
+                    raise OSError(err, os.strerror(err))
+                break
+        (size,) = struct.unpack("<Q", read(sock, 8))
+        if not 0 < size <= _HANDSHAKE_MAX:
+            raise ValueError(f"its first message claims {size} bytes, not a dask handshake")
+        if b"pickle-protocol" not in read(sock, size):
+            raise ValueError("its first message is not a dask handshake")
+    except TimeoutError:
+        raise ValueError(f"scheduler: no dask scheduler answered at {scheduler!r} within "
+                         f"{seconds:g} s (the server is silent: is this a dask scheduler's "
+                         f"port, and not e.g. its dashboard's?)") from None
+    except OSError as exc:
+        raise ValueError(f"scheduler: cannot reach a dask scheduler at {scheduler!r} "
+                         f"({type(exc).__name__}: {exc})") from None
+    except ValueError as exc:
+        raise ValueError(f"scheduler: the server at {scheduler!r} is not a dask scheduler "
+                         f"({exc})") from None
+    finally:
+        if sock is not None:
+            sock.close()
+
+
+def _check_scheduler(scheduler, stop=None):
     """``scheduler``: a ``dask.distributed`` scheduler address (``"tcp://host:8786"``) or a
-    ``Client``; ``(client, owned)`` (``owned``: made here, to be closed here)."""
+    ``Client``; ``(client, owned)`` (``owned``: made here, to be closed here). An address is
+    probed first (:func:`_probe_scheduler`): refused, silent or not dask, it fails within
+    :data:`PROBE_SECONDS`."""
     try:
         from distributed import Client
     except ImportError as exc:  # pragma: no cover - distributed is pinned in environment.txt
@@ -149,18 +238,20 @@ def _check_scheduler(scheduler):
     if not scheduler.strip() or any(c.isspace() for c in scheduler):
         raise ValueError(f"scheduler must be an address such as 'tcp://host:8786', got "
                          f"{scheduler!r}")
-    try:  # waits up to dask's connect timeout (distributed.comm.timeouts.connect)
-        return Client(scheduler), True
+    _probe_scheduler(scheduler, stop)
+    try:  # a scheduler answered: connecting takes a moment (at most dask's connect timeout)
+        return Client(scheduler, timeout=max(PROBE_SECONDS, 1.0)), True
     except (OSError, TimeoutError) as exc:
         raise ValueError(f"scheduler: cannot reach a dask scheduler at {scheduler!r} "
                          f"({type(exc).__name__}: {exc})") from None
 
 
-def _on_cluster(missing, client):
+def _on_cluster(missing, client, stop=None):
     """Yield ``(path, rows, from_cache, CPU seconds)`` as the cluster returns each entry,
     stored here by :meth:`Entry.store <uavwind.study.runner.Entry.store>`. The scheduler
     runs the costliest first (``priority``) and computes again a task whose worker died;
-    on leaving early (an interrupt, an error) the remaining tasks are cancelled."""
+    ``stop`` is checked every 0.1 s while waiting (``KeyboardInterrupt`` once set); on
+    leaving early (an interrupt, an error) the remaining tasks are cancelled."""
     from distributed import as_completed
 
     futures = {}
@@ -169,12 +260,19 @@ def _on_cluster(missing, client):
                             priority=int(min(e.cost, 2 ** 62)), pure=False)
         futures[fut] = e
     try:
-        for fut in as_completed(list(futures)):
-            df, cpu = fut.result()
-            e = futures.pop(fut)
-            back, hit = e.store(df)
-            fut.release()
-            yield e.path, len(back), hit, cpu
+        arrivals = as_completed(list(futures))
+        while not arrivals.is_empty():
+            if stop is not None and stop.is_set():
+                raise KeyboardInterrupt
+            if not arrivals.has_ready():
+                time.sleep(0.1)
+                continue
+            for fut in arrivals.next_batch(block=False):
+                df, cpu = fut.result()
+                e = futures.pop(fut)
+                back, hit = e.store(df)
+                fut.release()
+                yield e.path, len(back), hit, cpu
     finally:
         if futures:
             client.cancel(list(futures), force=True)
@@ -213,12 +311,17 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         Where to append the records of ``times`` (below) as entries finish, so that a caller
         keeps them when the run is interrupted.
     stop : threading.Event, optional
-        Checked between entries: once set, the workers stop and ``KeyboardInterrupt`` is
-        raised, every finished entry on disk and recorded (the command line sets it on
-        SIGINT or SIGTERM, so an interrupt never lands inside a kernel).
+        Once set, ``KeyboardInterrupt`` is raised within a moment, every finished entry on
+        disk: local worker processes are stopped at once (the entries they were computing
+        are dropped, to be computed by the next run), an entry computed in this process
+        finishes first (so an interrupt never lands inside a kernel), cluster tasks are
+        cancelled; it is also checked while a ``scheduler`` address is probed. The command
+        line sets it on SIGINT or SIGTERM.
     scheduler : str or distributed.Client, optional
         Fill on a ``dask.distributed`` cluster instead of local workers: the address of its
-        scheduler (``"tcp://host:8786"``) or a ``Client``. Each worker computes one entry at
+        scheduler (``"tcp://host:8786"``) or a ``Client``. A ``tcp://`` address that refuses
+        the connection, stays silent or is not a dask scheduler is a ``ValueError`` within
+        :data:`PROBE_SECONDS`. Each worker computes one entry at
         a time per thread and returns its rows; this process verifies and writes them (the
         workers need no access to ``results``). The rows equal a local fill's, bit for bit.
 
@@ -234,7 +337,7 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         :func:`time_by_experiment` sums them.
     """
     n_jobs = check_jobs(n_jobs)
-    client, owned = (None, False) if scheduler is None else _check_scheduler(scheduler)
+    client, owned = (None, False) if scheduler is None else _check_scheduler(scheduler, stop)
     try:
         return _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress,
                      times, stop, client, **params)
@@ -264,9 +367,10 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
         from tqdm import tqdm
         bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
                    file=sys.stderr)
+    watcher = None
     try:
         if client is not None:
-            done = _on_cluster(missing, client)
+            done = _on_cluster(missing, client, stop)
         elif effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
             # in this process; a lone entry still gets every worker
             done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
@@ -275,6 +379,8 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
                             return_as="generator_unordered")(
                 delayed(_fill_one)(e) for e in missing)
+            if stop is not None:  # waiting on the workers: a stop request ends them at once
+                watcher = _Watcher(stop)
         for path, n_rows, hit, cpu in done:
             out["computed"] += not hit
             out["cached"] += hit  # another run on the same folder got there first
@@ -296,13 +402,42 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
     except BaseException:  # interrupted or failed: finished entries are on disk
         if client is None:
             stop_workers()
+        if stop is not None and stop.is_set():
+            raise KeyboardInterrupt from None  # the workers were stopped on request
         raise
     finally:
+        if watcher is not None:
+            watcher.close()
         if client is not None:
             done.close()  # cancels the cluster tasks still pending
         if bar is not None:
             bar.close()
     return out
+
+
+class _Watcher:
+    """A thread that stops the local workers as soon as ``stop`` is set, so a fill waiting
+    on entries that take minutes ends within a moment of a SIGINT or SIGTERM (the waiting
+    loop then sees its workers gone, and raises ``KeyboardInterrupt``). The workers write
+    each entry whole (a temporary file renamed), so an entry is on disk complete or not at
+    all; the ones under way are computed again by the next run."""
+
+    def __init__(self, stop: threading.Event):
+        self.stop = stop
+        self.done = threading.Event()
+        self.thread = threading.Thread(target=self._watch, name="uavwind-fill-stop",
+                                       daemon=True)
+        self.thread.start()
+
+    def _watch(self):
+        while not self.done.wait(0.1):
+            if self.stop.is_set():
+                stop_workers()
+                return
+
+    def close(self):
+        self.done.set()
+        self.thread.join()
 
 
 def time_by_experiment(times: Sequence[Mapping[str, Any]]) -> pd.DataFrame:

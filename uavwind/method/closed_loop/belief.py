@@ -81,7 +81,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import expit
 
-__all__ = ["Evidence", "Belief", "directions", "SIGMA_FLOOR", "NEITHER"]
+from ...core.checks import check_array, check_choice, check_scalar
+
+__all__ = ["Evidence", "Belief", "directions", "SIGMA_FLOOR", "NEITHER", "POSITION_LIMIT"]
 
 #: Prior probability that a flight is unlike every known member (of either condition): the
 #: weight of the "neither" component both conditions share.
@@ -90,6 +92,10 @@ NEITHER = 0.01
 #: Smallest noise standard deviation of the likelihood [m]: positions are never taken to
 #: be known better than this (noise-free observations would make the likelihood singular).
 SIGMA_FLOOR = 0.01
+
+#: Largest position [m] the evidence takes (a million kilometres): beyond it the sums of
+#: squares lose every digit (1e160 m overflowed them to NaN probabilities).
+POSITION_LIMIT = 1e9
 
 
 def _logsumexp(x):
@@ -127,7 +133,9 @@ class Belief:
         return int(self.log_odds > 0)
 
     def log_loss(self, group: int) -> float:
-        """``-log P(group)``, from the log-odds (finite however sure the belief)."""
+        """``-log P(group)``, from the log-odds (finite however sure the belief); ``group``
+        0 or 1."""
+        group = check_choice(group, "group", (0, 1))
         z = self.log_odds if group == 0 else -self.log_odds
         return float(np.logaddexp(0.0, z))
 
@@ -149,6 +157,7 @@ def directions(k: int, random: bool) -> np.ndarray:
     >>> (directions(3, random=False) * 100).round(1).tolist()
     [[-20.4, 20.4, 0.0], [0.0, -20.4, 20.4], [9.1, -18.3, 9.1]]
     """
+    k = check_scalar(k, "k", low=1, high=10 ** 4, integer=True)
     rows = []
     if random:
         pairs = [(i, j) for i in range(k) for j in range(i + 1, k)]
@@ -189,11 +198,24 @@ class Evidence:
 
     def __init__(self, groups, sigma: float, random: tuple[bool, bool] = (False, False),
                  speeds=None):
-        self.groups = np.asarray(groups, dtype=np.intp)
+        g = check_array(groups, "groups", ndim=1)
+        if not np.all(np.isin(g, (0, 1))):
+            raise ValueError(f"groups must hold only 0 and 1 (the group of each known "
+                             f"environment), got {np.unique(g).tolist()}")
+        self.groups = g.astype(np.intp)
+        sizes = np.bincount(self.groups, minlength=2)
+        if sizes.min() < 2:
+            raise ValueError(f"groups must hold at least 2 known environments of each group "
+                             f"(a group's spread is learnt from its members), got "
+                             f"{sizes[0]} of group 0 and {sizes[1]} of group 1")
+        if (not isinstance(random, (tuple, list)) or len(random) != 2
+                or not all(isinstance(r, (bool, np.bool_)) for r in random)):
+            raise TypeError(f"random must be a pair of bools (one per group), got {random!r}")
         self.random = tuple(bool(r) for r in random)
-        self.sigma2 = max(float(sigma), SIGMA_FLOOR) ** 2
+        self.sigma2 = max(check_scalar(sigma, "sigma", low=0.0, high=POSITION_LIMIT),
+                          SIGMA_FLOOR) ** 2
         speeds = (np.arange(self.groups.size, dtype=float) if speeds is None
-                  else np.asarray(speeds, dtype=float))
+                  else check_array(speeds, "speeds", shape=(self.groups.size,)))
         # each group's members, in speed order (ties: their order)
         self.members = [m[np.argsort(speeds[m], kind="stable")]
                         for m in (np.flatnonzero(self.groups == g) for g in (0, 1))]
@@ -210,7 +232,15 @@ class Evidence:
 
     def add(self, observed: np.ndarray, predicted: np.ndarray) -> None:
         """Add samples: ``observed`` (m, 3) noisy positions [m], ``predicted`` (n_known, m,
-        3) the replays' positions at the same times."""
+        3) the replays' positions at the same times; both finite and within
+        :data:`POSITION_LIMIT`."""
+        observed = check_array(observed, "observed", shape=(None, 3))
+        predicted = check_array(predicted, "predicted",
+                                shape=(self.groups.size, observed.shape[0], 3))
+        for name, arr in (("observed", observed), ("predicted", predicted)):
+            if arr.size and np.abs(arr).max() > POSITION_LIMIT:
+                raise ValueError(f"{name} positions must be within +-{POSITION_LIMIT:g} m, "
+                                 f"got {np.abs(arr).max():g} m")
         diff = (predicted - observed[None]).reshape(predicted.shape[0], -1)
         self.obs_sq += np.einsum("en,en->e", diff, diff)
         for g, m in enumerate(self.members):

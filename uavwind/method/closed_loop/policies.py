@@ -49,7 +49,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numpy as np
 from scipy.special import logsumexp
 
-from ...core.checks import check_instance, check_scalar
+from ...core.checks import check_array, check_instance, check_scalar
 from ...core.seeding import child_rng
 from .problem import SEED_PLAN
 
@@ -163,7 +163,7 @@ def separation_bound(sit: Situation, plans: np.ndarray) -> np.ndarray:
     members = sit.members if sit.members is not None else [np.flatnonzero(groups == g)
                                                              for g in (0, 1)]
     a, b = (_most_probable(m[live[m]], w) for m in members)
-    plans = np.asarray(plans, dtype=np.intp)
+    plans = _check_plans(plans, len(prob.actions))
     if a.size == 0 or b.size == 0:  # the belief is sure: nothing left to separate
         return np.full(plans.shape[0], -np.inf)
     uniq, inv = np.unique(plans, axis=0, return_inverse=True)
@@ -194,6 +194,18 @@ def separation_bound(sit: Situation, plans: np.ndarray) -> np.ndarray:
     return val[inv]
 
 
+def _check_plans(plans, n_actions):
+    """``plans`` as an (n_plans, n_planned) index array of actions in ``[0, n_actions)``."""
+    arr = np.asarray(plans)
+    if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] < 1 or arr.dtype.kind not in "iu":
+        raise ValueError(f"plans must be a 2-D array of action indices (n_plans, n_planned), "
+                         f"got shape {arr.shape} and dtype {arr.dtype}")
+    if arr.min() < 0 or arr.max() >= n_actions:
+        raise ValueError(f"plans must hold action indices in [0, {n_actions - 1}], got "
+                         f"{arr.min()} .. {arr.max()}")
+    return arr.astype(np.intp, copy=False)
+
+
 def categorical_cem(score, n_planned: int, n_actions: int, rng: np.random.Generator,
                     n_samples: int, n_elite: int, n_iter: int, smoothing: float,
                     start: np.ndarray | None = None,
@@ -209,7 +221,25 @@ def categorical_cem(score, n_planned: int, n_actions: int, rng: np.random.Genera
     then never worse, by the objective, than keeping the plan). The best plan seen in any
     iteration is returned.
     """
-    probs = np.full((n_planned, n_actions), 1.0 / n_actions) if start is None else start.copy()
+    n_planned = check_scalar(n_planned, "n_planned", low=1, high=10 ** 4, integer=True)
+    n_actions = check_scalar(n_actions, "n_actions", low=1, high=10 ** 6, integer=True)
+    n_samples = check_scalar(n_samples, "n_samples", low=1, high=10 ** 6, integer=True)
+    n_elite = check_scalar(n_elite, "n_elite", low=1, high=n_samples, integer=True)
+    n_iter = check_scalar(n_iter, "n_iter", low=1, high=10 ** 4, integer=True)
+    smoothing = check_scalar(smoothing, "smoothing", low=0.0, low_inclusive=False, high=1.0)
+    check_instance(rng, "rng", np.random.Generator, "numpy.random.Generator")
+    if start is None:
+        probs = np.full((n_planned, n_actions), 1.0 / n_actions)
+    else:
+        probs = check_array(start, "start", shape=(n_planned, n_actions)).copy()
+        if np.any(probs < 0) or np.any(np.abs(probs.sum(axis=1) - 1.0) > 1e-9):
+            raise ValueError("start must hold one probability distribution per planned "
+                             "segment (rows >= 0 summing to 1)")
+    if incumbent is not None:
+        incumbent = _check_plans(np.asarray(incumbent)[None], n_actions)[0]
+        if incumbent.shape[0] != n_planned:
+            raise ValueError(f"incumbent must plan {n_planned} segments, got "
+                             f"{incumbent.shape[0]}")
     best, best_val = None, np.inf
     for it in range(n_iter):
         u = rng.random((n_samples, n_planned))

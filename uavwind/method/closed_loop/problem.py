@@ -46,6 +46,8 @@ def segment_actions(magnitude_step: float = 10.0, max_magnitude: float = MAX_THR
     >>> segment_actions(10.0).shape
     (16, 3)
     """
+    max_magnitude = check_scalar(max_magnitude, "max_magnitude", low=0.0,
+                                 low_inclusive=False, high=1e6)
     step = check_scalar(magnitude_step, "magnitude_step", low=0, low_inclusive=False,
                         high=max_magnitude)
     levels = np.arange(1, int(math.floor(max_magnitude / step + 1e-9)) + 1) * step
@@ -83,6 +85,7 @@ def held_out(group: EnvironmentGroup, rng: np.random.Generator) -> EnvironmentGr
         nothing between them to draw a new one from).
     """
     check_instance(group, "group", EnvironmentGroup)
+    check_instance(rng, "rng", np.random.Generator, "numpy.random.Generator")
     if group.kind == "turbulence":
         lo, hi = min(group.values), max(group.values)
         return replace(group, values=(lo + (hi - lo) * float(rng.random()),))
@@ -171,6 +174,18 @@ class ClosedLoop:
             object.__setattr__(self, "min_thrust", low)
         object.__setattr__(self, "min_thrust", check_scalar(self.min_thrust, "min_thrust",
                                                             low=0.0, high=MAX_THRUST))
+        top = math.floor(MAX_THRUST / self.magnitude_step + 1e-9) * self.magnitude_step
+        if self.min_thrust > top + 1e-12:
+            raise ValueError(f"min_thrust = {self.min_thrust:g} N leaves no action: the "
+                             f"largest magnitude of magnitude_step = {self.magnitude_step:g} N "
+                             f"within {MAX_THRUST:g} N is {top:g} N; lower min_thrust or "
+                             f"choose a step that reaches it")
+        if isinstance(s.uav, Multirotor) and MAX_THRUST > s.uav.max_thrust * (1 + 1e-12):
+            raise ValueError(f"setting.uav: this multirotor's rotors make at most "
+                             f"{s.uav.max_thrust:.1f} N, but the actions (the segment actions "
+                             f"and the sampler's sequences) go up to {MAX_THRUST:g} N; give a "
+                             f"vehicle that can fly them (mass >= "
+                             f"{s.uav.mass * MAX_THRUST / s.uav.max_thrust:.2f} kg)")
 
     # -- the grid ------------------------------------------------------------ #
     @property
