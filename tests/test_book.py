@@ -124,3 +124,53 @@ def test_exercises_citations_and_provenance(built_book):
     teaching = _html(built_book, "teaching")
     assert 'generated/model.html#ex-constant-drift' in teaching  # links to the exercises
     assert len(re.findall(r'href="generated/[a-z0-9_]+\.html#ex-', teaching)) >= 15
+
+
+def _visible_text_and_tables(html):
+    """The page's prose (code, math, scripts removed) and its tables as lists of rows."""
+    from bs4 import BeautifulSoup
+    soup = BeautifulSoup(html, "html.parser")
+    for tag in soup(["script", "style", "pre", "code", "head"]):
+        tag.decompose()
+    for tag in soup.select("span.math, div.math"):
+        tag.decompose()
+    tables = []
+    for t in soup.find_all("table"):
+        rows = [[c.get_text(" ", strip=True) for c in r.find_all(["th", "td"])]
+                for r in t.find_all("tr")]
+        tables.append(rows)
+    return soup.get_text(" "), tables
+
+
+def test_the_built_pages_show_no_raw_markup_nan_cells_or_false_percentages(built_book):
+    """What a reader would trip over: a role or a $...$ left raw, a NaN cell, a "(%)" column
+    holding values outside [0, 100] (fractions shown as percentages, or the reverse)."""
+    problems = []
+    for page in sorted((built_book / "_build" / "html").rglob("*.html")):
+        if "_static" in page.parts or "_sources" in page.parts or page.name in ("genindex.html",
+                                                                               "search.html"):
+            continue
+        text, tables = _visible_text_and_tables(page.read_text())
+        name = page.relative_to(built_book / "_build" / "html")
+        for m in re.finditer(r"\{(doc|ref|cite:p|cite:t|glue:text|numref|eq)\}`", text):
+            problems.append(f"{name}: raw role {m.group(0)}")
+        for m in re.finditer(r"\$[^$\s][^$]{0,80}?\$", text):
+            problems.append(f"{name}: raw math {m.group(0)!r}")
+        for rows in tables:
+            for row in rows:
+                if any(c.strip().lower() in ("nan", "<na>") for c in row):
+                    problems.append(f"{name}: NaN cell in row {row[:4]}")
+            header = rows[0] if rows else []
+            pct = [j for j, h in enumerate(header) if "(%)" in h]
+            for row in rows[1:]:
+                offset = len(row) - len(header)  # index cells before the header's columns
+                for j in pct:
+                    k = j + offset
+                    if 0 <= k < len(row):
+                        try:
+                            v = float(row[k])
+                        except ValueError:
+                            continue
+                        if not 0 <= v <= 100:
+                            problems.append(f"{name}: '{header[j]}' holds {v}")
+    assert not problems, "\n".join(problems[:40])

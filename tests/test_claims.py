@@ -37,3 +37,16 @@ def test_claims_verdicts_on_synthetic_results():
     results["exp5"]["score"] = 0.0
     assert evaluate_claims(results).loc["C7", "verdict"] == "not reproduced"
     assert evaluate_claims({"exp1": results["exp1"]}).loc["C4", "verdict"] == "not run"
+
+
+def test_c1_cannot_decide_when_both_light_pairs_score_zero():
+    """Where the method separates neither light-vs-light pair (every loop 0), "lowest" is
+    trivially true: the verdict says it cannot decide rather than "reproduced"."""
+    import numpy as np
+    import pandas as pd
+
+    from uavwind.analysis.claims import claim_c1
+    rng = np.random.default_rng(0)
+    rows = [{"scenario_id": k, "loop": i, "score": 0.0 if k in (1, 4) else float(rng.uniform(20, 80)),
+             "long_run": False} for k in range(1, 8) for i in range(10)]
+    assert claim_c1({"exp1": pd.DataFrame(rows)}).verdict == "cannot decide"

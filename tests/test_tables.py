@@ -56,3 +56,14 @@ def test_source_commit_marks_a_changed_tree_and_says_unknown_outside_git(monkeyp
     monkeypatch.setattr(subprocess, "run", no_git)
     assert tables.source_commit() == "unknown"
     assert tables.source_commit(mark_changes=True) == "unknown"
+
+
+def test_pretty_shows_shares_as_percentages_in_side_by_side_tables_too():
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.concat({"a": pd.DataFrame({"mean": [1.0], "correct_rate": [0.5]}),
+                    "b": pd.DataFrame({"mean": [2.0], "correct_rate": [0.25]})}, axis=1)
+    out = uw.pretty(df)
+    assert out[("a", "correct (%)")].tolist() == [50.0]
+    assert out[("b", "correct (%)")].tolist() == [25.0] and out[("b", "mean")].tolist() == [2.0]

@@ -36,7 +36,7 @@ class Verdict:
     statement: str
     rule: str
     evidence: str
-    verdict: str  # "reproduced", "partly", "not reproduced", "not run"
+    verdict: str  # "reproduced", "partly", "not reproduced", "cannot decide", "not run"
 
     def to_dict(self) -> dict[str, str]:
         return {"claim": self.claim, "statement": self.statement, "verdict": self.verdict,
@@ -71,13 +71,16 @@ def claim_c1(r: Mapping[str, pd.DataFrame]) -> Verdict:
     ok = [_excludes(diffs[k], -1) for k in (1, 4)]
     verdict = ("reproduced" if lowest == {1, 4} and all(ok)
                else "partly" if lowest & {1, 4} else "not reproduced")
+    if means[1] == 0 and means[4] == 0:  # no loop separated them: "lowest" says nothing
+        verdict = "cannot decide"
     ev = ("means by scenario: " + ", ".join(f"S{k} {m:.1f}" for k, m in means.items())
           + f"; paired difference vs the lowest other scenario (S{worst_other}): "
           + ", ".join(f"S{k} {_fmt(diffs[k])}" for k in (1, 4)))
     return Verdict("C1", "Light-vs-light cases (scenarios 1 and 4) score lowest in Exp 1.",
                    "reproduced: S1 and S4 have the two lowest means and both paired differences "
                    "to the lowest other scenario have 95% CIs below 0; partly: one of them is "
-                   "among the two lowest", ev, verdict)
+                   "among the two lowest; cannot decide: S1 and S4 both score 0 on every loop "
+                   "(the method separates neither, so being lowest is no finding)", ev, verdict)
 
 
 def c1_by_vehicle(exp10: pd.DataFrame) -> pd.DataFrame:

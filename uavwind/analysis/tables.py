@@ -23,7 +23,7 @@ from ..study.registry import EXPERIMENTS, get_experiment
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 
-__all__ = ["summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+__all__ = ["profile_note", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
 
 
@@ -137,6 +137,42 @@ def provenance(df: pd.DataFrame) -> str:
             f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
             f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {source_commit()}.")
 
+
+
+def profile_note(df: pd.DataFrame) -> str:
+    """A sentence for a page (Markdown): the profile its results were made under and how
+    many loops, CEM samples or episodes each case ran, against the paper profile's counts;
+    under any profile but ``"paper"`` it says, in bold, that the page's verdicts are
+    provisional."""
+    from ..study.profiles import PROFILES
+    from ..study.registry import get_experiment
+    from ..study.runner import case_loops
+    a = df.attrs
+    exp = get_experiment(a["experiment"])
+    prof = a.get("profile", "?")
+    paper = PROFILES["paper"]
+    if exp.search == "closed_loop":
+        n = df.groupby("case")["episode"].nunique()
+        unit, ref = "held-out episodes", [paper.episodes]
+    elif exp.search == "cem":
+        n = df.groupby("case").size()
+        unit, ref = "CEM samples", [paper.cem.n_samples * paper.cem.max_iter]
+    else:
+        n = df.groupby("case")["loop"].nunique()
+        unit = "loops"
+        ref = sorted({case_loops(paper, c) for c in exp.cases()})
+
+    def span(v):
+        v = sorted(set(int(x) for x in v))
+        return f"{v[0]}" if len(v) == 1 else f"{v[0]}-{v[-1]}"
+
+    text = (f"**This page shows the *{prof}* profile:** {span(n)} {unit} per case over "
+            f"{df['case'].nunique()} cases.")
+    if prof != "paper":
+        text += (f" **Its verdicts are provisional**: the paper profile runs {span(ref)} "
+                 f"{unit} per case (`make book`), and a CI from this few cannot decide most "
+                 f"questions.")
+    return text
 
 
 def source_commit(mark_changes: bool = False) -> str:

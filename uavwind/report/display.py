@@ -47,7 +47,8 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``."""
     out = df.copy()
     for col in out.columns:
-        if col in SHARES or str(col).startswith("correct_rate"):
+        name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
+        if name in SHARES or str(name).startswith("correct_rate"):
             out[col] = 100 * out[col]
     out = out.rename(columns=lambda c: PRETTY.get(c, c.replace("_", " ") if isinstance(c, str) else c))
     if isinstance(out.index, pd.MultiIndex):
