@@ -544,10 +544,57 @@ def bench_closed_loop(report, per_scenario=4):
                                      measured_command=" ".join(["python"] + cmd[1:]))
 
 
+def bench_exp13(report):
+    """Experiment 13's real-flight part: its CPU seconds at each profile from an empty cache
+    (a fresh process, the flights read and every pair, channel and controller clustered, one
+    worker), the simulated part's beside it, and the check behind its iteration cap: every
+    real-flight row at the paper profile with the k-means capped at 10 iterations (the
+    study's) and at 100 (the paper's clustering), side by side."""
+    import resource
+    import subprocess
+    import tempfile
+
+    from uavwind.data.neuralfly import ENV_VAR
+    folder = os.environ.get(ENV_VAR)
+    print("\n== Experiment 13 (real flights) ==")
+    if not folder:
+        print(f"  skipped: set {ENV_VAR} to the Neural-Fly flights")
+        return
+    out = {}
+    code = ("import sys, time, resource\n"
+            "from uavwind.analysis.real_flights import real_flight_rows\n"
+            "from uavwind.analysis.figure8 import sim_rows\n"
+            "c0 = time.process_time(); real = real_flight_rows(profile=sys.argv[1], n_jobs=1)\n"
+            "c1 = time.process_time(); sim = sim_rows(real, profile=sys.argv[1], n_jobs=1)\n"
+            "print(c1 - c0, time.process_time() - c1)")
+    for prof in ("quick", "paper"):
+        with tempfile.TemporaryDirectory() as tmp:
+            r = subprocess.run([sys.executable, "-c", code, prof], capture_output=True,
+                               text=True, check=True, env={**os.environ, "UAVWIND_RESULTS": tmp})
+        real_cpu, sim_cpu = map(float, r.stdout.split()[-2:])
+        out[prof] = {"real_cpu_seconds": real_cpu, "sim_cpu_seconds": sim_cpu}
+        print(f"  {prof}: real flights {real_cpu:.1f} CPU-s (target 60 at the paper profile), "
+              f"simulated twin {sim_cpu:.1f} CPU-s")
+    from dataclasses import replace
+
+    from uavwind.analysis import real_flights as rf
+    from uavwind.data import load_neuralfly
+    flights = load_neuralfly(folder)
+    capped = rf.compute_rows(flights, rf.STUDIES["paper"], n_jobs=-1)
+    full = rf.compute_rows(flights, replace(rf.STUDIES["paper"], max_iter=100), n_jobs=-1)
+    cl = capped["kind"] == "cluster"
+    same = int((capped.loc[cl, "score"].to_numpy() == full.loc[cl, "score"].to_numpy()).sum())
+    diff = float(np.abs(capped.loc[cl, "score"].to_numpy() - full.loc[cl, "score"].to_numpy()).max())
+    print(f"  k-means capped at 10 against 100 iterations: {same} of {int(cl.sum())} scores "
+          f"identical, largest difference {diff:.3g} points")
+    out["iterations"] = {"identical": same, "rows": int(cl.sum()), "largest_difference": diff}
+    report["exp13"] = out
+
+
 SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
             "agreement": bench_agreement, "search": bench_search,
             "profile": bench_where_time_goes, "compile": bench_cold_compile,
-            "closed_loop": bench_closed_loop,
+            "closed_loop": bench_closed_loop, "exp13": bench_exp13,
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 
 
