@@ -550,7 +550,6 @@ def bench_exp13(report):
     worker), the simulated part's beside it, and the check behind its iteration cap: every
     real-flight row at the paper profile with the k-means capped at 10 iterations (the
     study's) and at 100 (the paper's clustering), side by side."""
-    import resource
     import subprocess
     import tempfile
 

@@ -3,7 +3,6 @@ CIs over controllers, its verified cache), the simulated twin (wind, drag fit, f
 the real flights' format) and the ranking verdict."""
 import subprocess
 import sys
-import warnings
 
 import numpy as np
 import pandas as pd
