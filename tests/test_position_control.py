@@ -11,7 +11,7 @@ import pytest
 import uavwind as uw
 from uavwind.sim import _rotor_kernels as rk
 from uavwind.sim.multirotor import Multirotor
-from uavwind.sim.references import Hover, Lemniscate, WaypointSpline
+from uavwind.sim.references import Lemniscate
 
 rotorpy_multirotor = pytest.importorskip("rotorpy.vehicles.multirotor")
 quadrotor_control = pytest.importorskip("rotorpy.controllers.quadrotor_control")
