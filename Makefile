@@ -114,7 +114,15 @@ $(PLOTLYJS): $(STAMP)
 	mkdir -p $(dir $@)
 	cp $$($(BIN)/python -c 'import plotly, pathlib; print(pathlib.Path(plotly.__file__).parent / "package_data" / "plotly.min.js")') $@
 
-$(HTML): $(EXECUTED) $(MATHJAX) $(PLOTLYJS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
+# the landing page says which profile this build shows (a quick build: provisional verdicts)
+$(GEN)/build_note.md: $(GEN)/.profile
+	@if [ "$(PROFILE)" = paper ]; then \
+	  echo "*This build shows the **paper** profile: the loop counts each page states.*" > $@; \
+	else \
+	  echo "**This build shows the *$(PROFILE)* profile, a few loops per setting: every verdict in it is provisional** (each page says its counts; \`make book\` builds the paper profile)." > $@; \
+	fi
+
+$(HTML): $(EXECUTED) $(GEN)/build_note.md $(MATHJAX) $(PLOTLYJS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
          $(BOOK)/_config.yml $(BOOK)/_toc.yml
 	$(TIMEOUT) $(HTML_TIMEOUT) $(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
 	touch $@

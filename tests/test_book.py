@@ -174,3 +174,12 @@ def test_the_built_pages_show_no_raw_markup_nan_cells_or_false_percentages(built
                         if not 0 <= v <= 100:
                             problems.append(f"{name}: '{header[j]}' holds {v}")
     assert not problems, "\n".join(problems[:40])
+
+
+def test_a_quick_build_says_its_verdicts_are_provisional(built_book):
+    assert "every verdict in it is provisional" in _html(built_book, "intro")
+    for page in ("exp1_wind_speed", "exp7_noise", "exp10_multirotor", "exp12_closed_loop"):
+        html = _html(built_book, f"generated/{page}")
+        assert "This page shows the" in html and "provisional" in html, page
+        if page != "exp1_wind_speed":
+            assert "Sizing." in html, page

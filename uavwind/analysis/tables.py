@@ -17,13 +17,14 @@ from pathlib import Path
 import pandas as pd
 
 from .._version import __version__
+from ..core.checks import check_scalar
 from ..core.stats import summarise
 from ..study.paper import load_paper_values
 from ..study.registry import EXPERIMENTS, get_experiment
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 
-__all__ = ["profile_note", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+__all__ = ["profile_note", "loops_needed", "sizing_note", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
 
 
@@ -173,6 +174,45 @@ def profile_note(df: pd.DataFrame) -> str:
                  f"{unit} per case (`make book`), and a CI from this few cannot decide most "
                  f"questions.")
     return text
+
+
+def loops_needed(sd: float, halfwidth: float, level: float = 0.95) -> int:
+    """Loops (or episodes) whose mean has a normal-approximation CI of ``+- halfwidth`` at
+    ``level`` when one loop's value has standard deviation ``sd``: ``ceil((z sd / h)^2)``.
+
+    >>> loops_needed(30.0, 5.0)   # scores with SD 30 points, a CI of +-5 points
+    139
+    """
+    from math import ceil
+
+    from scipy.stats import norm
+    sd = check_scalar(sd, "sd", low=0.0)
+    halfwidth = check_scalar(halfwidth, "halfwidth", low=0.0, low_inclusive=False)
+    level = check_scalar(level, "level", low=0.0, high=1.0, low_inclusive=False,
+                         high_inclusive=False)
+    z = float(norm.ppf(0.5 + level / 2))
+    return max(2, ceil((z * sd / halfwidth) ** 2))
+
+
+def sizing_note(df: pd.DataFrame, halfwidth: float, question: str, value: str = "score",
+                unit: str = "points", by: str = "case", scale: float = 1.0) -> str:
+    """A sentence for a page: the CI half-width ``question`` needs, the spread of one loop's
+    ``value`` (times ``scale``) in ``df`` per ``by`` group, the loops that spread needs
+    (:func:`loops_needed`, for the most variable group), the loops run per group and the CI
+    half-width they give, and whether they suffice."""
+    from math import sqrt
+    g = df.groupby(by)[value]
+    sd = float((g.std(ddof=1) * scale).max())
+    n_run = int(g.size().min())
+    need = loops_needed(sd, halfwidth)
+    got = 1.96 * sd / sqrt(n_run) if n_run > 1 else float("inf")
+    verdict = ("enough" if n_run >= need else
+               "too few to decide differences of that size; a verdict whose CI spans both "
+               "answers cannot decide")
+    return (f"*Sizing.* {question} needs 95% CIs of about +-{halfwidth:g} {unit}. One loop's "
+            f"value varies with a standard deviation of up to {sd:.1f} {unit} here, so that "
+            f"takes {need} loops per case; this build ran {n_run} (+-{got:.1f} {unit}): "
+            f"{verdict}.")
 
 
 def source_commit(mark_changes: bool = False) -> str:
