@@ -358,15 +358,20 @@ def filter_table(profile: str = "quick", seed: int | None = None, n_jobs: int | 
     cases = [(c.labels["scenario"], c.setting) for c in EXPERIMENTS["exp11"].cases()
              if c.labels["action"] == "thrust" and c.labels["observation"] == "position"
              and c.labels["noise"] == "none"]
-    for scen, setting in cases:
-        for probe in (True, False):
-            df = filter_comparison(setting, n_flights=n_flights, seed=seed, probe=probe,
-                                   n_jobs=n_jobs, results=results)
-            for kind, sub in df.groupby("filter"):
-                rows.append({"scenario": scen,
-                             "flights": "hover probes" if probe else "the loops' actions",
-                             "filter": kind, "rmse": float(sub["rmse"].mean()),
-                             "diverged": int(sub["diverged"].sum()),
-                             "correct_rate": float(sub["correct"].mean()),
-                             "n_flights": len(sub)})
+    from joblib import Parallel, delayed
+    runs = [(scen, setting, probe) for scen, setting in cases for probe in (True, False)]
+    # one comparison per worker (each cached on its own), in a fixed order: the table does
+    # not depend on the number of workers
+    tables = Parallel(n_jobs=check_jobs(n_jobs))(
+        delayed(filter_comparison)(setting, n_flights=n_flights, seed=seed, probe=probe,
+                                   n_jobs=1, results=results)
+        for _, setting, probe in runs)
+    for (scen, _, probe), df in zip(runs, tables):
+        for kind, sub in df.groupby("filter"):
+            rows.append({"scenario": scen,
+                         "flights": "hover probes" if probe else "the loops' actions",
+                         "filter": kind, "rmse": float(sub["rmse"].mean()),
+                         "diverged": int(sub["diverged"].sum()),
+                         "correct_rate": float(sub["correct"].mean()),
+                         "n_flights": len(sub)})
     return pd.DataFrame(rows)
