@@ -450,7 +450,7 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
 # on a multirotor (Exp 10)
 # --------------------------------------------------------------------------- #
 def vehicle_trajectories(flights: dict, groups, group_labels=("group 0", "group 1"),
-                         ncols: int = 3) -> Figure:
+                         ncols: int = 2) -> Figure:
     """One loop flown by several vehicles: a 3-D panel per vehicle (``flights``: label ->
     positions (n_env, n_steps, 3) [m] or a :class:`~uavwind.sim.flight.Flight`), the
     environments coloured by group."""
@@ -458,7 +458,7 @@ def vehicle_trajectories(flights: dict, groups, group_labels=("group 0", "group 
     n = len(flights)
     ncols = min(ncols, n)
     nrows = math.ceil(n / ncols)
-    fig = plt.figure(figsize=(4.6 * ncols, 4.0 * nrows), constrained_layout=True)
+    fig = plt.figure(figsize=(5.6 * ncols, 5.0 * nrows), constrained_layout=True)
     g = np.asarray(groups)
     for i, (label, f) in enumerate(flights.items()):
         pos = f.positions if hasattr(f, "positions") else np.asarray(f)
@@ -468,9 +468,9 @@ def vehicle_trajectories(flights: dict, groups, group_labels=("group 0", "group 
                 ax.plot(tr[:, 0], tr[:, 1], tr[:, 2], color=c, lw=0.9,
                         label=lab if j == 0 else None)
         ax.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=label)
-        ax.title.set_fontsize(9)
+        ax.title.set_fontsize(11)
         if i == 0:
-            ax.legend(fontsize=7)
+            ax.legend(fontsize=9)
     return fig
 
 
@@ -602,10 +602,14 @@ def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
     plt = _plt()
     sub = table[(table["scenario"] == scenario) & (table["vehicle"] == vehicle)]
     pols = list(dict.fromkeys(sub["policy"]))
-    fig, axes = plt.subplots(1, len(pols), squeeze=False, sharey=True,
-                             figsize=(3.2 * len(pols), 3.0), constrained_layout=True)
+    ncols = min(2, len(pols))
+    fig, axes = plt.subplots(math.ceil(len(pols) / ncols), ncols, squeeze=False, sharey=True,
+                             figsize=(5.5 * ncols, 3.6 * math.ceil(len(pols) / ncols)),
+                             constrained_layout=True)
+    for ax in axes.ravel()[len(pols):]:
+        ax.set_visible(False)
     for j, pol in enumerate(pols):
-        ax = axes[0, j]
+        ax = axes.ravel()[j]
         d = sub[sub["policy"] == pol].sort_values("segment")
         x = d["segment"].to_numpy()
         for k, (axis, colour) in enumerate(zip("xyz", ("tab:purple", "tab:olive", "tab:cyan"))):
@@ -613,11 +617,12 @@ def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
                    label=f"thrust {axis}")
         ax.axhline(2.0 * 9.81, color="0.5", lw=0.8, ls="--")
         ax.set(title=POLICY_NAMES.get(pol, pol), xlabel="segment")
-        ax.title.set_fontsize(9)
-        if j == 0:
+        ax.title.set_fontsize(11)
+        if j % ncols == 0:
             ax.set_ylabel("mean thrust (N)")
-            ax.legend(fontsize=7)
-    fig.suptitle(f"{scenario}, {vehicle}", fontsize=9)
+        if j == 0:
+            ax.legend(fontsize=9)
+    fig.suptitle(f"{scenario}, {vehicle}", fontsize=11)
     return fig
 
 
