@@ -187,14 +187,16 @@ def test_the_drag_fit_hits_its_target():
 
 
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
+    """`analyses` and `run exp13` without Neural-Fly's folder: a clear skip, exit 0."""
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(rf.__file__).rsplit("/uavwind/", 1)[0],
            "UAVWIND_RESULTS": str(tmp_path)}
     run = [sys.executable, "-m", "uavwind", "analyses", "--profile", "quick"]
-    p = subprocess.run(run, env=env, capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0 and "Experiment 13 is skipped" in p.stdout
     p = subprocess.run(run + ["--folder", str(tmp_path / "none")], env=env, capture_output=True,
                        text=True, timeout=120)
     assert p.returncode == 2 and "existing folder" in p.stderr
+    p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick"],
+                       env=env, capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0 and "Experiment 13 is skipped" in p.stderr
 
 
 def test_a_page_never_computes_experiment_13(flights, tmp_path, monkeypatch):

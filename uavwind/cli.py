@@ -111,16 +111,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         for e in EXPERIMENTS.values():
             print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
                   f"{e.notebook}")
+        print(f"{'exp13':14s} {'Real flights (Neural-Fly)':36s} {'beyond the paper':32s} "
+              f"{'':3s}       exp13_real_flights.md (needs $UAVWIND_NEURALFLY)")
         return 0
     if "all" in args.experiments and len(args.experiments) > 1:
         parser.error(f"'all' means every experiment: give it alone, not with "
                      f"{', '.join(e for e in args.experiments if e != 'all')}")
     ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
+    # Experiment 13 reads real flights, not settings: it is filled by its own analysis
+    real = "exp13" in ids or args.experiments == ["all"]
+    ids = [i for i in ids if i != "exp13"]
     try:
         for i in ids:  # validate every name before any work starts
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
+    if not ids:
+        return _exp13(args)
     times = None
     if args.times is not None:
         try:
@@ -171,6 +178,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
     if times is not None:
         _write_times(times, args, t0, records, complete=True)
+    if real and _exp13(args):
+        return 2
     if args.no_tables:
         return 0
     for reading in readings:
@@ -184,6 +193,37 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
+def _exp13(args) -> int:
+    """``run exp13``: Experiment 13's rows into the cache (the flights from
+    ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's predictions."""
+    from .analysis.figure8 import prediction_table, ranking_verdict, sim_rows
+    from .analysis.real_flights import channel_table, real_flight_rows
+    from .data.neuralfly import ENV_VAR
+    if not os.environ.get(ENV_VAR):
+        print(f"exp13: no Neural-Fly folder (${ENV_VAR}); Experiment 13 is skipped",
+              file=sys.stderr)
+        return 0
+    try:
+        real = real_flight_rows(profile=args.profile, n_jobs=args.jobs)
+        sim = sim_rows(real, profile=args.profile, n_jobs=args.jobs)
+    except (ValueError, TypeError) as exc:
+        print(f"python -m uavwind run exp13: error: {exc}", file=sys.stderr)
+        return 2
+    if getattr(args, "no_tables", False):
+        return 0
+    real_ch, sim_ch = channel_table(real), channel_table(sim)
+    print(f"exp13 ({args.profile} profile): real flights, mean score over controllers "
+          f"(95% CI over controllers)")
+    print(real_ch.round(2).to_string(), "\n")
+    print(f"simulated twin (SE3, drag x {sim.attrs['drag_scale']:.3f} fitted at 4.2 m/s):")
+    print(prediction_table(real, sim).round(2).to_string(), "\n")
+    v = ranking_verdict(real_ch, sim_ch)
+    print(f"does the simulation rank the channels as the real flights do? {v['verdict']} "
+          f"(agree {len(v['agree'])}, disagree {len(v['disagree'])}, tied in the simulation "
+          f"{len(v['sim_tied'])}, Spearman {v['spearman']:.2f})")
+    return 0
+
+
 def _analyses(args) -> int:
     """Fill the caches of the analyses the pages read: Exp 11's filter table, then Exp 13's
     real rows and simulated ones (which fit the drag on the real flights; skipped, saying so,
@@ -193,14 +233,15 @@ def _analyses(args) -> int:
     from .analysis.real_flights import real_flight_rows
     from .data.neuralfly import ENV_VAR, neuralfly_folder
     try:
+        have = args.folder is not None or bool(os.environ.get(ENV_VAR))
+        folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
         ft = filter_table(profile=args.profile, n_jobs=args.jobs)
         print(f"analyses: Exp 11's filter table, {len(ft)} rows in {time.perf_counter() - t0:.1f} s")
-        if args.folder is None and not os.environ.get(ENV_VAR):
+        if folder is None:
             print(f"analyses: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
                   f"skipped")
             return 0
-        folder = neuralfly_folder(args.folder)
         t0 = time.perf_counter()
         real = real_flight_rows(folder, profile=args.profile, n_jobs=args.jobs)
         t1 = time.perf_counter()
