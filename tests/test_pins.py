@@ -5,6 +5,7 @@ key, an entry's path or a single double of a result row fails here.
 A deliberate change of results (a new reading, a bumped RESULTS_VERSION) updates these
 pins in the same commit, and says so. Changed since: the inferred reading's mixed-strength
 constant and shear pairs take Table 3's spacing (exp1-4 under "inferred", and exp1's case 1).
+Added since: exp14 and exp14_cem (issue 31's flyable manoeuvres; no earlier pin changed).
 """
 import hashlib
 import tempfile
@@ -32,6 +33,8 @@ ENTRY_PATHS = {
     "quick/inferred/exp11": "a707dc5ec512b5ce",
     "quick/inferred/exp11_cem": "76f0b3edf060c978",
     "quick/inferred/exp12": "4a1fa0b690c9ccfc",
+    "quick/inferred/exp14": "b3dc2323ed20f651",
+    "quick/inferred/exp14_cem": "e193d9963247083d",
     "quick/inferred/fit_layout": "f3801fbc86dfb8b7",
     "quick/inferred/fit_mixed": "112d11a98a089764",
     "quick/inferred/fit_turbulence": "98462edb38442c3b",
@@ -50,6 +53,8 @@ ENTRY_PATHS = {
     "quick/halves/exp11": "8fb1eafabe9b0414",
     "quick/halves/exp11_cem": "645cf322efe9c749",
     "quick/halves/exp12": "80e6458646f8e881",
+    "quick/halves/exp14": "bb2474a7d49b7507",
+    "quick/halves/exp14_cem": "27a101353f9a3fe2",
     "quick/halves/fit_layout": "f3801fbc86dfb8b7",
     "quick/halves/fit_mixed": "112d11a98a089764",
     "quick/halves/fit_turbulence": "98462edb38442c3b",
@@ -68,6 +73,8 @@ ENTRY_PATHS = {
     "paper/inferred/exp11": "b06d46f03fa28a4b",
     "paper/inferred/exp11_cem": "e3ebb8f3828df308",
     "paper/inferred/exp12": "4f5bf690e507a7b0",
+    "paper/inferred/exp14": "8ca10af4ebcffbcb",
+    "paper/inferred/exp14_cem": "9e4a6a018f38677b",
     "paper/inferred/fit_layout": "98d979c639533209",
     "paper/inferred/fit_mixed": "d0e7a315564174f2",
     "paper/inferred/fit_turbulence": "9f34c77cc0c7cc0a",
@@ -86,6 +93,8 @@ ENTRY_PATHS = {
     "paper/halves/exp11": "1e3a3c3984d63763",
     "paper/halves/exp11_cem": "593149cfb21684b6",
     "paper/halves/exp12": "d5ef54547e0c443a",
+    "paper/halves/exp14": "fde11e3981733f1f",
+    "paper/halves/exp14_cem": "602a6e7470d94fc5",
     "paper/halves/fit_layout": "98d979c639533209",
     "paper/halves/fit_mixed": "d0e7a315564174f2",
     "paper/halves/fit_turbulence": "9f34c77cc0c7cc0a",

@@ -135,6 +135,10 @@ CALLS = {
     "channel_pair_heatmap": lambda f: plotting.channel_pair_heatmap(pd.DataFrame({
         "condition_a": ["nowind"] * 2, "condition_b": ["35wind"] * 2,
         "channel": ["position", "attitude"], "mean": [40.0, 90.0]})),
+    "flyable_scores": lambda f: plotting.flyable_scores(__import__(
+        "uavwind.analysis.manoeuvres", fromlist=["flyable_table"]).flyable_table(
+        _loops(scenario=["a", "b"], action=["waypoints", "thrust"],
+               observation=["position", "imu"], noise=["consumer"]))),
     "manoeuvre_plot": lambda f: plotting.manoeuvre_plot(
         closed_loop.manoeuvres(_episodes()), "a", "multirotor"),
 }

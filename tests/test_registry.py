@@ -76,14 +76,14 @@ def test_every_label_column_has_one_display_name_from_the_registry():
 def test_registry_matches_the_paper():
     assert list(ex.EXPERIMENTS) == ["example", "exp1", "exp2", "exp3", "exp4", "exp5", "exp6",
                                     "exp6_raw", "exp7", "exp8", "exp9", "exp10", "exp11",
-                                    "exp11_cem", "exp12", "fit_layout",
+                                    "exp11_cem", "exp12", "exp14", "exp14_cem", "fit_layout",
                                     "fit_mixed", "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
     n_ratios = len(registry.FIT_RATIOS)
     assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
                      "exp6": 1, "exp6_raw": 1, "exp7": 3 * 11, "exp8": 3 * 4 * 2, "exp9": 3 * 11,
                      "exp10": 8 * 4 + 8 * 2, "exp11": 4 * 2 * 5 * 2, "exp11_cem": 4,
-                     "exp12": 3 * 2,
+                     "exp12": 3 * 2, "exp14": 7 * 3 + 7 + 2 * 2, "exp14_cem": 2,
                      "fit_layout": 4 * n_ratios, "fit_mixed": 2 * 2 * 3, "fit_turbulence": 6}
     # Exp 9 is Exp 7's loops seen by the baseline: the same settings, so one cache
     assert [c.setting.key() for c in ex.EXPERIMENTS["exp9"].cases()] == \
@@ -116,7 +116,10 @@ def test_profiles_and_loop_counts():
     # fit_layout 4 scenarios x 16 ratios x 20, fit_mixed 12 x 20, fit_turbulence 6 x 50
     assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 2 * 600
                                          + 2 * 33 * 50 + 24 * 50 + 48 * 50 + 80 * 20 + 4 * 600 + 6 * 200 * 4 + 4 * 16 * 20
-                                         + 12 * 20 + 6 * 50)
+                                         + 12 * 20 + 6 * 50
+                                         # exp14: 21 waypoint cases x 20, 7 thrust/position x 50,
+                                         # 4 thrust (Exp 11's) x 20; exp14_cem 2 x 10 x 5
+                                         + 21 * 20 + 7 * 50 + 4 * 20 + 2 * 10 * 5)
     with pytest.raises(ValueError, match="profile"):
         ex.run_experiment("exp5", profile="huge")
     with pytest.raises(ValueError, match="unknown experiment 'exp99'"):

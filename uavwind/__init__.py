@@ -40,6 +40,7 @@ from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # no
                          cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
 from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
+from .sim.manoeuvres import FLYABLE, FlyableLimits, check_flyable, sample_waypoints  # noqa: E402
 from .sim.multirotor import Multirotor  # noqa: E402
 from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
@@ -62,7 +63,8 @@ __all__ = [
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
     "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
     "Setting", "Multirotor", "AttitudeSequence", "sample_attitude", "Reference", "Hover",
-    "Lemniscate", "WaypointSpline",
+    "Lemniscate", "WaypointSpline", "FlyableLimits", "FLYABLE", "sample_waypoints",
+    "check_flyable",
     # data
     "load_neuralfly", "RealFlight",
     # method

@@ -23,6 +23,7 @@ from ..study.paper import load_paper_values
 from ..study.registry import EXPERIMENTS, get_experiment
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
+from .manoeuvres import flyable_table
 
 __all__ = ["profile_note", "loops_needed", "sizing_note", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
@@ -65,6 +66,7 @@ SUMMARIES = {
     "vehicle": lambda exp, df: vehicle_table(df),
     "future": lambda exp, df: future_table(df),
     "closed_loop": lambda exp, df: accuracy_table(df),
+    "flyable": lambda exp, df: flyable_table(df),
 }
 
 

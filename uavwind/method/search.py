@@ -34,6 +34,8 @@ from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..core.stats import summarise
 from ..sim.actions import MAX_THRUST, ThrustSequence
+from ..sim.manoeuvres import WAYPOINT_CEM_STD, waypoints_from_vector
+from ..sim.references import Reference, WaypointSpline
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .baseline import baseline_metrics
@@ -59,10 +61,24 @@ def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     metrics = {}
     if multirotor:  # how often the vehicle's limits bound in this loop
         metrics.update(tilt_limited=flight.tilt_limited, motor_limited=flight.motor_limited)
+    if isinstance(thrust, Reference):  # what the flown reference asked of the vehicle
+        metrics.update(_reference_metrics(flight))
     if setting.baseline:
         metrics.update(baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
                                         setting.groups, start_position=flight.start))
     return replace(res, metrics=metrics) if metrics else res
+
+
+def _reference_metrics(flight):
+    """The largest tilt flown [deg] and tracking error [m], the lowest height [m] and the
+    lowest commanded collective thrust [N], over the environments of a reference flight."""
+    q = flight.attitudes / np.linalg.norm(flight.attitudes, axis=-1, keepdims=True)
+    cos_tilt = 1 - 2 * (q[..., 0] ** 2 + q[..., 1] ** 2)
+    err = np.linalg.norm(flight.positions - flight.references, axis=-1)
+    return {"max_tilt": float(np.degrees(np.arccos(np.clip(cos_tilt, -1, 1))).max()),
+            "max_tracking_error": float(err.max()),
+            "min_altitude": float(flight.positions[..., 2].min()),
+            "min_thrust": float(flight.thrust_commands.min())}
 
 
 def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
@@ -242,7 +258,11 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
     The search vector holds, per thrust segment, ``[magnitude, dx, dy, dz]``
     (see :meth:`ThrustSequence.to_vector`); for a setting that samples attitude actions
     (``sampler="attitude"``), ``[thrust, roll, pitch, yaw]`` per segment, started from
-    :attr:`AttitudeSequence.CEM_MEAN <uavwind.sim.actions.AttitudeSequence.CEM_MEAN>` and ``CEM_STD``. Each iteration draws ``n_samples``
+    :attr:`AttitudeSequence.CEM_MEAN <uavwind.sim.actions.AttitudeSequence.CEM_MEAN>` and
+    ``CEM_STD``; for flyable waypoint references (``sampler="waypoints"``), the waypoints'
+    offsets from the hover start (:func:`~uavwind.sim.manoeuvres.waypoints_to_vector`),
+    started at 0 (hover) with :data:`~uavwind.sim.manoeuvres.WAYPOINT_CEM_STD` and decoded
+    onto the limits by :func:`~uavwind.sim.manoeuvres.waypoints_from_vector`. Each iteration draws ``n_samples``
     vectors from independent Gaussians N(mu, sigma^2); each draw is turned into a
     thrust sequence by clipping magnitudes to [0, max_magnitude] and normalising
     directions; the ``n_elite`` best-scoring *draws* refit mu and sigma (eqs
@@ -305,16 +325,27 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
     if action is ThrustSequence:
         mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
         sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
+    elif action is WaypointSpline:  # waypoint offsets from the hover start [m]
+        mu = np.zeros(3 * (k - 1))
+        sigma = np.tile(WAYPOINT_CEM_STD, k - 1).astype(float)
     else:  # attitude actions: thrust [N], roll, pitch, yaw [rad] per segment
         mu = np.tile(action.CEM_MEAN, k).astype(float)
         sigma = np.tile(action.CEM_STD, k).astype(float)
+    if action is WaypointSpline:
+        start = first.waypoints[0]
+
+        def decode(x):
+            return waypoints_from_vector(x, times, start)
+    else:
+        def decode(x):
+            return action.from_vector(x, times, max_magnitude)
 
     history, sample_rows = [], []
     best_score, best_thrust, best_iter = -np.inf, None, -1
     stopped = False
     for it in range(max_iter):
         draws = child_rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
-        thrusts = [action.from_vector(x, times, max_magnitude) for x in draws]
+        thrusts = [decode(x) for x in draws]
         if objective is None:
             seeds = [child_seed(root, it + 1, j + 1) for j in range(n_samples)]
             results = evaluate(setting, thrusts, seeds, engine=engine, n_jobs=n_jobs,

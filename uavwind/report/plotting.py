@@ -39,7 +39,7 @@ if TYPE_CHECKING:
     from ..sim.dryden import DrydenWind
     from ..sim.flight import Flight
 
-__all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
+__all__ = ["flyable_scores", "fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem",
            "dryden_spectrum", "paper_vs_replication", "panel_grid", "closed_loop_curves",
            "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
@@ -522,6 +522,34 @@ def future_grid(table) -> Figure:
             ax.set_yticks(range(len(obs)), obs, fontsize=7)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
+    return fig
+
+
+def flyable_scores(table) -> Figure:
+    """Exp 14: mean score (95% CI) per scenario, one panel per observation channel, the
+    flyable waypoint references beside the paper's raw thrust (``table``:
+    :func:`uavwind.analysis.manoeuvres.flyable_table`; a missing pair is left blank)."""
+    plt = _plt()
+    scen = list(dict.fromkeys(table["scenario"]))
+    obs = list(dict.fromkeys(table["observation"]))
+    actions = list(dict.fromkeys(table["action"]))
+    fig, axes = plt.subplots(1, len(obs), squeeze=False, sharey=True,
+                             figsize=(3.6 * len(obs) + 2.4, 0.45 * len(scen) + 1.6),
+                             constrained_layout=True)
+    h = 0.8 / len(actions)
+    y = np.arange(len(scen))
+    for ax, o in zip(axes[0], obs):
+        for j, a in enumerate(actions):
+            s = table[(table["observation"] == o) & (table["action"] == a)]
+            s = s.set_index("scenario").reindex(scen)
+            err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0,
+                          None)
+            ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h, xerr=err, capsize=2,
+                    label=a)
+        ax.set(title=o, xlabel="mean score", xlim=(0, 100))
+    axes[0, 0].set_yticks(y, scen, fontsize=8)
+    axes[0, 0].invert_yaxis()
+    axes[0, -1].legend(fontsize=7, loc="lower right")
     return fig
 
 

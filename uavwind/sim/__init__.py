@@ -5,6 +5,8 @@ observations, and the :class:`~uavwind.sim.setting.Setting` one loop flies.
 * :mod:`.multirotor` -- RotorPy's quadrotor as a vehicle (its kernels in ``_rotor_kernels``);
 * :mod:`.actions` -- open-loop thrust sequences and their samplers;
 * :mod:`.references` -- position references a multirotor's position controller tracks;
+* :mod:`.manoeuvres` -- flyable waypoint references, the actions of a position-controlled
+  multirotor (the ``"waypoints"`` sampler);
 * :mod:`.wind` -- the wind contract, constant and shear winds, several side by side;
 * :mod:`.dryden` -- Dryden turbulence, MIL-F-8785C and the implementation the paper cites;
 * :mod:`.dynamics` -- the integrator of eqs 2-8 (:mod:`.flight`: what one flight records);

@@ -420,12 +420,15 @@ class Multirotor:
                              f"{thrust.magnitudes.max():g} N")
 
     def fly(self, thrust: ThrustSequence | AttitudeSequence, wind: WindModel, dt: float, n: int,
-            start: np.ndarray, record_all: bool = False) -> np.ndarray | Flight:
+            start: np.ndarray, record_all: bool = False,
+            clip_log: np.ndarray | None = None) -> np.ndarray | Flight:
         """Fly ``thrust`` through every environment of ``wind`` for ``n`` samples of ``dt``
         [s] from ``start`` (3,) [m]: positions (n_env, n, 3) [m], or with ``record_all`` a
         :class:`~uavwind.sim.flight.Flight` with velocities, winds, attitudes, body rates,
-        rotor speeds, specific forces and the limit shares. (Checked inputs: call it
-        through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`.)"""
+        rotor speeds, specific forces and the limit shares. ``clip_log``, a boolean array
+        (n_env, n * control steps per sample), if given, is filled with whether a motor command
+        was clipped in each control step (it changes nothing of the flight). (Checked inputs:
+        call it through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`.)"""
         from ._rotor_kernels import control_step
 
         self.check_thrust(thrust)
@@ -446,6 +449,8 @@ class Multirotor:
                    (("v", 3), ("wind", 3), ("q", 4), ("w", 3), ("rotors", 4), ("f", 3))}
             forces = np.empty((n, 3))
         n_ctrl = n * per
+        if clip_log is not None and clip_log.shape != (n_env, n_ctrl):
+            raise ValueError(f"clip_log must have shape {(n_env, n_ctrl)}, got {clip_log.shape}")
         seg_of = thrust.segment(np.arange(n_ctrl) * h_ctrl)
         for k in range(n_ctrl):
             t = k * h_ctrl
@@ -456,7 +461,11 @@ class Multirotor:
             S[:, 13:16] = wind._velocity(t, S[:, 0:3])
             if record_all and (k + 1) % per == 0:  # the held command, for the accelerometer
                 u_held = _clipped_commands(P, S, T, C)
+            if clip_log is not None:
+                before = clipped.copy()
             control_step(P, S, T, C, 0, self.substeps, h, clipped)
+            if clip_log is not None:
+                clip_log[:, k] = clipped != before
             if (k + 1) % per == 0:
                 j = (k + 1) // per - 1
                 positions[:, j] = S[:, 0:3]

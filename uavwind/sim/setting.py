@@ -24,6 +24,7 @@ import pandas as pd
 
 from ..core.checks import check_scalar
 from .actions import SAMPLERS
+from .manoeuvres import FLYABLE  # registers the "waypoints" sampler
 from .dryden import VARIANTS, CitedDryden, DrydenWind
 from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
@@ -149,8 +150,12 @@ class Setting:
         The two wind conditions (groups 0 and 1).
     n_changes : int
         Thrust changes after t = 0 drawn by the sampler. Paper: 6.
-    sampler : {"paper", "continuous"}
-        Thrust sampler (see :mod:`uavwind.sim.actions`).
+    sampler : {"paper", "continuous", "attitude", "waypoints"}
+        Action sampler (:data:`uavwind.sim.actions.SAMPLERS`): the paper's thrust, continuous
+        thrust, attitude actions (a multirotor), or flyable waypoint references for the
+        position controller (:func:`uavwind.sim.manoeuvres.sample_waypoints`: a multirotor
+        starting from a hover at ``(0, 0, start_altitude)``, within
+        :data:`~uavwind.sim.manoeuvres.FLYABLE`).
     uav : UAV or Multirotor
         The vehicle: the paper's point mass, or RotorPy's quadrotor
         (:class:`~uavwind.sim.multirotor.Multirotor`); part of the key.
@@ -196,6 +201,13 @@ class Setting:
                                                            integer=True))
         if not isinstance(self.uav, (UAV, Multirotor)):
             raise TypeError(f"uav must be a UAV or a Multirotor, got {type(self.uav).__name__}")
+        if self.sampler == "waypoints" and not (isinstance(self.uav, Multirotor)
+                                                and self.uav.start == "hover"):
+            raise ValueError(f"sampler 'waypoints' flies references with a position controller: "
+                             f"it needs uav=Multirotor(start='hover'), got {self.uav!r}")
+        if self.sampler == "waypoints" and self.start_altitude < FLYABLE.floor:
+            raise ValueError(f"start_altitude must be >= {FLYABLE.floor:g} m (the floor of the "
+                             f"'waypoints' sampler) [m], got {self.start_altitude!r}")
         if self.n_env < 3:
             raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
                              f"with two members, for a silhouette), got {self.group_a.n_env} + "
@@ -230,7 +242,11 @@ class Setting:
         return CombinedWind(self.group_a.wind(sa), self.group_b.wind(sb))
 
     def sample_thrust(self, rng: np.random.Generator) -> ThrustSequence:
-        """Draw one thrust sequence with this setting's sampler."""
+        """Draw one action with this setting's sampler (a waypoint reference starts at
+        ``(0, 0, start_altitude)``)."""
+        if self.sampler == "waypoints":
+            return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration,
+                                          start_altitude=self.start_altitude)
         return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration)
 
     def simulate(self, thrust: ThrustSequence,
@@ -275,6 +291,8 @@ class Setting:
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
             if fields["uav"].get("drag_scale") == 1.0:  # added later: earlier keys kept
                 del fields["uav"]["drag_scale"]
+        if self.sampler == "waypoints":  # the sampler's limits are part of what it flies
+            fields["waypoint_limits"] = FLYABLE.to_dict()
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 

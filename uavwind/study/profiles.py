@@ -68,6 +68,9 @@ class Profile:
     episodes : int
         Closed-loop flights (held-out test environments) per case of Exp 12; default 200
         (the paper profile's count).
+    flyable_loops : int
+        Loops per case of Exp 14's flyable manoeuvres; default ``side_loops`` (the quick
+        profile: 1, to keep its cost near 20 CPU-s).
     name : str
         ``"paper"``, ``"quick"``, or a name of your own (``"custom"`` by default).
     """
@@ -78,12 +81,15 @@ class Profile:
     cem: CEMSize
     side_loops: int | None = None
     episodes: int = 200
+    flyable_loops: int | None = None
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self):
         if self.side_loops is None:
             object.__setattr__(self, "side_loops", self.fit_loops)
-        for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes"):
+        if self.flyable_loops is None:
+            object.__setattr__(self, "flyable_loops", self.side_loops)
+        for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes", "flyable_loops"):
             object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
                                                      low=1, high=10 ** 6, integer=True))
         cem = self.cem
@@ -102,7 +108,7 @@ class Profile:
 PROFILES = {
     "paper": Profile(name="paper", loops=50, long_loops=500, fit_loops=20,
                      cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
-    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2, episodes=10,
+    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2, episodes=10, flyable_loops=1,
                      cem=CEMSize(n_samples=6, n_elite=2, max_iter=3)),
 }
 
@@ -116,7 +122,7 @@ def get_profile(profile: str | Profile | Mapping[str, Any]) -> Profile:
     if isinstance(profile, Mapping):
         need = {"loops", "long_loops", "fit_loops", "cem"}
         missing, extra = (need - set(profile),
-                          set(profile) - need - {"name", "side_loops", "episodes"})
+                          set(profile) - need - {"name", "side_loops", "episodes", "flyable_loops"})
         if missing or extra:
             raise ValueError(f"profile dict must have exactly the keys {sorted(need)}; "
                              f"missing {sorted(missing)}, unknown {sorted(extra)}")

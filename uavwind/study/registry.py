@@ -39,7 +39,7 @@ if TYPE_CHECKING:
 __all__ = ["Case", "Experiment", "EXPERIMENTS", "get_experiment", "THRUST_CHANGES",
            "FIT_RATIOS", "MIXED_SPACINGS", "VEHICLES",
            "NOISY_VEHICLES", "FUTURE_VEHICLE", "FUTURE_CHANNELS", "FUTURE_ACTIONS",
-           "FUTURE_NOISE", "CLOSED_LOOP_VEHICLES", "CLOSED_LOOP_POLICIES", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
+           "FUTURE_NOISE", "FLYABLE_CHANNELS", "FLYABLE_CEM_SCALE", "FLYABLE_CPU_PER_LOOP", "CLOSED_LOOP_VEHICLES", "CLOSED_LOOP_POLICIES", "NOISE_LEVELS", "BIAS_LEVELS", "BIAS_TIME", "label_columns",
            "column_names"]
 
 
@@ -52,6 +52,7 @@ class Case:
     long: bool = False  # uses the profile's long loop count (Exp 1's 500-loop case)
     fit: bool = False  # uses the profile's fit loop count (the inference experiments)
     side: bool = False  # uses the profile's side loop count (the wide sweeps beyond the paper)
+    flyable: bool = False  # uses the profile's flyable loop count (Exp 14's waypoint cases)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -80,6 +81,9 @@ class Experiment:
     search_options : dict
         Extra arguments of the search (CEM's ``rank_by``; the closed loop's ``policies`` and
         its :class:`~uavwind.method.closed_loop.ClosedLoop` grid); part of the cache key.
+        CEM's ``cem_scale`` (``{"n_samples": f, "max_iter": g}``) runs a smaller CEM than the
+        profile's: ``ceil(f N)`` draws for ``ceil(g iterations)``, at most N_e elites
+        (:func:`uavwind.study.runner.cem_size`).
     group_by : tuple of str
         Label columns of :func:`summary_table`'s rows (max and mean per group).
     paper_keys : tuple of str
@@ -88,8 +92,8 @@ class Experiment:
     summary : str
         The name of its summary in :data:`uavwind.analysis.tables.SUMMARIES`: ``"maxmean"``
         (max, mean with its CI, correct rate per ``group_by``), ``"cem"`` (per iteration),
-        ``"baseline"`` (Exp 9), ``"vehicle"`` (Exp 10), ``"future"`` (Exp 11) or
-        ``"closed_loop"`` (Exp 12).
+        ``"baseline"`` (Exp 9), ``"vehicle"`` (Exp 10), ``"future"`` (Exp 11),
+        ``"closed_loop"`` (Exp 12) or ``"flyable"`` (Exp 14).
     reference : str
         Where the paper's rows come from: ``"paper"`` (the experiment's table in
         :mod:`uavwind.study.paper`) or ``"example"`` (the worked example's one loop).
@@ -120,10 +124,10 @@ class Experiment:
     def __post_init__(self):
         check_choice(self.search, "search", ("random", "cem", "closed_loop"))
         check_choice(self.summary, "summary", ("maxmean", "cem", "baseline", "vehicle",
-                                               "future", "closed_loop"))
+                                               "future", "closed_loop", "flyable"))
         check_choice(self.reference, "reference", ("paper", "example"))
         allowed = (("policies", "decision_interval", "report_interval", "magnitude_step")
-                   if self.search == "closed_loop" else ("rank_by",))
+                   if self.search == "closed_loop" else ("rank_by", "cem_scale"))
         check_kwargs(self.search_options, allowed, f"experiment {self.id!r} search_options")
         if self.search == "closed_loop" and not self.search_options.get("policies"):
             raise ValueError(f"experiment {self.id!r}: a closed-loop search needs "
@@ -316,6 +320,63 @@ def _exp11_cem(reading):
     return cases
 
 
+#: Exp 14's channels: the paper's (position), the real flights' (attitude: Exp 13) and Exp
+#: 11's best under raw thrust (the IMU); three of Exp 11's five, to keep the cost modest
+#: (velocity and body rates cost 1.6 and 0.8 CPU-s a loop).
+FLYABLE_CHANNELS = ("position", "attitude", "imu")
+#: CPU seconds one Exp 14 waypoint loop costs (10 environments, 12 s, flight and clustering),
+#: measured on the project's 2-core machine with ``random_search(..., n_jobs=1)`` on light
+#: constant vs light shear, 4 loops per channel (numba compiled beforehand).
+FLYABLE_CPU_PER_LOOP = {"position": 0.61, "attitude": 0.64, "imu": 1.14}
+#: Exp 14's CEM, smaller than the profile's: a third of the draws, a quarter of the
+#: iterations (paper profile: N = 10, Ne = 4, 5 iterations).
+FLYABLE_CEM_SCALE = {"n_samples": 1 / 3, "max_iter": 1 / 4}
+
+
+def _exp14(reading):
+    """Exp 10's seven Table 2 scenarios (5 environments a group) flown from a hover by
+    RotorPy's quadrotor with consumer sensors: the flyable waypoint references
+    (``sampler="waypoints"``) on each channel of :data:`FLYABLE_CHANNELS`, and beside them
+    the paper's raw thrust as Exps 10 and 11 flew it -- their own settings, so their cached
+    loops: position with consumer GNSS noise from Exp 10 (every scenario, Exp 10's loop
+    count), attitude and IMU with consumer sensors from Exp 11 (the two Table 2 scenarios it
+    flies, light constant vs light constant and vs strong turbulence; Exp 11's loop count)."""
+    cases = []
+    future = {scen: s for scen, s in _future_scenarios(reading)}
+    for k, (a, b) in PAPER_SCENARIOS.items():
+        scen = _scenario_label(a, b)
+        base = _make(reading, a, b, 5, uav=FUTURE_VEHICLE)
+        for channel in FLYABLE_CHANNELS:
+            s = replace(base, sampler="waypoints", observation=channel, noise=CONSUMER_SENSORS)
+            cases.append(Case(setting=s, flyable=True, labels={
+                "scenario": scen, "scenario_id": k, "action": "waypoints",
+                "observation": channel, "noise": "consumer"}))
+        # Exp 10's own case (its consumer noise is CONSUMER_SENSORS' position noise)
+        cases.append(Case(setting=_make(reading, a, b, 5, uav=FUTURE_VEHICLE,
+                                        noise=CONSUMER_NOISE),
+                          labels={"scenario": scen, "scenario_id": k, "action": "thrust",
+                                  "observation": "position", "noise": "consumer"}))
+        if scen in future:  # Exp 11's own cases
+            for channel in FLYABLE_CHANNELS[1:]:
+                s = replace(future[scen], sampler=FUTURE_ACTIONS["thrust"],
+                            observation=channel, noise=CONSUMER_SENSORS)
+                cases.append(Case(setting=s, side=True, labels={
+                    "scenario": scen, "scenario_id": k, "action": "thrust",
+                    "observation": channel, "noise": "consumer"}))
+    return cases
+
+
+def _exp14_cem(reading):
+    """CEM over flyable waypoint references on light constant vs light shear with consumer
+    sensors, on the position channel and on the IMU (Exp 11's CEM cases, with waypoints)."""
+    scen, base = _future_scenarios(reading)[2]
+    return [Case(setting=replace(base, sampler="waypoints", observation=channel,
+                                 noise=CONSUMER_SENSORS),
+                 labels={"scenario": scen, "action": "waypoints", "observation": channel,
+                         "noise": "consumer"})
+            for channel in ("position", "imu")]
+
+
 #: Exp 12's vehicles: the paper's point mass and RotorPy's quadrotor from a hover.
 CLOSED_LOOP_VEHICLES = {"point mass": UAV(), "multirotor, RotorPy drag, hover": FUTURE_VEHICLE}
 #: Exp 12's policies, in the order the pages show them.
@@ -493,6 +554,20 @@ EXPERIMENTS = {e.id: e for e in [
         build=_exp12, search_options={"policies": CLOSED_LOOP_POLICIES,
                                       "decision_interval": 2.0, "report_interval": 0.5},
         group_by=("scenario", "vehicle"), readings=("halves",), summary="closed_loop"),
+    Experiment(
+        id="exp14", title="Flyable manoeuvres", notebook="exp14_flyable.md",
+        question="Does the method still separate the winds when the multirotor flies "
+                 "manoeuvres it can fly (waypoint references under its position controller), "
+                 "and through which channel?",
+        paper_table="beyond the paper (issue 31)", build=_exp14,
+        group_by=("scenario", "action", "observation", "noise"), readings=("inferred",),
+        summary="flyable"),
+    Experiment(
+        id="exp14_cem", title="Flyable manoeuvres, CEM", notebook="exp14_flyable.md",
+        question="Does CEM find more informative flyable manoeuvres than random search?",
+        paper_table="beyond the paper (issue 31)", search="cem", build=_exp14_cem,
+        summary="cem", readings=("inferred",), group_by=("action", "observation"),
+        search_options={"cem_scale": FLYABLE_CEM_SCALE}),
     Experiment(
         id="fit_layout", title="Layout fit", notebook="inference.md",
         question="Which gap between same-strength groups gives Table 4's scores?",

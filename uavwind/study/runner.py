@@ -17,6 +17,7 @@ at 20 environments) is one entry, computed once.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
@@ -34,7 +35,7 @@ from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
                     results_dir)
-from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, get_profile
+from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, CEMSize, get_profile
 from .readings import DEFAULT_READING, get_reading
 from .registry import EXPERIMENTS, get_experiment
 
@@ -49,7 +50,20 @@ CLOSED_LOOP_ENGINE = "none"
 CLOSED_LOOP_VERSION = "1"
 
 __all__ = ["run_experiment", "Entry", "experiment_entries", "check_cases", "case_loops",
-           "check_seed_engine", "n_loops_total"]
+           "check_seed_engine", "n_loops_total", "cem_size"]
+
+
+def cem_size(exp: Experiment, prof: Profile) -> CEMSize:
+    """The CEM size ``exp`` runs under ``prof``: the profile's, or scaled down by the
+    experiment's ``search_options["cem_scale"]`` (``ceil(f N)`` draws, ``ceil(g
+    iterations)``, ``min(N_e, draws)`` elites)."""
+    cfg = prof.cem
+    scale = exp.search_options.get("cem_scale")
+    if not scale:
+        return cfg
+    n = max(1, math.ceil(cfg.n_samples * scale.get("n_samples", 1.0) - 1e-9))
+    return CEMSize(n_samples=n, n_elite=min(cfg.n_elite, n),
+                   max_iter=max(1, math.ceil(cfg.max_iter * scale.get("max_iter", 1.0) - 1e-9)))
 
 
 def check_seed_engine(seed: int, engine: str | None) -> tuple[int, str]:
@@ -232,15 +246,16 @@ def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, e
         s = case.setting
         labels = {"experiment": exp.id, "reading": rd.name, "case": ci, **case.labels}
         if exp.search == "cem":
-            cfg = prof.cem
+            cfg = cem_size(exp, prof)
+            opts = {k: v for k, v in exp.search_options.items() if k != "cem_scale"}
             # the key spells the cap "n_iter", its name when these results were first
-            # cached: the name changed, the results did not
+            # cached: the name changed, the results did not (a scaled CEM's sizes are in it)
             extra = {"n_samples": cfg.n_samples, "n_elite": cfg.n_elite,
-                     "n_iter": cfg.max_iter, **exp.search_options}
+                     "n_iter": cfg.max_iter, **opts}
             key = cache_key(s, seed, 0, cfg.max_iter, engine, params, extra=extra)
             out.append(Entry(path=folder / exp.id / f"cem-{key}.parquet", search="cem",
                              setting=s, seed=seed, engine=engine, params=params,
-                             options={**cfg.to_dict(), **exp.search_options}, labels=labels))
+                             options={**cfg.to_dict(), **opts}, labels=labels))
             continue
         if exp.search == "closed_loop":
             opts = dict(exp.search_options)
@@ -282,6 +297,8 @@ def check_cases(cases: Iterable[int] | None, n: int) -> list[int]:
 
 def case_loops(prof: Profile, case: Case) -> int:
     """Loops ``case`` runs under profile ``prof`` (its fit, long or plain count)."""
+    if case.flyable:
+        return prof.flyable_loops
     if case.side:
         return prof.side_loops
     return prof.fit_loops if case.fit else prof.long_loops if case.long else prof.loops
@@ -296,7 +313,8 @@ def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
         if exp.search == "closed_loop":
             total += prof.episodes * len(exp.search_options["policies"]) * len(exp.cases())
         elif exp.search == "cem":
-            total += prof.cem.n_samples * prof.cem.max_iter * len(exp.cases())
+            cfg = cem_size(exp, prof)
+            total += cfg.n_samples * cfg.max_iter * len(exp.cases())
         else:
             total += sum(case_loops(prof, c) for c in exp.cases())
     return total
