@@ -204,3 +204,34 @@ def test_a_page_never_computes_experiment_13(flights, tmp_path, monkeypatch):
     monkeypatch.setenv(READ_ONLY_ENV, "1")
     with pytest.raises(RuntimeError, match="Experiment 13's real-"):
         rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights)
+
+
+def test_page_analyses_are_computed_once_verified_and_never_by_a_page(tmp_path, monkeypatch):
+    from uavwind.analysis.memo import memo
+    from uavwind.core.io import READ_ONLY_ENV
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return pd.DataFrame({"a": [1.0, 2.0]}, index=pd.Index(["x", "y"], name="k"))
+
+    first = memo("toy", {"n": 2}, compute, results=tmp_path)
+    again = memo("toy", {"n": 2}, compute, results=tmp_path)
+    assert calls == [1] and again.equals(first) and list(again.index) == ["x", "y"]
+    memo("toy", {"n": 3}, compute, results=tmp_path)  # other arguments: another entry
+    assert calls == [1, 1]
+    path = next((tmp_path / "analyses").glob("toy-*.parquet"))
+    forged = pd.read_parquet(path)
+    attrs = dict(forged.attrs)
+    forged.loc["x", "a"] = 9.0
+    forged.attrs = attrs
+    for p in (tmp_path / "analyses").glob("toy-*.parquet"):
+        forged.to_parquet(p)
+    with pytest.warns(UserWarning, match="not trusted"):
+        fixed = memo("toy", {"n": 2}, compute, results=tmp_path)
+    assert fixed["a"].tolist() == [1.0, 2.0]
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    with pytest.raises(RuntimeError, match="the analysis toy"):
+        memo("toy", {"n": 4}, compute, results=tmp_path)
+    with pytest.raises(ValueError, match="identifier"):
+        memo("not a name", {}, compute, results=tmp_path)

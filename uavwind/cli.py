@@ -230,11 +230,16 @@ def _analyses(args) -> int:
     without Neural-Fly's folder)."""
     from .analysis.figure8 import sim_rows
     from .analysis.filters import filter_table
+    from .analysis.memo import fill_page_analyses
     from .analysis.real_flights import real_flight_rows
+    from .study.profiles import DEFAULT_SEED
     from .data.neuralfly import ENV_VAR, neuralfly_folder
     try:
         have = args.folder is not None or bool(os.environ.get(ENV_VAR))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
+        t0 = time.perf_counter()
+        names = fill_page_analyses(DEFAULT_SEED, n_jobs=args.jobs)
+        print(f"analyses: {', '.join(names)} in {time.perf_counter() - t0:.1f} s")
         t0 = time.perf_counter()
         ft = filter_table(profile=args.profile, n_jobs=args.jobs)
         print(f"analyses: Exp 11's filter table, {len(ft)} rows in {time.perf_counter() - t0:.1f} s")
