@@ -87,10 +87,66 @@ def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
                 lambda: manoeuvres.zero_thrust_sensitivity(20, seed=seed), results)
 
 
+def _exp12_case(labels=None):
+    from ..study.registry import EXPERIMENTS
+    exp = EXPERIMENTS["exp12"]
+    cases = exp.cases(exp.readings[0])
+    return cases[0] if labels is None else next(c for c in cases if c.labels == labels)
+
+
+def exp12_inferred_exercise(seed: int, results=None) -> pd.DataFrame:
+    """Exp 12's exercise: its first two cases under the inferred reading, quick profile
+    (cache entries of the experiment itself)."""
+    from ..study.runner import run_experiment
+    return run_experiment("exp12", profile="quick", seed=seed, n_jobs=1, reading="inferred",
+                          cases=[0, 1], results=results, progress=False)
+
+
+def exp12_noise_exercise(seed: int, results=None) -> pd.DataFrame:
+    """Exp 12's exercise: the greedy policy on its first case with GNSS noise of 2.1 and
+    0.21 m, 20 episodes each: per noise level the median time to 95% confidence [s] and the
+    share of flights that reach it, cached."""
+    def compute():
+        from dataclasses import replace
+
+        from ..method.closed_loop import ClosedLoop, run_episodes
+        from ..sim.observation import Noise
+        from .closed_loop import time_to_confidence
+        case = _exp12_case()
+        rows = []
+        for sigma in (2.1, 0.21):
+            prob = ClosedLoop(setting=replace(case.setting, noise=Noise(position=sigma)),
+                              report_interval=0.5)
+            df = run_episodes(prob, "greedy", 0, 20, seed=seed).assign(**case.labels)
+            t = time_to_confidence(df)
+            rows.append({"sigma": sigma, "median_time": float(t["median_time"].iloc[0]),
+                         "reached": float(t["reached"].iloc[0]), "episodes": 20})
+        return pd.DataFrame(rows)
+    return memo("exp12_noise_exercise", {"seed": seed}, compute, results)
+
+
+def exp12_horizon_exercise(seed: int, results=None) -> pd.DataFrame:
+    """Exp 12's exercise: greedy beside a one-segment receding-horizon CEM on light constant
+    vs light shear for the multirotor, 10 episodes: the accuracy of each at 4 s, cached."""
+    def compute():
+        from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
+        case = _exp12_case({"scenario": "Light constant vs light shear",
+                            "vehicle": "multirotor, RotorPy drag, hover"})
+        prob = ClosedLoop(setting=case.setting, report_interval=0.5)
+        df = run_episodes(prob, [Greedy(), RecedingCEM(horizon=1)], 0, 10, seed=seed)
+        acc = df[df["time"] == 4.0].groupby("policy")["correct"].mean()
+        return pd.DataFrame({"policy": acc.index.astype(str), "accuracy_at_4s": acc.to_numpy(float),
+                             "episodes": 10})
+    return memo("exp12_horizon_exercise", {"seed": seed}, compute, results)
+
+
 #: What the fill computes for the pages: name -> function of ``(seed, results)``.
 PAGE_ANALYSES = {"exp10_saturation_split": saturation_split,
                  "exp10_drift_offsets": drift_offsets,
-                 "exp10_zero_thrust_sensitivity": zero_thrust_sensitivity}
+                 "exp10_zero_thrust_sensitivity": zero_thrust_sensitivity,
+                 "exp12_inferred_exercise": exp12_inferred_exercise,
+                 "exp12_noise_exercise": exp12_noise_exercise,
+                 "exp12_horizon_exercise": exp12_horizon_exercise}
 
 
 def fill_page_analyses(seed: int, results=None, n_jobs: int | None = None) -> list[str]:
