@@ -67,3 +67,15 @@ def test_pretty_shows_shares_as_percentages_in_side_by_side_tables_too():
     out = uw.pretty(df)
     assert out[("a", "correct (%)")].tolist() == [50.0]
     assert out[("b", "correct (%)")].tolist() == [25.0] and out[("b", "mean")].tolist() == [2.0]
+
+
+def test_a_missing_value_is_shown_as_a_dash_not_nan():
+    import numpy as np
+    import pandas as pd
+
+    import uavwind as uw
+    from uavwind.report.display import MISSING
+    df = pd.DataFrame({"mean": [1.0, 2.0], "motor_limited": [np.nan, 0.25]})
+    out = uw.pretty(df)
+    col = [c for c in out.columns if c != "mean"][0]
+    assert out[col].tolist() == [MISSING, 0.25] and out["mean"].tolist() == [1.0, 2.0]

@@ -22,7 +22,7 @@ from ..study.registry import column_names
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
+__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
 
 #: Column name -> display name.
 PRETTY = {
@@ -55,7 +55,22 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
-    return out.round(precision)
+    return show_missing(out.round(precision))
+
+
+#: What a table shows where a value does not apply (a point mass's motor limits, a
+#: measurement a section does not take): never a bare "NaN".
+MISSING = "–"
+
+
+def show_missing(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with every missing value shown as :data:`MISSING` (only the columns that have
+    one change; the others keep their numbers)."""
+    out = df.copy()
+    for col in out.columns:
+        if out[col].isna().any():
+            out[col] = [MISSING if pd.isna(v) else v for v in out[col]]
+    return out
 
 
 def group_name(setting: Setting, group: int) -> str:

@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from .display import show_missing
+
 __all__ = ["TARGETS", "PAPER_TARGET", "PaperTarget", "load_report", "report_tables",
            "summary_lines"]
 
@@ -191,7 +193,7 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                 "threaded kernels, compiled only when used (warmup(parallel=True))":
                     c["scalar"]["softdtw_threaded"],
                 "the whole process": c["scalar"]["process"]}).round(1)
-    return out
+    return {k: show_missing(v) for k, v in out.items()}
 
 
 def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:

@@ -690,16 +690,16 @@ def channel_pair_heatmap(pairs, title: str = "") -> Figure:
     grid = pairs.pivot(index="pair", columns="channel", values="mean")
     grid = grid.reindex(index=list(dict.fromkeys(pairs["pair"])),
                         columns=list(dict.fromkeys(pairs["channel"])))
-    fig, ax = plt.subplots(figsize=(1.3 * grid.shape[1] + 3, 0.42 * grid.shape[0] + 1.6),
+    fig, ax = plt.subplots(figsize=(10, max(3.6, 0.55 * grid.shape[0] + 1.8)),
                            constrained_layout=True)
     im = ax.imshow(grid.to_numpy(float), vmin=0, vmax=100, cmap="viridis", aspect="auto")
     for i in range(grid.shape[0]):
         for j in range(grid.shape[1]):
             v = grid.iat[i, j]
-            ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=8,
+            ax.text(j, i, f"{v:.0f}", ha="center", va="center", fontsize=11,
                     color="white" if v < 60 else "black")
-    ax.set_xticks(range(grid.shape[1]), [c.replace("_", " ") for c in grid.columns], fontsize=8)
-    ax.set_yticks(range(grid.shape[0]), grid.index, fontsize=8)
+    ax.set_xticks(range(grid.shape[1]), [c.replace("_", " ") for c in grid.columns], fontsize=10)
+    ax.set_yticks(range(grid.shape[0]), grid.index, fontsize=10)
     ax.set_title(title or "Mean score over controllers")
     fig.colorbar(im, ax=ax, label="score (0-100)")
     return fig
