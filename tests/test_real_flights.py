@@ -95,7 +95,7 @@ def test_the_cache_is_read_back_and_a_tampered_copy_is_recomputed(flights, tmp_p
                                                                  monkeypatch):
     monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
     first = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights, n_jobs=1)
-    path, = (tmp_path / "exp13").glob("real-*.parquet")
+    path, = (tmp_path / "analyses").glob("exp13_real-*.parquet")
     calls = []
     real_compute = rf.compute_rows
     monkeypatch.setattr(rf, "compute_rows", lambda *a, **k: calls.append(1) or real_compute(*a, **k))
@@ -202,7 +202,7 @@ def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
 def test_a_page_never_computes_experiment_13(flights, tmp_path, monkeypatch):
     from uavwind.core.io import READ_ONLY_ENV
     monkeypatch.setenv(READ_ONLY_ENV, "1")
-    with pytest.raises(RuntimeError, match="Experiment 13's real-"):
+    with pytest.raises(RuntimeError, match="the analysis exp13_real"):
         rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights)
 
 

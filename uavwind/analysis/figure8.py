@@ -26,9 +26,6 @@ Decisions (each stated on the page):
 
 from __future__ import annotations
 
-import hashlib
-import json
-import warnings
 from dataclasses import asdict
 
 import numpy as np
@@ -36,7 +33,6 @@ import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
-from ..core.io import atomic_write, refuse_to_compute
 from ..core.seeding import child_seed, root_seed
 from ..data.neuralfly import CONDITIONS, RealFlight
 from ..sim.dryden import DrydenWind
@@ -44,7 +40,7 @@ from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import Multirotor
 from ..sim.references import Lemniscate
 from ..sim.wind import CombinedWind, ConstantWind, SinusoidalWind, WindModel
-from ..study.cache import content_digest, results_dir
+from .memo import memo
 from .real_flights import STUDIES, compute_rows
 
 __all__ = ["FIGURE8", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "simulated_flight",
@@ -175,37 +171,25 @@ def simulated_flights(vehicle: Multirotor, n_seeds: int = N_SEEDS,
 def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
              n_jobs: int | None = None) -> pd.DataFrame:
     """Experiment 13's simulated rows (the real rows' columns, plus ``drag_scale`` in
-    ``attrs``), cached under a digest of the drag target, the study and the version; a
-    damaged or altered copy is recomputed with a warning."""
+    ``attrs``), kept by :func:`uavwind.analysis.memo.memo` under a digest of the drag target,
+    the study and the version; a damaged or altered copy is recomputed with a warning."""
     if profile not in STUDIES:
         raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
     study = STUDIES[profile]
     target, _ = real_drag_target(real_rows)
-    key = hashlib.sha256(json.dumps({"target": repr(target), "study": asdict(study),
-                                     "seed": SIM_SEED, "n_seeds": N_SEEDS,
-                                     "version": SIM_VERSION}, sort_keys=True).encode()).hexdigest()
-    path = results_dir(results) / "exp13" / f"sim-{key[:24]}.parquet"
-    if path.exists():
-        try:
-            df = pd.read_parquet(path)
-            if (df.attrs.get("inputs") == key
-                    and df.attrs.get("content") == content_digest(df.reset_index(drop=True))):
-                return df
-            why = "its content does not match its digest"
-        except Exception as exc:
-            why = f"{type(exc).__name__}: {exc}"
-        warnings.warn(f"{path.name}: cached simulated rows not trusted ({why}); recomputing",
-                      stacklevel=2)
-    refuse_to_compute(f"Experiment 13's {path.name}")
-    scale = fit_drag_scale(target, study=study)
-    conditions = tuple(c for c in CONDITIONS
-                       if not study.conditions or c in study.conditions or c == FIT_CONDITION)
-    flights = simulated_flights(Multirotor.neural_fly(drag_scale=scale), conditions=conditions)
-    df = compute_rows(flights, study, n_jobs=n_jobs)
-    df.attrs.update(inputs=key, content=content_digest(df), profile=profile,
-                    drag_scale=scale, drag_target=target, uavwind_version=__version__)
-    atomic_write(path, lambda tmp: df.to_parquet(tmp, index=False))
-    return df
+
+    def compute():
+        scale = fit_drag_scale(target, study=study)
+        conditions = tuple(c for c in CONDITIONS
+                           if not study.conditions or c in study.conditions or c == FIT_CONDITION)
+        flights = simulated_flights(Multirotor.neural_fly(drag_scale=scale), conditions=conditions)
+        df = compute_rows(flights, study, n_jobs=n_jobs)
+        df.attrs.update(profile=profile, drag_scale=scale, drag_target=target,
+                        uavwind_version=__version__)
+        return df
+
+    return memo("exp13_sim", {"target": repr(target), "study": asdict(study), "seed": SIM_SEED,
+                              "n_seeds": N_SEEDS, "version": SIM_VERSION}, compute, results)
 
 
 def prediction_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame:

@@ -31,24 +31,21 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import warnings
 from dataclasses import asdict, dataclass
 from itertools import combinations
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
-from ..core.io import atomic_write, refuse_to_compute
 from ..core.parallel import check_jobs
 from ..core.stats import bootstrap_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, flight_laps, load_neuralfly,
                               neuralfly_folder)
 from ..method.clustering import ClusteringParams, score_loop
 from ..method.softdtw import dtw_pdist
-from ..study.cache import content_digest, results_dir
+from .memo import memo
 
 __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
            "pair_table", "channel_table", "flight_table", "flights_digest"]
@@ -253,10 +250,6 @@ def _flight_rows(flights, study):
     return rows
 
 
-def _path(results, digest):
-    return results_dir(results) / "exp13" / f"real-{digest[:24]}.parquet"
-
-
 def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "paper",
                      results: os.PathLike | str | None = None, n_jobs: int | None = None,
                      flights: list[RealFlight] | None = None) -> pd.DataFrame:
@@ -269,47 +262,24 @@ def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "pa
     profile : {"paper", "quick"}
         The :data:`STUDIES` entry (the quick one keeps two laps per flight).
     results : path-like, optional
-        The result folder; the table is kept in its ``exp13/`` folder under a digest of the
-        flights' bytes and the study, with the digest of its own content: a damaged or
-        altered copy is recomputed (with a warning), never trusted.
+        The result folder; the table is kept by :func:`uavwind.analysis.memo.memo` under a
+        digest of the flights' bytes and the study, with the digest of its own content: a
+        damaged or altered copy is recomputed (with a warning), never trusted.
     """
     if profile not in STUDIES:
         raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
     study = STUDIES[profile]
     if flights is None:
         flights = load_neuralfly(neuralfly_folder(folder))
-    key = hashlib.sha256(json.dumps({"flights": flights_digest(flights), "study": asdict(study),
-                                     "version": REAL_VERSION}, sort_keys=True).encode()).hexdigest()
-    path = _path(results, key)
-    got = _read(path, key)
-    if got is not None:
-        return got
-    refuse_to_compute(f"Experiment 13's {path.name}")
-    df = compute_rows(flights, study, n_jobs=n_jobs)
-    df.attrs.update(inputs=key, content=content_digest(df), profile=profile,
-                    uavwind_version=__version__, citation="Neural-Fly (O'Connell et al. 2022)")
-    atomic_write(path, lambda tmp: df.to_parquet(tmp, index=False))
-    return df
 
-
-def _read(path: Path, key: str) -> pd.DataFrame | None:
-    """The cached table if it is whole and unaltered; else None (with a warning if a file
-    was there)."""
-    if not path.exists():
-        return None
-    try:
-        df = pd.read_parquet(path)
-        ok = (df.attrs.get("inputs") == key
-              and df.attrs.get("content") == content_digest(df.reset_index(drop=True)))
-    except Exception as exc:  # unreadable: recompute
-        ok, why = False, f"{type(exc).__name__}: {exc}"
-    else:
-        why = "its content does not match its digest"
-    if ok:
+    def compute():
+        df = compute_rows(flights, study, n_jobs=n_jobs)
+        df.attrs.update(profile=profile, uavwind_version=__version__,
+                        citation="Neural-Fly (O'Connell et al. 2022)")
         return df
-    warnings.warn(f"{path.name}: cached Experiment 13 rows not trusted ({why}); recomputing",
-                  stacklevel=3)
-    return None
+
+    return memo("exp13_real", {"flights": flights_digest(flights), "study": asdict(study),
+                               "version": REAL_VERSION}, compute, results)
 
 
 # --------------------------------------------------------------------------- #
