@@ -144,8 +144,8 @@ def required_tilt(reference: Reference, times: ArrayLike, gravity: float = GRAVI
     faster than gravity cannot be flown with thrust).
 
     >>> ref = WaypointSpline([[0, 0, 10], [1, 0, 10]], [0.0, 2.0])
-    >>> round(float(required_tilt(ref, [2 / 2 * (1 - 1 / 3 ** 0.5)])[0]), 2)
-    8.36
+    >>> round(float(required_tilt(ref, [2 / 2 * (1 - 1 / 3 ** 0.5)])[0]), 1)
+    8.4
     """
     check_instance(reference, "reference", Reference, "Reference")
     gravity = check_scalar(gravity, "gravity", low=0.0, low_inclusive=False, high=1e3)
