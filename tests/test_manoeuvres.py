@@ -244,3 +244,41 @@ def test_zero_thrust_turns_a_nano_change_of_wind_into_centimetres():
     assert wind_sensitivity(uw.PAPER_EXAMPLE) < 2e-8
     with pytest.raises(ValueError, match="delta"):
         wind_sensitivity(uw.PAPER_EXAMPLE, delta=0.0)
+
+
+def test_a_reference_loop_the_vehicle_cannot_fly_is_recorded_as_crashed_not_fatal(tmp_path):
+    """Loop 6 of light constant vs strong constant: from a hover, the sudden 12 m/s wind flips
+    RotorPy's quadrotor and it would fall through the ground. The simulator refuses the
+    flight (GroundContact, naming the environment and the time); the search records the loop
+    as crashed (score 0, one cluster, not correct) and the cache trusts that row."""
+    import uavwind as uw
+    from uavwind.core.seeding import child_rng, child_seed
+    from uavwind.sim.multirotor import GroundContact
+    from uavwind.study.registry import EXPERIMENTS
+    from uavwind.study.runner import run_experiment
+
+    exp = EXPERIMENTS["exp14"]
+    cases = exp.cases(exp.readings[0])
+    k, case = next((k, c) for k, c in enumerate(cases)
+                   if c.labels["action"] == "waypoints" and c.labels["observation"] == "position"
+                   and c.labels["scenario"].startswith("Light constant vs strong constant"))
+    s = case.setting
+    ref = s.sample_thrust(child_rng(20240101, 6, 0))
+    with pytest.raises(GroundContact, match="environment 6 would go below the ground") as err:
+        uw.simulate(ref, s.wind(child_seed(20240101, 6, 1)), uav=s.uav, dt=s.dt,
+                    duration=s.duration, start_altitude=s.start_altitude)
+    assert err.value.env == 6 and 0 < err.value.time < s.duration
+    df = uw.random_search(s, n_loops=1, seed=20240101, loop_offset=6, n_jobs=1, progress=False)
+    row = df.iloc[0]
+    assert row["crashed"] == 1.0 and row["score"] == 0.0 and not row["correct"]
+    assert row["crash_time"] == pytest.approx(err.value.time)
+    ok = uw.random_search(s, n_loops=1, seed=20240101, loop_offset=0, n_jobs=1, progress=False)
+    assert ok.iloc[0]["crashed"] == 0.0
+    prof = {"loops": 7, "long_loops": 7, "fit_loops": 1, "cem": {"n_samples": 2, "n_elite": 1,
+            "max_iter": 1}, "side_loops": 1, "episodes": 1, "flyable_loops": 7}
+    res = run_experiment("exp14", profile=prof, cases=[k], results=tmp_path, n_jobs=1,
+                         progress=False)
+    assert res["crashed"].tolist().count(1.0) >= 1
+    again = run_experiment("exp14", profile=prof, cases=[k], results=tmp_path, n_jobs=1,
+                           progress=False)
+    assert again.attrs["cached"] == again.attrs["chunks"]

@@ -57,8 +57,9 @@ def flyable_table(df: pd.DataFrame) -> pd.DataFrame:
     the score and the share of correctly grouped loops with 95% intervals
     (:func:`~uavwind.core.stats.summarise`), and what the flights asked of the vehicle: the
     largest tilt flown [deg] and tracking error [m], the lowest height [m] and commanded
-    collective thrust [N] (waypoint references; NaN for raw thrust) and the mean share of
-    motor-limited control steps."""
+    collective thrust [N] (waypoint references; NaN for raw thrust), the mean share of
+    motor-limited control steps, and ``crashed``: the loops the vehicle could not fly (it
+    would have gone below the ground; scored 0)."""
     keys = [k for k in _KEYS if k in df.columns]
     rows = []
     for key, sub in df.groupby(keys, sort=False):
@@ -76,6 +77,10 @@ def flyable_table(df: pd.DataFrame) -> pd.DataFrame:
                 row[col] = float(sub[col].min())
             else:
                 row[col] = float(sub[col].max())
+        # reference loops the vehicle could not fly (it would have gone below the ground):
+        # scored 0 and counted here
+        row["crashed"] = (int(sub["crashed"].fillna(0).sum()) if "crashed" in sub.columns
+                          else 0)
         rows.append(row)
     return pd.DataFrame(rows)
 

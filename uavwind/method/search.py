@@ -36,15 +36,13 @@ from ..core.stats import summarise
 from ..sim.actions import MAX_THRUST, ThrustSequence
 from ..sim.manoeuvres import WAYPOINT_CEM_STD, waypoints_from_vector
 from ..sim.references import Reference, WaypointSpline
-from ..sim.multirotor import Multirotor
+from ..sim.multirotor import GroundContact, Multirotor
 from ..sim.setting import Setting
 from .baseline import baseline_metrics
-from .clustering import ClusteringParams, check_engine, score_loop
+from .clustering import ClusteringParams, LoopResult, check_engine, score_loop
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
-
-    from .clustering import LoopResult
 
 __all__ = ["evaluate", "random_search", "cem", "CEMResult", "cem_step"]
 
@@ -56,17 +54,36 @@ def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
     if setting.plain and not multirotor:
         traj = setting.simulate(thrust, seed=wind_seed)
         return score_loop(traj, setting.groups, engine=engine, **params)
-    obs, flight, positions = setting.observe(thrust, seed=wind_seed)
+    try:
+        obs, flight, positions = setting.observe(thrust, seed=wind_seed)
+    except GroundContact as exc:
+        if not isinstance(thrust, Reference):
+            raise
+        return _crashed(setting, exc)
     res = score_loop(obs, setting.groups, engine=engine, **params)
     metrics = {}
     if multirotor:  # how often the vehicle's limits bound in this loop
         metrics.update(tilt_limited=flight.tilt_limited, motor_limited=flight.motor_limited)
     if isinstance(thrust, Reference):  # what the flown reference asked of the vehicle
-        metrics.update(_reference_metrics(flight))
+        metrics.update(_reference_metrics(flight), crashed=0.0, crash_time=float("nan"))
     if setting.baseline:
         metrics.update(baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
                                         setting.groups, start_position=flight.start))
     return replace(res, metrics=metrics) if metrics else res
+
+
+def _crashed(setting, exc):
+    """The row of a reference loop the vehicle could not fly: it would have gone below the
+    ground in some environment (:class:`~uavwind.sim.multirotor.GroundContact`), so there is
+    no trajectory to cluster. Scored as the paper scores a loop whose clusters are not the
+    groups: 0, one cluster, not correct; ``crashed`` 1 and ``crash_time`` [s] say why."""
+    n = setting.n_env
+    nan = float("nan")
+    return LoopResult(score=0.0, silhouette=nan, labels=np.zeros(n, dtype=int), correct=False,
+                      n_iter=0, groups=setting.groups,
+                      metrics={"tilt_limited": 0.0, "motor_limited": nan, "max_tilt": nan,
+                               "max_tracking_error": nan, "min_altitude": 0.0,
+                               "min_thrust": nan, "crashed": 1.0, "crash_time": exc.time})
 
 
 def _reference_metrics(flight):

@@ -66,7 +66,7 @@ if TYPE_CHECKING:
     from .references import Reference
     from .wind import WindModel
 
-__all__ = ["Multirotor", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command", "DRAG_KEYS",
+__all__ = ["Multirotor", "GroundContact", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command", "DRAG_KEYS",
            "NEURAL_FLY"]
 
 #: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
@@ -188,6 +188,15 @@ def _packed(preset, mass, drag_scale=1.0):  # mass resolved (a float)
     P[74:76] = [qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)]
     P.setflags(write=False)
     return P
+
+
+class GroundContact(ValueError):
+    """A reference flight that would go below the ground (z = 0): refused, never flown
+    through. ``env`` is the first environment to touch it, ``time`` when [s]."""
+
+    def __init__(self, message: str, env: int, time: float):
+        super().__init__(message)
+        self.env, self.time = env, time
 
 
 def _tilt_quaternion(b3: np.ndarray) -> np.ndarray:
@@ -552,11 +561,11 @@ class Multirotor:
             below = S[:, 2] < 0.0
             if below.any():
                 i = int(np.argmax(below))
-                raise ValueError(
+                raise GroundContact(
                     f"environment {i} would go below the ground (z = {S[i, 2]:.4g} m) at "
                     f"t = {(k + 1) * h_ctrl:.4g} s flying the reference: the flight is refused "
                     f"(a multirotor does not fly through the floor); check the winds and the "
-                    f"reference's height")
+                    f"reference's height", env=i, time=(k + 1) * h_ctrl)
             if last:
                 j = (k + 1) // per - 1
                 positions[:, j] = S[:, 0:3]
