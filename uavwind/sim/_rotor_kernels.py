@@ -167,10 +167,11 @@ def _speeds(P, T, M0, M1, M2, u):
 
 
 @njit(**_NB)
-def _cmd_ctatt(P, s, T, qd, u, R, Rd):
-    """``cmd_ctatt``: collective thrust T [N] and attitude qd -> unclipped motor speeds u."""
-    _rotmat(s[6:10], R)
-    _rotmat(qd, Rd)
+def _attitude_law(P, s, R, Rd, kp, kd, wz_des):
+    """The geometric attitude law ``cmd_ctatt`` and ``SE3Control`` share: from the body
+    rotation R and the desired one Rd (3, 3), the error ``e = vee(Rd^T R - R^T Rd) / 2`` and
+    the angular acceleration ``a = -kp e - kd (w - (0, 0, wz_des))``, the moments
+    ``M = I a + w x (I w)``. Returns ``(M0, M1, M2, a0, a1, a2)``."""
     S = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
@@ -179,10 +180,9 @@ def _cmd_ctatt(P, s, T, qd, u, R, Rd):
             S[i, j] = 0.5 * (a - b)
     e0, e1, e2 = -S[1, 2], S[0, 2], -S[0, 1]
     w0, w1, w2 = s[10], s[11], s[12]
-    kp, kd = P[65], P[66]
     a0 = -kp * e0 - kd * w0
     a1 = -kp * e1 - kd * w1
-    a2 = -kp * e2 - kd * w2
+    a2 = -kp * e2 - kd * (w2 - wz_des)
     I = P[2:11]
     Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
     Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
@@ -190,6 +190,15 @@ def _cmd_ctatt(P, s, T, qd, u, R, Rd):
     M0 = I[0] * a0 + I[1] * a1 + I[2] * a2 + (w1 * Iw2 - w2 * Iw1)
     M1 = I[3] * a0 + I[4] * a1 + I[5] * a2 + (w2 * Iw0 - w0 * Iw2)
     M2 = I[6] * a0 + I[7] * a1 + I[8] * a2 + (w0 * Iw1 - w1 * Iw0)
+    return M0, M1, M2, a0, a1, a2
+
+
+@njit(**_NB)
+def _cmd_ctatt(P, s, T, qd, u, R, Rd):
+    """``cmd_ctatt``: collective thrust T [N] and attitude qd -> unclipped motor speeds u."""
+    _rotmat(s[6:10], R)
+    _rotmat(qd, Rd)
+    M0, M1, M2, _, _, _ = _attitude_law(P, s, R, Rd, P[65], P[66], 0.0)
     _speeds(P, T, M0, M1, M2, u)
 
 
@@ -281,25 +290,7 @@ def _se3(P, s, f, u, R, Rd, aux):
     Rd[0, 2] = b30
     Rd[1, 2] = b31
     Rd[2, 2] = b32
-    S = np.empty((3, 3))
-    for i in range(3):
-        for j in range(3):
-            a = Rd[0, i] * R[0, j] + Rd[1, i] * R[1, j] + Rd[2, i] * R[2, j]
-            b = R[0, i] * Rd[0, j] + R[1, i] * Rd[1, j] + R[2, i] * Rd[2, j]
-            S[i, j] = 0.5 * (a - b)
-    e0, e1, e2 = -S[1, 2], S[0, 2], -S[0, 1]
-    w0, w1, w2 = s[10], s[11], s[12]
-    kp, kd = P[74], P[75]
-    a0 = -kp * e0 - kd * w0
-    a1 = -kp * e1 - kd * w1
-    a2 = -kp * e2 - kd * (w2 - f[10])
-    I = P[2:11]
-    Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
-    Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
-    Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
-    M0 = I[0] * a0 + I[1] * a1 + I[2] * a2 + (w1 * Iw2 - w2 * Iw1)
-    M1 = I[3] * a0 + I[4] * a1 + I[5] * a2 + (w2 * Iw0 - w0 * Iw2)
-    M2 = I[6] * a0 + I[7] * a1 + I[8] * a2 + (w0 * Iw1 - w1 * Iw0)
+    M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[74], P[75], f[10])
     _speeds(P, u1, M0, M1, M2, u)
     aux[0] = u1
     aux[1] = M0
