@@ -39,6 +39,17 @@ if TYPE_CHECKING:
 __all__ = ["simulate", "simulate_flight", "max_stable_dt"]  # Flight: uavwind.sim.flight
 
 
+def _check_time_grid(dt, duration):
+    """``(dt, duration, n)`` checked: both positive, at most :data:`MAX_STEPS` samples."""
+    dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
+    duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
+    if duration / dt > MAX_STEPS:
+        raise ValueError(f"dt = {dt:g} s over duration = {duration:g} s asks for "
+                         f"{duration / dt:.3g} steps per environment; at most {MAX_STEPS:,} are "
+                         f"allowed: use dt >= {duration / MAX_STEPS:g} s")
+    return dt, duration, _n_steps(dt, duration)
+
+
 def _prepare_reference(reference, wind, uav, dt, duration, start_position):
     """Checks of a reference flight: ``n`` samples."""
     if not isinstance(wind, WindModel):
@@ -50,13 +61,7 @@ def _prepare_reference(reference, wind, uav, dt, duration, start_position):
     if start_position is not None:
         raise ValueError("start_position: a reference flight starts hovering at the reference's "
                          "position at t = 0; move the reference instead")
-    dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
-    duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
-    if duration / dt > MAX_STEPS:
-        raise ValueError(f"dt = {dt:g} s over duration = {duration:g} s asks for "
-                         f"{duration / dt:.3g} steps per environment; at most {MAX_STEPS:,} are "
-                         f"allowed: use dt >= {duration / MAX_STEPS:g} s")
-    n = _n_steps(dt, duration)
+    dt, duration, n = _check_time_grid(dt, duration)
     uav.check_grid(dt)
     return n, float(dt)
 
@@ -72,13 +77,7 @@ def _prepare(thrust, wind, uav, dt, duration, start_altitude, start_position):
     if isinstance(thrust, AttitudeSequence) and not isinstance(uav, Multirotor):
         raise ValueError("thrust: an AttitudeSequence commands an attitude, which the point "
                          "mass does not have: fly it with uav=Multirotor()")
-    dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
-    duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
-    if duration / dt > MAX_STEPS:
-        raise ValueError(f"dt = {dt:g} s over duration = {duration:g} s asks for "
-                         f"{duration / dt:.3g} steps per environment; at most {MAX_STEPS:,} are "
-                         f"allowed: use dt >= {duration / MAX_STEPS:g} s")
-    n = _n_steps(dt, duration)
+    dt, duration, n = _check_time_grid(dt, duration)
     thrust.check_within(duration)
     _check_thrust_grid(thrust, dt, n)
     if isinstance(uav, Multirotor):

@@ -479,12 +479,7 @@ class Multirotor:
                 j = (k + 1) // per - 1
                 positions[:, j] = S[:, 0:3]
                 if record_all:
-                    rec["v"][:, j] = S[:, 3:6]
-                    rec["wind"][:, j] = S[:, 13:16]
-                    rec["q"][:, j] = S[:, 6:10]
-                    rec["w"][:, j] = S[:, 10:13]
-                    rec["rotors"][:, j] = S[:, 16:20]
-                    rec["f"][:, j] = _specific_force(P, S, u_held)
+                    _record_state(rec, j, P, S, u_held)
                     T_j, q_j, _ = commands[int(max(seg_of[k], 0))]
                     forces[j] = T_j * _body_z(q_j)
         if not np.all(np.isfinite(positions)):
@@ -570,12 +565,7 @@ class Multirotor:
                 j = (k + 1) // per - 1
                 positions[:, j] = S[:, 0:3]
                 if record_all:
-                    rec["v"][:, j] = S[:, 3:6]
-                    rec["wind"][:, j] = S[:, 13:16]
-                    rec["q"][:, j] = S[:, 6:10]
-                    rec["w"][:, j] = S[:, 10:13]
-                    rec["rotors"][:, j] = S[:, 16:20]
-                    rec["f"][:, j] = _specific_force(P, S, u_held)
+                    _record_state(rec, j, P, S, u_held)
                     rec["fa"][:, j] = _aero_force(P, S, u_held)
                     rec["thrust"][:, j] = T[:, None] * b3
                     commands[:, j] = T
@@ -597,6 +587,17 @@ def _body_z(q) -> np.ndarray:
     """The body's z axis in the world frame for the quaternion q [i, j, k, w]."""
     x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
     return np.array([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)])
+
+
+def _record_state(rec, j, P, S, u_held):
+    """Sample ``j`` of a recorded flight: velocities, winds, attitudes, body rates, rotor
+    speeds and the accelerometer's specific force under the held motor speeds."""
+    rec["v"][:, j] = S[:, 3:6]
+    rec["wind"][:, j] = S[:, 13:16]
+    rec["q"][:, j] = S[:, 6:10]
+    rec["w"][:, j] = S[:, 10:13]
+    rec["rotors"][:, j] = S[:, 16:20]
+    rec["f"][:, j] = _specific_force(P, S, u_held)
 
 
 def _clipped_commands(P, S, T, C):
