@@ -129,14 +129,26 @@ def flights_digest(flights: list[RealFlight]) -> str:
     return h.hexdigest()
 
 
-def _windows(flights, study):
-    """{(controller, condition): {channel: (laps, n, d)}}, every channel scaled by its own
-    standard deviation over all windows, and the scales."""
-    laps = {}
+#: The channels a flight's own row summarises (:func:`_flight_rows`).
+_FLIGHT_CHANNELS = ("tracking_error", "thrust", "aero_force")
+
+
+def _laps(flights, study):
+    """{(controller, condition): flight_laps(...)} with the laps the study keeps: every
+    channel it clusters and every channel a flight row summarises, cut once per flight."""
+    channels = tuple(dict.fromkeys(study.channels + _FLIGHT_CHANNELS))
+    keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
+    out = {}
     for f in flights:
-        w = flight_laps(f, study.channels, study.n_samples, study.drop_first)
-        keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
-        laps[(f.controller, f.condition)] = {ch: w[ch][keep] for ch in study.channels}
+        w = flight_laps(f, channels, study.n_samples, study.drop_first)
+        out[(f.controller, f.condition)] = {k: v[keep] for k, v in w.items()}
+    return out
+
+
+def _windows(raw, study):
+    """{(controller, condition): {channel: (laps, n, d)}} from :func:`_laps`' ``raw``, every
+    channel scaled by its own standard deviation over all windows, and the scales."""
+    laps = {key: {ch: w[ch] for ch in study.channels} for key, w in raw.items()}
     scales = {ch: float(np.concatenate([v[ch] for v in laps.values()]).std())
               for ch in study.channels}
     for v in laps.values():
@@ -213,13 +225,14 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
             raise ValueError(f"the study's conditions {missing} are not among the flights' "
                              f"{conditions}")
         conditions = [c for c in conditions if c in study.conditions]
-    laps, _ = _windows([f for f in flights if f.condition in conditions], study)
+    raw = _laps(flights, study)
+    laps, _ = _windows({k: w for k, w in raw.items() if k[1] in conditions}, study)
     tasks = [(a, b, ch) for a, b in combinations(conditions, 2) for ch in study.channels]
     from joblib import Parallel, delayed
     out = Parallel(n_jobs=n_jobs)(delayed(_pair_task)(laps, controllers, a, b, ch, params)
                                   for a, b, ch in tasks)
     rows = [r for rs in out for r in rs]
-    rows += _flight_rows(flights, study)
+    rows += _flight_rows(flights, raw)
     df = pd.DataFrame(rows)
     cols = ["kind", "controller", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
@@ -233,21 +246,21 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     return df
 
 
-def _flight_rows(flights, study):
+def _flight_rows(flights, raw):
+    """One row per flight: its kept laps' mean tilt, aerodynamic force, tracking error and
+    thrust set-point, unscaled (``raw``: :func:`_laps`)."""
     rows = []
     for f in flights:
-        w = flight_laps(f, ("tracking_error", "thrust", "aero_force"), study.n_samples,
-                        study.drop_first)
-        keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
-        fa = w["aero_force"][keep]
+        w = raw[(f.controller, f.condition)]
+        fa = w["aero_force"]
         rows.append({"kind": "flight", "controller": f.controller, "condition": f.condition,
-                     "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"][keep].mean()),
+                     "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"].mean()),
                      "aero_force_x": float(fa[..., 0].mean()),
                      "aero_force_norm": float(np.linalg.norm(fa, axis=-1).mean()),
-                     "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"][keep],
+                     "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"],
                                                                    axis=-1) ** 2).mean())),
-                     "thrust_sp": float(w["thrust"][keep].mean()),
-                     "n_laps": int(len(w["starts"][keep]))})
+                     "thrust_sp": float(w["thrust"].mean()),
+                     "n_laps": int(len(w["starts"]))})
     return rows
 
 
