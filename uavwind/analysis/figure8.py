@@ -34,7 +34,7 @@ import pandas as pd
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
 from ..core.seeding import child_seed, root_seed
-from ..data.neuralfly import CONDITIONS, RealFlight
+from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import Multirotor
@@ -131,7 +131,6 @@ def real_drag_target(real_rows: pd.DataFrame, condition: str = FIT_CONDITION) ->
 
 
 def _mean_force_x(vehicle, condition, study):
-    from ..data.neuralfly import flight_laps
     w = flight_laps(simulated_flight(vehicle, condition, 0), ("aero_force",), study.n_samples,
                     study.drop_first)
     return float(w["aero_force"][..., 0].mean())

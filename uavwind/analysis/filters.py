@@ -45,6 +45,8 @@ from ..sim.multirotor import Multirotor
 from ..sim.observation import rotorpy_imu_noise
 from ..sim.setting import Setting
 from ..sim.wind import ConstantWind
+from ..study.profiles import DEFAULT_SEED
+from ..study.registry import EXPERIMENTS
 from ..study.cache import (CHECKSUM_KEY, RESULTS_VERSION, CorruptChunkWarning, atomic_write,
                            content_digest, results_dir)
 
@@ -350,8 +352,6 @@ def filter_table(profile: str = "quick", seed: int | None = None, n_jobs: int | 
     with the mean wind RMSE [m/s], the diverged environments, the share of flights whose
     estimates split into the groups (``correct_rate``, in [0, 1]) and the flights run. Each
     :func:`filter_comparison` is cached, so the fill computes this and the page reads it."""
-    from ..study.profiles import DEFAULT_SEED
-    from ..study.registry import EXPERIMENTS
     seed = DEFAULT_SEED if seed is None else seed
     n_flights = 3 if profile == "paper" else 1
     rows = []

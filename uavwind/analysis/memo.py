@@ -16,11 +16,19 @@ import hashlib
 import json
 import warnings
 from collections.abc import Callable, Mapping
+from dataclasses import replace
 
 import pandas as pd
 
 from ..core.io import atomic_write, refuse_to_compute
+from ..core.parallel import check_jobs
+from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
+from ..sim.observation import Noise
 from ..study.cache import content_digest, results_dir
+from ..study.registry import EXPERIMENTS
+from ..study.runner import run_experiment
+from . import manoeuvres
+from .closed_loop import time_to_confidence
 
 __all__ = ["memo", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses"]
 
@@ -58,7 +66,6 @@ def memo(name: str, params: Mapping, compute: Callable[[], pd.DataFrame],
 
 
 def _exp10_hover_settings():
-    from ..study.registry import EXPERIMENTS
     return [c.setting for c in EXPERIMENTS["exp10"].cases()
             if c.labels["vehicle"] == "multirotor, RotorPy drag, hover"
             and c.labels["noise"] == "none" and c.labels["scenario_id"] > 0]
@@ -67,7 +74,6 @@ def _exp10_hover_settings():
 def saturation_split(seed: int, results=None) -> pd.DataFrame:
     """Exp 10's saturation split (:func:`uavwind.analysis.manoeuvres.saturation_split` on its
     hovering, RotorPy-drag, noise-free Table 2 settings, 10 loops each), cached."""
-    from . import manoeuvres
     return memo("exp10_saturation_split", {"seed": seed, "n_loops": 10},
                 lambda: manoeuvres.saturation_split(_exp10_hover_settings(), n_loops=10,
                                                     seed=seed), results)
@@ -75,20 +81,17 @@ def saturation_split(seed: int, results=None) -> pd.DataFrame:
 
 def drift_offsets(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.drift_offsets` over 20 sequences, cached."""
-    from . import manoeuvres
     return memo("exp10_drift_offsets", {"seed": seed, "n_loops": 20},
                 lambda: manoeuvres.drift_offsets(20, seed=seed), results)
 
 
 def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.zero_thrust_sensitivity` over 20 sequences, cached."""
-    from . import manoeuvres
     return memo("exp10_zero_thrust_sensitivity", {"seed": seed, "n_loops": 20},
                 lambda: manoeuvres.zero_thrust_sensitivity(20, seed=seed), results)
 
 
 def _exp12_case(labels=None):
-    from ..study.registry import EXPERIMENTS
     exp = EXPERIMENTS["exp12"]
     cases = exp.cases(exp.readings[0])
     return cases[0] if labels is None else next(c for c in cases if c.labels == labels)
@@ -97,7 +100,6 @@ def _exp12_case(labels=None):
 def exp12_inferred_exercise(seed: int, results=None) -> pd.DataFrame:
     """Exp 12's exercise: its first two cases under the inferred reading, quick profile
     (cache entries of the experiment itself)."""
-    from ..study.runner import run_experiment
     return run_experiment("exp12", profile="quick", seed=seed, n_jobs=1, reading="inferred",
                           cases=[0, 1], results=results, progress=False)
 
@@ -107,11 +109,6 @@ def exp12_noise_exercise(seed: int, results=None) -> pd.DataFrame:
     0.21 m, 20 episodes each: per noise level the median time to 95% confidence [s] and the
     share of flights that reach it, cached."""
     def compute():
-        from dataclasses import replace
-
-        from ..method.closed_loop import ClosedLoop, run_episodes
-        from ..sim.observation import Noise
-        from .closed_loop import time_to_confidence
         case = _exp12_case()
         rows = []
         for sigma in (2.1, 0.21):
@@ -129,7 +126,6 @@ def exp12_horizon_exercise(seed: int, results=None) -> pd.DataFrame:
     """Exp 12's exercise: greedy beside a one-segment receding-horizon CEM on light constant
     vs light shear for the multirotor, 10 episodes: the accuracy of each at 4 s, cached."""
     def compute():
-        from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
         case = _exp12_case({"scenario": "Light constant vs light shear",
                             "vehicle": "multirotor, RotorPy drag, hover"})
         prob = ClosedLoop(setting=case.setting, report_interval=0.5)
@@ -153,7 +149,5 @@ def fill_page_analyses(seed: int, results=None, n_jobs: int | None = None) -> li
     """Compute every :data:`PAGE_ANALYSES` entry missing from the cache, one per worker;
     the names, in order."""
     from joblib import Parallel, delayed
-
-    from ..core.parallel import check_jobs
     Parallel(n_jobs=check_jobs(n_jobs))(delayed(f)(seed, results) for f in PAGE_ANALYSES.values())
     return list(PAGE_ANALYSES)

@@ -20,7 +20,9 @@ from .._version import __version__
 from ..core.checks import check_scalar
 from ..core.stats import summarise
 from ..study.paper import load_paper_values
+from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
+from ..study.runner import case_loops
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
@@ -147,9 +149,6 @@ def profile_note(df: pd.DataFrame) -> str:
     many loops, CEM samples or episodes each case ran, against the paper profile's counts;
     under any profile but ``"paper"`` it says, in bold, that the page's verdicts are
     provisional."""
-    from ..study.profiles import PROFILES
-    from ..study.registry import get_experiment
-    from ..study.runner import case_loops
     a = df.attrs
     exp = get_experiment(a["experiment"])
     prof = a.get("profile", "?")
