@@ -1,4 +1,5 @@
-"""Shared fixtures: small, fast settings."""
+"""Shared fixtures: small, fast settings; the quick book built in the background."""
+import subprocess
 import numpy as np
 import pytest
 
@@ -23,3 +24,81 @@ def compiled_kernels():
     from uavwind.method import softdtw
 
     softdtw.warmup(parallel=True, every=True)
+
+
+# ---- the quick book, built beside the other tests ---------------------------------------
+# tests/test_book.py reads a whole quick book (about 5 minutes on 2 cores). Its build runs in
+# the background from the end of collection, and its tests are moved to the end, so the rest
+# of the suite runs while the fill, the pages and the HTML are made instead of after them.
+
+BOOK_BUILD_TIMEOUT = 1800  # [s] the whole `make book`; each step has its own timeout too
+_book_build = {}
+
+
+@pytest.hookimpl(trylast=True)  # after -k / -m deselection: start only for tests that run
+def pytest_collection_modifyitems(session, config, items):
+    import os
+    import shutil
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    book_items = [i for i in items if "built_book" in getattr(i, "fixturenames", ())]
+    if not book_items or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
+        return
+    items[:] = [i for i in items if i not in book_items] + book_items
+    root = Path(__file__).resolve().parents[1]
+    tmp = Path(tempfile.mkdtemp(prefix="uavwind-book-"))
+    book = tmp / "book"
+    book.mkdir()
+    for f in (root / "book").iterdir():
+        if f.is_file():
+            shutil.copy(f, book / f.name)
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
+    env.pop("MPLBACKEND", None)
+    log = open(tmp / "make.log", "wb")  # a file, not a pipe nobody reads: it never blocks
+    proc = subprocess.Popen(["make", "-C", str(root), "book", "PROFILE=quick", f"BOOK={book}",
+                             "JOBS=2", f"RUN_FLAGS=--times {tmp / 'times.json'}"],
+                            env=env, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)  # its own process group, to stop it whole
+    _book_build.update(proc=proc, tmp=tmp, book=book, log=log)
+
+
+@pytest.fixture(scope="session")
+def built_book():
+    """The quick book's folder: waits for the background build
+    (:func:`pytest_collection_modifyitems`); a failed build fails with the end of its log."""
+    if not _book_build:
+        pytest.skip("the book build was not started (UAVWIND_SKIP_BOOK=1 or deselected)")
+    proc, tmp = _book_build["proc"], _book_build["tmp"]
+    try:
+        rc = proc.wait(timeout=BOOK_BUILD_TIMEOUT)
+    except subprocess.TimeoutExpired:
+        _stop_book_build()
+        rc = "timed out"
+    if rc != 0:
+        pytest.fail(f"make book (quick) failed ({rc}):\n"
+                    + (tmp / "make.log").read_text(errors="replace")[-6000:])
+    return _book_build["book"]
+
+
+def _stop_book_build():
+    import os
+    import signal
+    proc = _book_build.get("proc")
+    if proc is not None and proc.poll() is None:
+        os.killpg(proc.pid, signal.SIGTERM)
+        try:
+            proc.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+
+
+def pytest_unconfigure(config):
+    """An interrupted session stops the build; its folder goes with the session."""
+    import shutil
+    if _book_build:
+        _stop_book_build()
+        _book_build["log"].close()
+        shutil.rmtree(_book_build["tmp"], ignore_errors=True)

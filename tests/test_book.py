@@ -1,5 +1,4 @@
-"""End to end: build the whole book in the quick profile into a temporary folder."""
-import os
+"""End to end: the whole book built in the quick profile into a temporary folder."""
 import re
 import shutil
 import subprocess
@@ -13,23 +12,9 @@ EXPERIMENT_PAGES = ["exp1_wind_speed", "exp2_range_similarity", "exp3_environmen
                     "exp4_thrust_changes", "exp5_wind_direction", "exp6_cem"]
 
 
-@pytest.fixture(scope="module")
-def built_book(tmp_path_factory):
-    if os.environ.get("UAVWIND_SKIP_BOOK") == "1":
-        pytest.skip("UAVWIND_SKIP_BOOK=1")
-    tmp = tmp_path_factory.mktemp("book")
-    book = tmp / "book"
-    book.mkdir()
-    for f in (ROOT / "book").iterdir():
-        if f.is_file():
-            shutil.copy(f, book / f.name)
-    env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
-    env.pop("MPLBACKEND", None)
-    proc = subprocess.run(["make", "-C", str(ROOT), "book", "PROFILE=quick", f"BOOK={book}",
-                           "JOBS=2", f"RUN_FLAGS=--times {tmp / 'times.json'}"],
-                          env=env, capture_output=True, text=True)
-    assert proc.returncode == 0, proc.stdout[-3000:] + proc.stderr[-3000:]
-    return book
+# the fixture `built_book` (conftest.py): the quick book, built by `make book` into a
+# temporary folder, started in the background at the end of collection so the rest of the
+# suite runs beside it; these tests run last and wait for it
 
 
 def test_the_fills_times_record_survives_the_book(built_book):

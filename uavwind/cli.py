@@ -238,7 +238,7 @@ def _analyses(args) -> int:
         have = args.folder is not None or bool(os.environ.get(ENV_VAR))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
-        names = fill_page_analyses(DEFAULT_SEED, n_jobs=args.jobs)
+        names = fill_page_analyses(args.profile, DEFAULT_SEED, n_jobs=args.jobs)
         print(f"analyses: {', '.join(names)} in {time.perf_counter() - t0:.1f} s")
         t0 = time.perf_counter()
         ft = filter_table(profile=args.profile, n_jobs=args.jobs)

@@ -24,13 +24,17 @@ from ..core.io import atomic_write, refuse_to_compute
 from ..core.parallel import check_jobs
 from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
 from ..sim.observation import Noise
+from ..study.builders import make_setting
 from ..study.cache import content_digest, results_dir
+from ..study.readings import DEFAULT_READING
 from ..study.registry import EXPERIMENTS
 from ..study.runner import run_experiment
-from . import manoeuvres
+from . import inference, manoeuvres
+from .claims import c1_by_vehicle, compare_readings, needed_experiments
 from .closed_loop import time_to_confidence
 
-__all__ = ["memo", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses"]
+__all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses",
+           "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary"]
 
 #: Bump when an analysis routed through :func:`memo` changes its numbers.
 MEMO_VERSION = "1"
@@ -63,6 +67,69 @@ def memo(name: str, params: Mapping, compute: Callable[[], pd.DataFrame],
     df.attrs.update(inputs=key, content=content_digest(df.reset_index(drop=True)))
     atomic_write(path, lambda tmp: df.to_parquet(tmp))
     return pd.read_parquet(path)
+
+
+def derived(name: str, compute: Callable[[], pd.DataFrame], inputs: Mapping[str, pd.DataFrame],
+            params: Mapping | None = None, results=None) -> pd.DataFrame:
+    """:func:`memo` for a table computed from result tables: cached under ``name``,
+    ``params`` and the content digests of ``inputs`` (name -> the tables ``compute`` reads),
+    so a page and the fill that load the same results find the same entry, and a changed
+    result is a new one."""
+    digests = {k: content_digest(df.reset_index(drop=True)) for k, df in inputs.items()}
+    return memo(name, {"params": dict(params or {}), "inputs": digests}, compute, results)
+
+
+def claims_verdicts(by_reading: Mapping[str, Mapping[str, pd.DataFrame]],
+                    results=None) -> pd.DataFrame:
+    """:func:`uavwind.analysis.claims.compare_readings` (its bootstraps), cached."""
+    inputs = {f"{r}/{i}": df for r, res in by_reading.items() for i, df in res.items()}
+    return derived("claims_verdicts", lambda: compare_readings(by_reading), inputs,
+                   results=results)
+
+
+def c1_vehicles(exp10: pd.DataFrame, results=None) -> pd.DataFrame:
+    """:func:`uavwind.analysis.claims.c1_by_vehicle` on Exp 10's table, cached."""
+    return derived("claims_c1_by_vehicle", lambda: c1_by_vehicle(exp10), {"exp10": exp10},
+                   results=results)
+
+
+def layout_fits(fit_results: pd.DataFrame, results=None) -> pd.DataFrame:
+    """:func:`uavwind.analysis.inference.fit_layouts` (its bootstraps), cached."""
+    return derived("inference_layout_fits", lambda: inference.fit_layouts(fit_results),
+                   {"fit_layout": fit_results}, results=results)
+
+
+def scale_invariance_summary(profile: str, seed: int, results=None) -> pd.DataFrame:
+    """The inference page's scale-invariance table: for light constant and light shear (5
+    environments a group), :func:`uavwind.analysis.inference.scale_invariance` with a factor
+    of 10 over 20 loops (4 at the quick profile), described by mean, std, min and max of the
+    difference; cached."""
+    n = 20 if profile == "paper" else 4
+
+    def compute():
+        rows = {cond: inference.scale_invariance(make_setting(cond, cond, 5), factor=10.0,
+                                                 n_loops=n, seed=seed, n_jobs=1)["difference"]
+                .describe()[["mean", "std", "min", "max"]] for cond in ("light constant",
+                                                                       "light shear")}
+        return pd.DataFrame(rows).T.rename_axis("layout").assign(n_loops=n)
+    return memo("inference_scale_invariance", {"n_loops": n, "seed": seed}, compute, results)
+
+
+def _read(exp_id, profile, seed, results, reading=None):
+    return run_experiment(exp_id, profile=profile, seed=seed, n_jobs=1, reading=reading,
+                          results=results, progress=False)
+
+
+def _fill_claims(profile, seed, results):
+    by_reading = {r: {i: _read(i, profile, seed, results, r) for i in needed_experiments()}
+                  for r in ("inferred", "halves")}
+    claims_verdicts(by_reading, results)
+    c1_vehicles(_read("exp10", profile, seed, results, DEFAULT_READING), results)
+
+
+def _fill_inference(profile, seed, results):
+    layout_fits(_read("fit_layout", profile, seed, results), results)
+    scale_invariance_summary(profile, seed, results)
 
 
 def _exp10_hover_settings():
@@ -136,18 +203,30 @@ def exp12_horizon_exercise(seed: int, results=None) -> pd.DataFrame:
     return memo("exp12_horizon_exercise", {"seed": seed}, compute, results)
 
 
-#: What the fill computes for the pages: name -> function of ``(seed, results)``.
-PAGE_ANALYSES = {"exp10_saturation_split": saturation_split,
-                 "exp10_drift_offsets": drift_offsets,
-                 "exp10_zero_thrust_sensitivity": zero_thrust_sensitivity,
-                 "exp12_inferred_exercise": exp12_inferred_exercise,
-                 "exp12_noise_exercise": exp12_noise_exercise,
-                 "exp12_horizon_exercise": exp12_horizon_exercise}
+def _seed_only(f):
+    def fill(profile, seed, results):
+        return f(seed, results)
+    fill.__name__ = f.__name__
+    return fill
 
 
-def fill_page_analyses(seed: int, results=None, n_jobs: int | None = None) -> list[str]:
+#: What the fill computes for the pages: name -> function of ``(profile, seed, results)``
+#: (the experiments' results must already be in the cache).
+PAGE_ANALYSES = {"claims": _fill_claims,
+                 "inference": _fill_inference,
+                 "exp10_saturation_split": _seed_only(saturation_split),
+                 "exp10_drift_offsets": _seed_only(drift_offsets),
+                 "exp10_zero_thrust_sensitivity": _seed_only(zero_thrust_sensitivity),
+                 "exp12_inferred_exercise": _seed_only(exp12_inferred_exercise),
+                 "exp12_noise_exercise": _seed_only(exp12_noise_exercise),
+                 "exp12_horizon_exercise": _seed_only(exp12_horizon_exercise)}
+
+
+def fill_page_analyses(profile: str, seed: int, results=None,
+                       n_jobs: int | None = None) -> list[str]:
     """Compute every :data:`PAGE_ANALYSES` entry missing from the cache, one per worker;
     the names, in order."""
     from joblib import Parallel, delayed
-    Parallel(n_jobs=check_jobs(n_jobs))(delayed(f)(seed, results) for f in PAGE_ANALYSES.values())
+    Parallel(n_jobs=check_jobs(n_jobs))(delayed(f)(profile, seed, results)
+                                        for f in PAGE_ANALYSES.values())
     return list(PAGE_ANALYSES)
