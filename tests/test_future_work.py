@@ -159,6 +159,33 @@ def test_the_filters_find_a_known_wind_on_a_hover_probe(tmp_path):
         filter_comparison(uw.make_setting("light constant", "strong constant", 2))
 
 
+@pytest.mark.filterwarnings("ignore:Gimbal lock detected")
+def test_the_lean_ukf_gives_rotorpys_estimates_exactly(monkeypatch):
+    """The filter table's UKF (RotorPy's WindUKF with f and h on Python floats) against
+    RotorPy's own class: every estimate of every step equal, with ==, on the loops' actions
+    of an Exp 11 scenario (the states a search flies: tilted, fast) and on a hover probe."""
+    from rotorpy.estimators.wind_ukf import WindUKF
+
+    from uavwind.analysis import filters
+    from uavwind.core.seeding import child_rng, child_seed, root_seed
+
+    assert filters._filter_class("ukf") is not WindUKF
+    s = uw.make_setting("light constant", "strong shear", 2, uav=Multirotor(start="hover"))
+    root = root_seed(7)
+    drag = filters.calibrate_drag(s.uav, seed=3)
+    for action, envs in ((s.sample_thrust(child_rng(root, 0, 0)), (0, 3)),
+                         (uw.ThrustSequence([0.0], [s.uav.weight], [[0.0, 0.0, 1.0]]), (3,))):
+        f = uw.simulate_flight(action, s.wind(child_seed(root, 0, 1)), uav=s.uav,
+                               dt=filters.FILTER_DT, duration=s.duration)
+        for env in envs:
+            lean = filters.run_filter(f, action, s.uav, "ukf", drag, env=env, seed=env)
+            with monkeypatch.context() as m:
+                m.setattr(filters, "_lean_ukf", lambda base: base)
+                theirs = filters.run_filter(f, action, s.uav, "ukf", drag, env=env, seed=env)
+            assert np.isfinite(theirs).any()
+            assert np.array_equal(lean, theirs, equal_nan=True)
+
+
 # --------------------------------------------------------------------------- #
 # the filters refuse what they cannot use (issue 33)
 # --------------------------------------------------------------------------- #

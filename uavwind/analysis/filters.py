@@ -83,7 +83,44 @@ def _filter_class(kind):
         raise ImportError("RotorPy's WindUKF needs filterpy: pip install 'uavwind[filter]'") \
             from exc
     from rotorpy.estimators.wind_ukf import WindUKF
-    return WindUKF
+    return _lean_ukf(WindUKF)
+
+
+_LEAN = {}
+
+
+def _lean_ukf(base):
+    """RotorPy's ``WindUKF`` (``base``) with its process and measurement models ``f`` and
+    ``h`` evaluated on Python floats: the same expressions, operation for operation, so the
+    same doubles (``tests/test_future_work.py`` checks every estimate with ``==``), without
+    building numpy arrays and identity matrices for each of the 19 sigma points of every
+    step."""
+    if base in _LEAN:
+        return _LEAN[base]
+
+    class LeanWindUKF(base):
+        def f(self, xk, dt):
+            xk, uk = xk.tolist(), self.uk.tolist()
+            va = math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
+            xdot = [xk[2]*uk[2] + uk[3],
+                    uk[2] - xk[2]*uk[3],
+                    uk[1] + xk[2]*xk[1]*uk[2] + xk[0]*uk[3],
+                    -self.c_Dx/self.mass*(xk[3]-xk[6])*va + self.g*xk[1] + xk[4]*uk[3] - xk[5]*uk[1],
+                    -self.c_Dy/self.mass*(xk[4]-xk[7])*va - self.g*xk[2] + xk[5]*uk[1] - xk[3]*uk[3],
+                    uk[0] - self.c_Dz/self.mass*(xk[5]-xk[8])*va - self.g + xk[3]*uk[2] - xk[4]*uk[1],
+                    0, 0, 0]
+            return np.array([a + b*dt for a, b in zip(xk, xdot)])
+
+        def h(self, xk):
+            xk, uk = xk.tolist(), self.uk.tolist()
+            va = math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
+            return np.array(xk[:6] + [-self.c_Dx/self.mass*(xk[3]-xk[6])*va,
+                                      -self.c_Dy/self.mass*(xk[4]-xk[7])*va,
+                                      uk[0]-self.c_Dz/self.mass*(xk[5]-xk[8])*va])
+
+    LeanWindUKF.__name__ = LeanWindUKF.__qualname__ = "LeanWindUKF"
+    _LEAN[base] = LeanWindUKF
+    return LeanWindUKF
 
 
 def _rotation(q):
