@@ -2,8 +2,6 @@
 import pytest
 
 
-
-
 def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
     from uavwind.report import explore
     from uavwind.study import layouts as scenarios
@@ -17,6 +15,22 @@ def test_the_explorer_grid_key_follows_the_fitted_layout(tmp_path, monkeypatch):
     monkeypatch.setitem(scenarios.INFERRED_GAP_RATIOS, "light constant", 20.0)
     explore.cached_grid(tmp_path, **kw)
     assert len(calls) == 2  # a refitted layout is a new grid
+
+
+def test_the_fill_makes_the_grid_and_a_page_never_does(tmp_path, monkeypatch):
+    from uavwind.core.io import READ_ONLY_ENV
+    from uavwind.report import explore
+
+    calls = []
+    monkeypatch.setattr(explore, "explore_grid", _stub_grid(calls))
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    with pytest.raises(RuntimeError, match="the explorer's grid"):
+        explore.cached_grid(tmp_path)
+    assert calls == []
+    monkeypatch.delenv(READ_ONLY_ENV)
+    explore.fill_grid("quick", 0, tmp_path)  # what `python -m uavwind analyses` runs
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    assert explore.cached_grid(tmp_path) == {"controls": {}, "loops": {}} and calls == [1]
 
 
 def _stub_grid(calls):

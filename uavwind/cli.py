@@ -225,12 +225,14 @@ def _exp13(args) -> int:
 
 
 def _analyses(args) -> int:
-    """Fill the caches of the analyses the pages read: Exp 11's filter table, then Exp 13's
+    """Fill the caches of the analyses the pages read: the explorer's grid and
+    :data:`~uavwind.analysis.memo.PAGE_ANALYSES` (in one pool), Exp 11's filter table, then Exp 13's
     real rows and simulated ones (which fit the drag on the real flights; skipped, saying so,
     without Neural-Fly's folder)."""
     from .analysis.figure8 import sim_rows
     from .analysis.filters import filter_table
     from .analysis.memo import fill_page_analyses
+    from .report.explore import fill_grid
     from .analysis.real_flights import real_flight_rows
     from .study.profiles import DEFAULT_SEED
     from .data.neuralfly import ENV_VAR, neuralfly_folder
@@ -238,7 +240,8 @@ def _analyses(args) -> int:
         have = args.folder is not None or bool(os.environ.get(ENV_VAR))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
-        names = fill_page_analyses(args.profile, DEFAULT_SEED, n_jobs=args.jobs)
+        names = fill_page_analyses(args.profile, DEFAULT_SEED, n_jobs=args.jobs,
+                                   first={"explore_grid": fill_grid})
         print(f"analyses: {', '.join(names)} in {time.perf_counter() - t0:.1f} s")
         t0 = time.perf_counter()
         ft = filter_table(profile=args.profile, n_jobs=args.jobs)

@@ -222,11 +222,13 @@ PAGE_ANALYSES = {"claims": _fill_claims,
                  "exp12_horizon_exercise": _seed_only(exp12_horizon_exercise)}
 
 
-def fill_page_analyses(profile: str, seed: int, results=None,
-                       n_jobs: int | None = None) -> list[str]:
-    """Compute every :data:`PAGE_ANALYSES` entry missing from the cache, one per worker;
-    the names, in order."""
+def fill_page_analyses(profile: str, seed: int, results=None, n_jobs: int | None = None,
+                       first: Mapping[str, Callable] | None = None) -> list[str]:
+    """Compute every :data:`PAGE_ANALYSES` entry missing from the cache, one per worker,
+    after ``first`` (more such functions, from layers above this one: the longest tasks,
+    dispatched first); the names, in order."""
     from joblib import Parallel, delayed
+    tasks = {**(first or {}), **PAGE_ANALYSES}
     Parallel(n_jobs=check_jobs(n_jobs))(delayed(f)(profile, seed, results)
-                                        for f in PAGE_ANALYSES.values())
-    return list(PAGE_ANALYSES)
+                                        for f in tasks.values())
+    return list(tasks)

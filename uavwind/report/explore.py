@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.checks import check_scalar
-from ..core.io import atomic_write
+from ..core.io import atomic_write, refuse_to_compute
 from ..method.clustering import score_loop
 from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 from ..study.builders import make_setting
@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from ..sim.setting import Setting
     from ..study.conditions import WindCondition
 
-__all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "explorer_html",
+__all__ = ["explore_loop", "explorer", "explore_grid", "cached_grid", "fill_grid", "explorer_html",
            "explore_thrusts",
            "EXPLORE_PAIRS"]
 
@@ -166,9 +166,16 @@ def cached_grid(folder: os.PathLike | str | None = None, **kwargs: Any) -> dict:
     try:
         return json.loads(path.read_text())
     except (OSError, ValueError):
+        refuse_to_compute(f"the explorer's grid {path.name}")
         grid = explore_grid(**kwargs)
         atomic_write(path, json.dumps(grid))
         return grid
+
+
+def fill_grid(profile: str, seed: int, results=None) -> None:
+    """The fill's task for this page (``python -m uavwind analyses``): :func:`cached_grid`
+    into ``results`` (the grid is the same at every profile and seed)."""
+    cached_grid(results)
 
 
 def _script_json(value) -> str:

@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.parallel import check_jobs, pin_threads, stop_workers
+from ..method import softdtw
 from ..method.clustering import ClusteringParams
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
@@ -375,6 +376,10 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # in this process; a lone entry still gets every worker
             done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
         else:
+            # the loop kernels compiled (or loaded from numba's cache) here first: on a fresh
+            # checkout, workers that each compiled them at once would spend a core-minute on
+            # copies of the same work; now they load what this process wrote
+            softdtw.warmup()
             # one task per entry, dispatched in cost order as workers free up
             done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
                             return_as="generator_unordered")(
