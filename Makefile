@@ -41,17 +41,6 @@ export UAVWIND_RESULTS
 # papermill loses every figure under a non-interactive backend: never inherit one
 unexport MPLBACKEND
 
-# papermill's injected parameter cell: provenance lines on the pages say the same, readably
-define HIDE_INJECTED
-import sys, nbformat
-nb = nbformat.read(sys.argv[1], as_version=4)
-for cell in nb.cells:
-    tags = cell.metadata.setdefault("tags", [])
-    if "injected-parameters" in tags and "remove-cell" not in tags:
-        tags.append("remove-cell")
-nbformat.write(nb, sys.argv[1])
-endef
-export HIDE_INJECTED
 
 .DEFAULT_GOAL := help
 .PHONY: help venv test bench book results lab clean clean-results FORCE
@@ -95,13 +84,11 @@ $(GEN)/.profile: FORCE
 
 $(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
-	$(BIN)/jupytext --quiet --to ipynb --set-kernel python3 -o $(GEN)/.src/$*.ipynb $<
-	@$(READ_ONLY) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/papermill --no-progress-bar --log-output --cwd $(CURDIR) -k python3 \
-	    --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 \
-	    -p profile $(PROFILE) -p n_jobs $(JOBS) $(GEN)/.src/$*.ipynb $(GEN)/.src/$*.out.ipynb \
+	@echo "page $*"
+	@$(READ_ONLY) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/python -m uavwind.report.pages $< $(GEN)/.src/$*.out.ipynb \
+	    --profile $(PROFILE) --jobs $(JOBS) --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 --cwd $(CURDIR) \
 	  || { rc=$$?; echo "book: page $< failed (exit $$rc$$( [ $$rc -ge 124 ] && echo ': over PAGE_TIMEOUT=$(PAGE_TIMEOUT) s' ))" \
 	       "-- the cell is named above; a cell over CELL_TIMEOUT=$(CELL_TIMEOUT) s is shown in full" >&2; exit 1; }
-	$(BIN)/python -c "$$HIDE_INJECTED" $(GEN)/.src/$*.out.ipynb
 	mv $(GEN)/.src/$*.out.ipynb $@
 
 $(MATHJAX): $(STAMP)

@@ -74,16 +74,42 @@ def test_a_page_over_its_page_timeout_is_stopped(tmp_path):
     assert not (book / "generated" / "hangs.ipynb").exists()
 
 
+def test_a_page_runs_with_the_builds_parameters_and_hides_them(tmp_path):
+    """One page, one process (uavwind.report.pages): the MyST source executed with the
+    build's profile and workers in place of its defaults, the injected cell hidden; a
+    failing cell writes nothing."""
+    import nbformat
+
+    from uavwind.report.pages import run_page
+
+    src = tmp_path / "page.md"
+    src.write_text("---\njupytext:\n  text_representation:\n    extension: .md\n"
+                   "    format_name: myst\n---\n\n# A page\n\n"
+                   "```{code-cell} ipython3\n:tags: [parameters]\n\nprofile = 'x'\nn_jobs = 0\n```\n\n"
+                   "```{code-cell} ipython3\nprint(profile, n_jobs + 1)\n```\n")
+    out = run_page(src, tmp_path / "page.ipynb", "quick", 2, execution_timeout=60,
+                   cwd=tmp_path)
+    nb = nbformat.read(out, as_version=4)
+    injected = [c for c in nb.cells if "injected-parameters" in c.metadata.get("tags", [])]
+    assert len(injected) == 1 and "remove-cell" in injected[0].metadata["tags"]
+    assert nb.cells[-1].outputs[0]["text"] == "quick 3\n"
+    src.write_text(src.read_text().replace("n_jobs + 1", "1 / 0"))
+    with pytest.raises(Exception, match="ZeroDivisionError"):
+        run_page(src, tmp_path / "bad.ipynb", "quick", 2, execution_timeout=60)
+    assert not (tmp_path / "bad.ipynb").exists()
+
+
 def test_every_long_build_step_has_a_timeout():
     make = (ROOT / "Makefile").read_text()
-    for step in ("pip install", "-m uavwind run all", "$(BIN)/papermill", "jupyter-book build"):
+    for step in ("pip install", "-m uavwind run all", "-m uavwind.report.pages",
+                 "jupyter-book build"):
         lines = [ln for ln in make.splitlines() if step in ln and not ln.lstrip().startswith("#")]
         assert lines and all("$(TIMEOUT)" in ln for ln in lines), step
     assert "--execution-timeout $(CELL_TIMEOUT)" in make
 
 
 def test_a_page_that_would_compute_fails_naming_what(tmp_path, monkeypatch):
-    """Pages run with UAVWIND_PAGES_READ_ONLY=1 (the Makefile sets it for papermill): a
+    """Pages run with UAVWIND_PAGES_READ_ONLY=1 (the Makefile sets it for the pages): a
     result missing from the cache is an error naming it, not a silent computation."""
     import uavwind as uw
     from uavwind.core.io import READ_ONLY_ENV

@@ -1,0 +1,80 @@
+"""One page of the book, executed in one process: the build step ``make book`` runs per page.
+
+This module owns :func:`run_page`: a MyST notebook (``notebooks/<page>.md``) read with
+jupytext, executed by papermill with the build's parameters (profile, workers) under a
+per-cell timeout, its injected parameter cell hidden (the page's provenance lines say the
+same, readably), written to ``output`` only when every cell ran. The Makefile wraps it in
+the page timeout and names the page when it fails; papermill names the cell. Before, the
+same three steps were three programs per page (jupytext's, papermill's and a small
+script), each paying its own start-up: about 2 CPU-s a page.
+
+``python -m uavwind.report.pages SOURCE OUTPUT --profile quick --jobs 2
+--execution-timeout 600 --start-timeout 120 --cwd DIR``
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+from pathlib import Path
+
+from ..core.io import atomic_write
+
+__all__ = ["run_page", "KERNEL", "main"]
+
+#: The kernel every page runs on.
+KERNEL = {"name": "python3", "display_name": "Python 3", "language": "python"}
+
+
+def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str, n_jobs: int,
+             execution_timeout: float | None = None, start_timeout: float = 60,
+             cwd: os.PathLike | str | None = None) -> Path:
+    """Execute the MyST notebook ``source`` with the parameters ``profile`` and ``n_jobs``
+    (a cell over ``execution_timeout`` seconds fails it) and write the executed notebook to
+    ``output``, atomically, with the injected parameter cell tagged ``remove-cell``.
+
+    Raises papermill's ``PapermillExecutionError`` (naming the cell) when a cell fails, and
+    writes nothing then.
+    """
+    import jupytext
+    import nbformat
+    import papermill
+
+    source, output = Path(source), Path(output)
+    if not source.is_file():
+        raise ValueError(f"source must be an existing MyST notebook, got {str(source)!r}")
+    nb = jupytext.read(source)
+    nb.metadata["kernelspec"] = dict(KERNEL)
+    nb = papermill.execute_notebook(
+        nb, None, parameters={"profile": profile, "n_jobs": n_jobs}, kernel_name=KERNEL["name"],
+        execution_timeout=execution_timeout, start_timeout=start_timeout, log_output=True,
+        progress_bar=False, cwd=None if cwd is None else str(cwd))
+    for cell in nb.cells:
+        tags = cell.metadata.setdefault("tags", [])
+        if "injected-parameters" in tags and "remove-cell" not in tags:
+            tags.append("remove-cell")
+    return atomic_write(output, lambda tmp: nbformat.write(nb, str(tmp)), name="output")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """The command line of :func:`run_page`; exit status 0 when every cell ran."""
+    p = argparse.ArgumentParser(prog="python -m uavwind.report.pages",
+                                description="Execute one page of the book.")
+    p.add_argument("source")
+    p.add_argument("output")
+    p.add_argument("--profile", required=True)
+    p.add_argument("--jobs", type=int, required=True)
+    p.add_argument("--execution-timeout", type=float, default=None, help="per cell [s]")
+    p.add_argument("--start-timeout", type=float, default=60, help="kernel start [s]")
+    p.add_argument("--cwd", default=None)
+    args = p.parse_args(argv)
+    logging.basicConfig(level=logging.INFO, format="%(message)s", stream=sys.stderr)
+    run_page(args.source, args.output, args.profile, args.jobs, args.execution_timeout,
+             args.start_timeout, args.cwd)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover - the Makefile's entry point
+    sys.exit(main())
