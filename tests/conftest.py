@@ -1,5 +1,6 @@
 """Shared fixtures: small, fast settings; the quick book built in the background."""
 import subprocess
+import time
 import numpy as np
 import pytest
 
@@ -61,7 +62,7 @@ def pytest_collection_modifyitems(session, config, items):
                              "JOBS=2", f"RUN_FLAGS=--times {tmp / 'times.json'}"],
                             env=env, stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True)  # its own process group, to stop it whole
-    _book_build.update(proc=proc, tmp=tmp, book=book, log=log)
+    _book_build.update(proc=proc, tmp=tmp, book=book, log=log, started=time.monotonic())
 
 
 @pytest.fixture(scope="session")
@@ -71,11 +72,16 @@ def built_book():
     if not _book_build:
         pytest.skip("the book build was not started (UAVWIND_SKIP_BOOK=1 or deselected)")
     proc, tmp = _book_build["proc"], _book_build["tmp"]
+    t0 = time.monotonic()
+    done = proc.poll() is not None
     try:
         rc = proc.wait(timeout=BOOK_BUILD_TIMEOUT)
     except subprocess.TimeoutExpired:
         _stop_book_build()
         rc = "timed out"
+    _book_build["waited"] = time.monotonic() - t0
+    if not done:  # finished while waited for: its end is now (else unknown, before now)
+        _book_build["took"] = time.monotonic() - _book_build["started"]
     if rc != 0:
         pytest.fail(f"make book (quick) failed ({rc}):\n"
                     + (tmp / "make.log").read_text(errors="replace")[-6000:])
@@ -93,6 +99,16 @@ def _stop_book_build():
         except subprocess.TimeoutExpired:
             os.killpg(proc.pid, signal.SIGKILL)
             proc.wait()
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Where the suite's time went: the background book's build and the wait for it."""
+    if "waited" in _book_build:
+        took = _book_build.get("took")
+        terminalreporter.write_line(
+            f"quick book: built in the background in "
+            f"{'under the time the other tests took' if took is None else f'{took:.0f} s'}; "
+            f"its tests waited {_book_build['waited']:.0f} s for it")
 
 
 def pytest_unconfigure(config):
