@@ -29,25 +29,22 @@ def compiled_kernels():
 
 # ---- the quick book, built beside the other tests ---------------------------------------
 # tests/test_book.py reads a whole quick book (about 5 minutes on 2 cores). Its build runs in
-# the background from the end of collection, and its tests are moved to the end, so the rest
-# of the suite runs while the fill, the pages and the HTML are made instead of after them.
+# the background from the start of the session (or the end of collection), and its tests are
+# moved to the end, so the rest of the suite runs while the fill, the pages and the HTML are
+# made instead of after them.
 
 BOOK_BUILD_TIMEOUT = 1800  # [s] the whole `make book`; each step has its own timeout too
 _book_build = {}
 
 
-@pytest.hookimpl(trylast=True)  # after -k / -m deselection: start only for tests that run
-def pytest_collection_modifyitems(session, config, items):
+def _start_book_build():
     import os
     import shutil
-    import subprocess
     import tempfile
     from pathlib import Path
 
-    book_items = [i for i in items if "built_book" in getattr(i, "fixturenames", ())]
-    if not book_items or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
+    if _book_build or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
         return
-    items[:] = [i for i in items if i not in book_items] + book_items
     root = Path(__file__).resolve().parents[1]
     tmp = Path(tempfile.mkdtemp(prefix="uavwind-book-"))
     book = tmp / "book"
@@ -65,10 +62,31 @@ def pytest_collection_modifyitems(session, config, items):
     _book_build.update(proc=proc, tmp=tmp, book=book, log=log, started=time.monotonic())
 
 
+def pytest_sessionstart(session):
+    """The whole suite asked for (no paths, or the tests folder, and no -k/-m): the build
+    starts now, beside the collection, instead of after it."""
+    from pathlib import Path
+    cfg = session.config
+    here = Path(__file__).resolve().parent
+    whole = all(Path(a).resolve() in (here, here.parent) for a in cfg.args)
+    if whole and not cfg.option.keyword and not cfg.option.markexpr:
+        _start_book_build()
+
+
+@pytest.hookimpl(trylast=True)  # after -k / -m deselection: build only for tests that run
+def pytest_collection_modifyitems(session, config, items):
+    book_items = [i for i in items if "built_book" in getattr(i, "fixturenames", ())]
+    if not book_items:
+        _stop_book_build()  # started for a whole suite whose book tests are not collected
+        return
+    items[:] = [i for i in items if i not in book_items] + book_items
+    _start_book_build()
+
+
 @pytest.fixture(scope="session")
 def built_book():
-    """The quick book's folder: waits for the background build
-    (:func:`pytest_collection_modifyitems`); a failed build fails with the end of its log."""
+    """The quick book's folder: waits for the background build (:func:`pytest_sessionstart`
+    or :func:`pytest_collection_modifyitems`); a failed build fails with the end of its log."""
     if not _book_build:
         pytest.skip("the book build was not started (UAVWIND_SKIP_BOOK=1 or deselected)")
     proc, tmp = _book_build["proc"], _book_build["tmp"]
