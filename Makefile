@@ -51,7 +51,8 @@ help:  ## list the targets
 $(STAMP): environment.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "uavwind pins need Python 3.11, got " + sys.version'
 	$(PYTHON) -m venv $(VENV)
-	$(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet -r environment.txt
+	$(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps -r environment.txt
+	$(BIN)/python -m pip check --disable-pip-version-check
 	touch $@
 
 venv: $(STAMP)  ## build .venv from environment.txt (only when missing or outdated)
