@@ -1,6 +1,12 @@
 """Shared fixtures: small, fast settings; the quick book built in the background."""
+import os
+import shutil
+import signal
 import subprocess
+import tempfile
 import time
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -38,11 +44,6 @@ _book_build = {}
 
 
 def _start_book_build():
-    import os
-    import shutil
-    import tempfile
-    from pathlib import Path
-
     if _book_build or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
         return
     root = Path(__file__).resolve().parents[1]
@@ -65,7 +66,6 @@ def _start_book_build():
 def pytest_sessionstart(session):
     """The whole suite asked for (no paths, or the tests folder, and no -k/-m): the build
     starts now, beside the collection, instead of after it."""
-    from pathlib import Path
     cfg = session.config
     here = Path(__file__).resolve().parent
     whole = all(Path(a).resolve() in (here, here.parent) for a in cfg.args)
@@ -107,8 +107,6 @@ def built_book():
 
 
 def _stop_book_build():
-    import os
-    import signal
     proc = _book_build.get("proc")
     if proc is not None and proc.poll() is None:
         os.killpg(proc.pid, signal.SIGTERM)
@@ -131,7 +129,6 @@ def pytest_terminal_summary(terminalreporter):
 
 def pytest_unconfigure(config):
     """An interrupted session stops the build; its folder goes with the session."""
-    import shutil
     if _book_build:
         _stop_book_build()
         _book_build["log"].close()

@@ -13,8 +13,8 @@ EXPERIMENT_PAGES = ["exp1_wind_speed", "exp2_range_similarity", "exp3_environmen
 
 
 # the fixture `built_book` (conftest.py): the quick book, built by `make book` into a
-# temporary folder, started in the background at the end of collection so the rest of the
-# suite runs beside it; these tests run last and wait for it
+# temporary folder in the background (from the session's start, or the end of collection)
+# while the rest of the suite runs; these tests run last and wait for it
 
 
 def test_the_fills_times_record_survives_the_book(built_book):

@@ -25,6 +25,7 @@ averaging it in.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import json
 import math
@@ -86,22 +87,21 @@ def _filter_class(kind):
     return _lean_ukf(WindUKF)
 
 
-_LEAN = {}
-
-
+@functools.cache
 def _lean_ukf(base):
     """RotorPy's ``WindUKF`` (``base``) with its process and measurement models ``f`` and
     ``h`` evaluated on Python floats: the same expressions, operation for operation, so the
     same doubles (``tests/test_future_work.py`` checks every estimate with ``==``), without
     building numpy arrays and identity matrices for each of the 19 sigma points of every
     step."""
-    if base in _LEAN:
-        return _LEAN[base]
+
+    def airspeed(xk):  # RotorPy's va: the norm of the air-relative velocity
+        return math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
 
     class LeanWindUKF(base):
         def f(self, xk, dt):
             xk, uk = xk.tolist(), self.uk.tolist()
-            va = math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
+            va = airspeed(xk)
             xdot = [xk[2]*uk[2] + uk[3],
                     uk[2] - xk[2]*uk[3],
                     uk[1] + xk[2]*xk[1]*uk[2] + xk[0]*uk[3],
@@ -113,13 +113,12 @@ def _lean_ukf(base):
 
         def h(self, xk):
             xk, uk = xk.tolist(), self.uk.tolist()
-            va = math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
+            va = airspeed(xk)
             return np.array(xk[:6] + [-self.c_Dx/self.mass*(xk[3]-xk[6])*va,
                                       -self.c_Dy/self.mass*(xk[4]-xk[7])*va,
                                       uk[0]-self.c_Dz/self.mass*(xk[5]-xk[8])*va])
 
     LeanWindUKF.__name__ = LeanWindUKF.__qualname__ = "LeanWindUKF"
-    _LEAN[base] = LeanWindUKF
     return LeanWindUKF
 
 

@@ -70,13 +70,13 @@ def memo(name: str, params: Mapping, compute: Callable[[], pd.DataFrame],
 
 
 def derived(name: str, compute: Callable[[], pd.DataFrame], inputs: Mapping[str, pd.DataFrame],
-            params: Mapping | None = None, results=None) -> pd.DataFrame:
-    """:func:`memo` for a table computed from result tables: cached under ``name``,
-    ``params`` and the content digests of ``inputs`` (name -> the tables ``compute`` reads),
-    so a page and the fill that load the same results find the same entry, and a changed
-    result is a new one."""
+            results=None) -> pd.DataFrame:
+    """:func:`memo` for a table computed from result tables alone: cached under ``name`` and
+    the content digests of ``inputs`` (name -> the tables ``compute`` reads), so a page and
+    the fill that load the same results find the same entry, and a changed result is a new
+    one."""
     digests = {k: content_digest(df.reset_index(drop=True)) for k, df in inputs.items()}
-    return memo(name, {"params": dict(params or {}), "inputs": digests}, compute, results)
+    return memo(name, {"inputs": digests}, compute, results)
 
 
 def claims_verdicts(by_reading: Mapping[str, Mapping[str, pd.DataFrame]],
