@@ -41,7 +41,6 @@ export UAVWIND_RESULTS
 # papermill loses every figure under a non-interactive backend: never inherit one
 unexport MPLBACKEND
 
-
 .DEFAULT_GOAL := help
 .PHONY: help venv test bench book results lab clean clean-results FORCE
 
