@@ -32,7 +32,6 @@ import numpy as np
 import pandas as pd
 
 from ..core.parallel import check_jobs, pin_threads, stop_workers
-from ..method import softdtw
 from ..method.clustering import ClusteringParams
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
@@ -378,7 +377,9 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
         else:
             # the loop kernels compiled (or loaded from numba's cache) here first: on a fresh
             # checkout, workers that each compiled them at once would spend a core-minute on
-            # copies of the same work; now they load what this process wrote
+            # copies of the same work; now they load what this process wrote (imported here:
+            # a page that only reads results needs neither the kernels nor scikit-learn)
+            from ..method import softdtw
             softdtw.warmup()
             # one task per entry, dispatched in cost order as workers free up
             done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
