@@ -21,12 +21,17 @@ SMALL = rf.RealFlightStudy(max_laps=3, n_samples=40)
 
 
 @pytest.fixture(scope="module")
-def flights(tmp_path_factory):
+def folder(tmp_path_factory):
     folder = tmp_path_factory.mktemp("nf")
     for k, ctl in enumerate(("A", "B", "C")):
         for cond in FORCES:
             write_flight(folder, ctl, cond, laps=5, force=FORCES[cond], tilt=TILTS[cond],
                          seed=10 * k + len(cond), rate=25.0)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def flights(folder):
     return load_neuralfly(folder)
 
 
@@ -197,6 +202,26 @@ def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
     p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick"],
                        env=env, capture_output=True, text=True, timeout=120)
     assert p.returncode == 0 and "Experiment 13 is skipped" in p.stderr
+
+
+def test_rows_read_from_a_folder_are_found_again_without_parsing_it(folder, flights, tmp_path,
+                                                                    monkeypatch):
+    from uavwind.data import neuralfly
+    monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
+    first = rf.real_flight_rows(folder, profile="quick", results=tmp_path, n_jobs=1)
+    assert first.equals(rf.real_flight_rows(profile="quick", results=tmp_path / "other",
+                                            flights=flights, n_jobs=1))
+    monkeypatch.setattr(neuralfly, "read_columns", lambda f: pytest.fail(f"parsed {f}"))
+    assert rf.real_flight_rows(folder, profile="quick", results=tmp_path).equals(first)
+    # one changed byte in one file is another entry, computed from the changed flights
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    for f in sorted(folder.iterdir()):
+        (copy / f.name).write_bytes(f.read_bytes())
+    f = sorted(copy.iterdir())[0]
+    f.write_bytes(f.read_bytes() + b"\n")
+    with pytest.raises(pytest.fail.Exception, match="parsed"):
+        rf.real_flight_rows(copy, profile="quick", results=tmp_path)
 
 
 def test_a_page_never_computes_experiment_13(flights, tmp_path, monkeypatch):

@@ -41,8 +41,8 @@ from .._version import __version__
 from ..core.checks import check_instance, check_scalar
 from ..core.parallel import check_jobs
 from ..core.stats import bootstrap_ci
-from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, flight_laps, load_neuralfly,
-                              neuralfly_folder)
+from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, files_digest, flight_files,
+                              flight_laps, load_neuralfly)
 from ..method.clustering import ClusteringParams, score_loop
 from ..method.softdtw import dtw_pdist
 from .memo import memo
@@ -50,7 +50,9 @@ from .memo import memo
 __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
            "pair_table", "channel_table", "flight_table", "flights_digest"]
 
-#: Bump when a change alters the rows (part of the cache digest).
+#: Bump when a change alters the rows (part of the cache digest), including a change to how
+#: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are
+#: kept under the files' bytes, not the parsed arrays.
 REAL_VERSION = "1"
 
 
@@ -277,23 +279,34 @@ def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "pa
         The :data:`STUDIES` entry (the quick one keeps two laps per flight).
     results : path-like, optional
         The result folder; the table is kept by :func:`uavwind.analysis.memo.memo` under a
-        digest of the flights' bytes and the study, with the digest of its own content: a
-        damaged or altered copy is recomputed (with a warning), never trusted.
+        digest of the study and of the flights: the files' bytes when read from ``folder``
+        (so a cached table is found without parsing them), the arrays' bytes when
+        ``flights`` are given; with the digest of its own content, so a damaged or altered
+        copy is recomputed (with a warning), never trusted.
     """
     if profile not in STUDIES:
         raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
     study = STUDIES[profile]
     if flights is None:
-        flights = load_neuralfly(neuralfly_folder(folder))
+        files = flight_files(folder)
+        source = {"files": files_digest(files)}
+
+        def load():
+            return load_neuralfly(files[0].parent)
+    else:
+        source = {"flights": flights_digest(flights)}
+
+        def load():
+            return flights
 
     def compute():
-        df = compute_rows(flights, study, n_jobs=n_jobs)
+        df = compute_rows(load(), study, n_jobs=n_jobs)
         df.attrs.update(profile=profile, uavwind_version=__version__,
                         citation="Neural-Fly (O'Connell et al. 2022)")
         return df
 
-    return memo("exp13_real", {"flights": flights_digest(flights), "study": asdict(study),
-                               "version": REAL_VERSION}, compute, results)
+    return memo("exp13_real", {**source, "study": asdict(study), "version": REAL_VERSION},
+                compute, results)
 
 
 # --------------------------------------------------------------------------- #
