@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_kwargs, check_scalar
+from ..core.io import refuse_to_compute
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -270,7 +271,11 @@ def score_loop(trajectories: ArrayLike, groups: ArrayLike, engine: str | None = 
     >>> res = score_loop(s.simulate(uw.PAPER_EXAMPLE), s.groups, engine="tslearn")
     >>> res.correct
     True
+
+    Under ``UAVWIND_PAGES_READ_ONLY`` it refuses with a ``RuntimeError``: a book page reads
+    loops the fill scored, it never scores one.
     """
+    refuse_to_compute("a clustering loop (score_loop)")
     X = check_array(trajectories, "trajectories", ndim=3)
     if X.shape[0] < MIN_TRAJECTORIES or X.shape[1] < 1:
         raise ValueError(f"trajectories must hold at least {MIN_TRAJECTORIES} series (the "

@@ -25,6 +25,7 @@ import numpy as np
 import pandas as pd
 
 from ...core.checks import check_instance, check_scalar
+from ...core.io import refuse_to_compute
 from ...core.parallel import check_jobs, pin_threads, stop_workers
 from ...core.seeding import child_rng, child_seed, root_seed
 from ...sim.rollout import Rollout
@@ -147,7 +148,9 @@ def run_episodes(problem: ClosedLoop, policies: str | Policy | Sequence[str | Po
     ``policies`` (names of :data:`~uavwind.method.closed_loop.policies.POLICIES` or
     :class:`Policy` values): one row per episode, policy and reported belief
     (:data:`EPISODE_COLUMNS`), in episode order; the rows do not depend on ``n_jobs``
-    (-1/None: all cores)."""
+    (-1/None: all cores). Under ``UAVWIND_PAGES_READ_ONLY`` a ``RuntimeError``: a book
+    page reads episodes the fill flew."""
+    refuse_to_compute("closed-loop episodes (run_episodes)")
     check_instance(problem, "problem", ClosedLoop)
     policies = _check_policies(policies)
     start = check_scalar(start, "start", low=0, high=10 ** 9, integer=True)
