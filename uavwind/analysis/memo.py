@@ -250,6 +250,16 @@ def exp1_line_exercise(results=None) -> pd.DataFrame:
     return memo("exp1_line_exercise", {}, compute, results)
 
 
+def exp1_scale_exercise(results=None) -> pd.DataFrame:
+    """Exp 1's exercise: light constant vs light constant (5 environments per group), four
+    loops (seed 2) with the winds as they are and multiplied by 10
+    (:func:`uavwind.analysis.inference.scale_invariance`), cached."""
+    def compute():
+        s = make_setting("light constant", "light constant", 5)
+        return inference.scale_invariance(s, factor=10.0, n_loops=4, seed=2)
+    return memo("exp1_scale_exercise", {}, compute, results)
+
+
 def exp6_rank_by_exercise(results=None) -> pd.DataFrame:
     """Exp 6's exercise: a CEM of 6 samples, 2 elites, 2 iterations (seed 3) on Exp 5's
     similar-direction setting, ranked by the floored score and by the raw silhouette; the
@@ -329,6 +339,7 @@ PAGE_ANALYSES = {"claims": _fill_claims,
                  "model_example": _fixed(model_example),
                  "model_vertical_exercise": _fixed(model_vertical_exercise),
                  "exp1_line_exercise": _fixed(exp1_line_exercise),
+                 "exp1_scale_exercise": _fixed(exp1_scale_exercise),
                  "exp6_rank_by_exercise": _fixed(exp6_rank_by_exercise),
                  "exp7_noise_exercise": _fixed(exp7_noise_exercise),
                  "inference_gusts_exercise": _fixed(inference_gusts_exercise)}
