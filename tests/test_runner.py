@@ -105,3 +105,17 @@ def test_run_experiment_validates_cases(tmp_path, cases, err, match):
 def test_run_experiment_validates_profiles(tmp_path, profile, match):
     with pytest.raises(ValueError, match=match):
         ex.run_experiment("exp5", results=tmp_path, profile=profile, progress=False)
+
+
+def test_a_cached_run_reads_and_verifies_each_chunk_once(tmp_path, monkeypatch):
+    # a page reads hundreds of chunks: verifying each twice (is it there? then read it)
+    # cost the claims page 2 s of its 3.3
+    from uavwind.study import cache, runner
+    first = ex.run_experiment("exp5", profile="quick", results=tmp_path, n_jobs=1, progress=False)
+    reads = []
+    real = cache.read_verified
+    for module in (cache, runner):
+        monkeypatch.setattr(module, "read_verified", lambda *a: reads.append(a[0]) or real(*a))
+    again = ex.run_experiment("exp5", profile="quick", results=tmp_path, n_jobs=1, progress=False)
+    assert again.equals(first) and again.attrs["cached"] == again.attrs["chunks"]
+    assert len(reads) == len(set(reads)) == again.attrs["chunks"]

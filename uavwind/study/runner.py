@@ -118,12 +118,16 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
     chosen = check_cases(cases, len(all_cases))
     folder = results_dir(results)
     entries = experiment_entries(exp, prof, rd, seed, engine, folder, params, chosen)
-    if not all(e.present() for e in entries):
+    # each entry read and verified once: what is cached is used as read, the rest computed
+    found = [e.read() for e in entries]
+    if any(df is None for df in found):
         # before any work: a run must never compute what it cannot keep
         check_writable(folder)
     frames, n_cached = [], 0
-    for entry in entries:
-        df, hit = entry.fill(n_jobs=n_jobs, progress=progress)
+    for entry, df in zip(entries, found):
+        hit = df is not None
+        if not hit:  # fill() reads again under the entry's lock: another run may have written it
+            df, hit = entry.fill(n_jobs=n_jobs, progress=progress)
         n_cached += hit
         frames.append(df.assign(**entry.labels))
     out = pd.concat(frames, ignore_index=True)
@@ -222,9 +226,14 @@ class Entry:
         return {"setting_key": self.setting.key(), "seed": self.seed, "engine": self.engine,
                 "uavwind_version": __version__, "results_version": RESULTS_VERSION}
 
+    def read(self) -> pd.DataFrame | None:
+        """The trusted cached copy, or ``None`` (a damaged one is moved aside, with a
+        warning)."""
+        return read_verified(self.path, self._expected)
+
     def present(self) -> bool:
         """True if a trusted copy is cached (a damaged one is moved aside, with a warning)."""
-        return read_verified(self.path, self._expected) is not None
+        return self.read() is not None
 
     @property
     def _expected(self):
