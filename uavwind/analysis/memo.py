@@ -8,6 +8,10 @@ is recomputed (with a warning for the latter two), and under
 ``UAVWIND_PAGES_READ_ONLY`` a page that would compute it fails naming it
 (:func:`uavwind.core.io.refuse_to_compute`). :data:`PAGE_ANALYSES` lists what the fill
 computes (``python -m uavwind analyses``).
+
+The exercises' small runs live here too: a solution shows the code a student would write
+and reads its result from the function of the same name, which runs that code in the fill
+(a page under ``UAVWIND_PAGES_READ_ONLY`` cannot score a loop or fly an episode).
 """
 
 from __future__ import annotations
@@ -41,7 +45,10 @@ from .claims import c1_by_vehicle, compare_readings, needed_experiments
 from .closed_loop import time_to_confidence
 
 __all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses",
-           "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary"]
+           "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary",
+           "model_example", "model_vertical_exercise", "exp1_line_exercise",
+           "exp1_scale_exercise", "exp6_rank_by_exercise", "exp7_noise_exercise",
+           "inference_gusts_exercise"]
 
 #: Bump when an analysis routed through :func:`memo` changes its numbers.
 MEMO_VERSION = "1"
