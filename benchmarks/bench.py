@@ -3,7 +3,8 @@
 Prints figures (no pass/fail) and writes them to benchmarks/benchmark.json, which the
 book's performance page reads. That file is committed: the book built from a fresh clone
 shows the figures last measured (with their date and machine) until ``make bench`` is run
-again on the machine at hand. ``FULL=1`` adds the measured paper profile.
+again on the machine at hand. ``FULL=1`` adds the measured paper profile (with
+``BENCH_KEEP=<empty folder>``, its book, results and build output are kept there).
 Run with ``make bench``.
 """
 
@@ -196,14 +197,18 @@ def bench_paper_profile(report, engine):
                                "estimated_seconds_one_core": one_core,
                                "estimated_seconds_all_cores": one_core / cores}
     if os.environ.get("FULL") == "1":
-        wall, peak, peak_pss, cpu, times = _measure_paper_book()
+        wall, peak, peak_pss, cpu, times, pages = _measure_paper_book()
         print(f"  measured (FULL=1): make book PROFILE=paper from an empty result cache into a "
               f"temporary folder: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
               f"{peak:.0f} MiB summed RSS, {peak_pss:.0f} MiB summed PSS (over the process "
               "tree, sampled every 0.5 s)")
+        print(f"  the pages' code cells: {sum(pages.values()):.1f} s in all (papermill's cell "
+              f"durations); largest: " + ", ".join(f"{k} {v:.1f} s" for k, v in
+                                                    list(pages.items())[:5]))
         report["paper_profile"].update(measured_seconds=wall, peak_tree_rss_mib=peak,
                                        peak_tree_pss_mib=peak_pss,
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
+                                       page_cell_seconds=pages,
                                        measured_commit=source_commit(mark_changes=True),
                                        measured_how="make bench FULL=1: the venv and numba "
                                        "cache as they were, memory summed over the process "
@@ -225,7 +230,10 @@ def _measure_paper_book():
     """``make book PROFILE=paper`` into a temporary book folder with an empty result
     cache (the venv and the numba cache as they are); return (wall seconds, peak summed
     RSS and peak summed PSS of the process tree in MiB, CPU time of the waited-for process
-    tree as % of wall, the fill's ``--times`` record)."""
+    tree as % of wall, the fill's ``--times`` record, the pages' cell seconds).
+    ``BENCH_KEEP=<empty folder>`` builds there instead and keeps the book, its results and
+    the build's output (to read the paper pages afterwards)."""
+    import contextlib
     import shutil
     import subprocess
     import tempfile
@@ -233,7 +241,11 @@ def _measure_paper_book():
     import psutil
 
     root_dir = Path(__file__).resolve().parents[1]
-    with tempfile.TemporaryDirectory() as tmp:
+    keep = os.environ.get("BENCH_KEEP")
+    if keep and (not Path(keep).is_dir() or any(Path(keep).iterdir())):
+        raise ValueError(f"BENCH_KEEP must name an existing empty folder, got {keep!r}")
+    where = contextlib.nullcontext(keep) if keep else tempfile.TemporaryDirectory()
+    with where as tmp:
         book = Path(tmp) / "book"
         book.mkdir()
         for f in (root_dir / "book").iterdir():
@@ -245,10 +257,10 @@ def _measure_paper_book():
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         times = Path(tmp) / "times.json"
+        log = open(Path(tmp) / "build.log", "w")  # the build's output: its tail on failure
         proc = subprocess.Popen(["make", "-C", str(root_dir), "book", "PROFILE=paper",
                                  f"BOOK={book}", f"RUN_FLAGS=--times {times}"], env=env,
-                                stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
+                                stdout=log, stderr=subprocess.STDOUT)
         root, peak, peak_pss = psutil.Process(proc.pid), 0.0, 0.0
         while proc.poll() is None:
             try:  # RSS counts shared pages once per process; PSS splits them among sharers
@@ -260,10 +272,25 @@ def _measure_paper_book():
             time.sleep(0.5)
         wall = time.perf_counter() - t0
         cpu1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        log.close()
         if proc.returncode:
-            raise RuntimeError(f"make book PROFILE=paper failed with exit code {proc.returncode}")
+            tail = (Path(tmp) / "build.log").read_text()[-3000:]
+            raise RuntimeError(f"make book PROFILE=paper failed with exit code "
+                               f"{proc.returncode}; the end of its output:\n{tail}")
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
-        return wall, peak, peak_pss, 100 * cpu / wall, json.loads(times.read_text())
+        return (wall, peak, peak_pss, 100 * cpu / wall, json.loads(times.read_text()),
+                page_cell_seconds(book / "generated"))
+
+
+def page_cell_seconds(generated):
+    """{page: seconds its code cells ran} of the executed pages in ``generated`` (papermill's
+    per-cell durations), largest first."""
+    pages = {}
+    for nb in sorted(Path(generated).glob("*.ipynb")):
+        cells = json.loads(nb.read_text())["cells"]
+        pages[nb.stem] = round(sum(c.get("metadata", {}).get("papermill", {}).get("duration")
+                                   or 0.0 for c in cells if c["cell_type"] == "code"), 1)
+    return dict(sorted(pages.items(), key=lambda kv: -kv[1]))
 
 
 _COLD = """
