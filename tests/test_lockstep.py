@@ -31,6 +31,16 @@ def _same(a, b):
     return a.shape == b.shape and bool(np.all((a == b) | (np.isnan(a) & np.isnan(b))))
 
 
+def _one_centre(Z, X, gamma, nw=1):
+    """The lockstep barycentre objective and gradient of one centre (K = 1)."""
+    Zs = np.ascontiguousarray(Z[None])
+    cid = np.zeros(len(X), dtype=np.int64)
+    starts = np.array([0, len(X)], dtype=np.int64)
+    objs, G = (_objgrad_lockstep_par(Zs, cid, starts, X, gamma, nw) if nw > 1
+               else _objgrad_lockstep(Zs, cid, starts, X, gamma))
+    return objs[0], G[0]
+
+
 def _check_kernels(X, centres, gamma, tslearn=True):
     """Values and barycentre objective/gradient: lockstep (serial and threaded) == scalar (==
     tslearn when asked)."""
@@ -46,13 +56,26 @@ def _check_kernels(X, centres, gamma, tslearn=True):
     if tslearn:
         assert _same(lock, cdist_soft_dtw(X, centres, gamma=gamma))
     for Z in centres:
-        v, G = _objgrad_lockstep(Z, X, gamma)
-        v2, G2 = _objgrad_lockstep_par(Z, X, gamma, 2)
+        v, G = _one_centre(Z, X, gamma)
+        v2, G2 = _one_centre(Z, X, gamma, nw=2)
         rv, rG = _objgrad_batch_serial(Z, X, gamma, True)
         assert v == rv and v2 == rv and _same(G, rG) and _same(G2, rG)
+    # every centre at once, each with its own series (k-means' clusters sharing the
+    # vectors, a lane's neighbours belonging to another centre): each centre's value and
+    # gradient are its own, scalar kernel's
+    K = min(len(centres), len(X))
+    starts = np.linspace(0, len(X), K + 1).astype(np.int64)
+    Zs = np.ascontiguousarray(centres[:K])
+    cid = np.repeat(np.arange(len(Zs), dtype=np.int64), np.diff(starts))
+    for nw in (1, 2):
+        objs, G = (_objgrad_lockstep_par(Zs, cid, starts, X, gamma, nw) if nw > 1
+                   else _objgrad_lockstep(Zs, cid, starts, X, gamma))
+        for j, Z in enumerate(Zs):
+            rv, rG = _objgrad_batch_serial(Z, X[starts[j]:starts[j + 1]], gamma, True)
+            assert objs[j] == rv and _same(G[j], rG)
     if tslearn:  # per series, tslearn's own value and gradient (a cluster of one)
         for s in range(min(3, len(X))):
-            v, G = _objgrad_lockstep(centres[0], X[s:s + 1], gamma)
+            v, G = _one_centre(centres[0], X[s:s + 1], gamma)
             tv, tG = _softdtw_func(centres[0], X[s], 1.0, gamma, 0, None, None)
             assert v == tv and _same(G.ravel(), np.ravel(tG))
 

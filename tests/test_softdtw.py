@@ -57,6 +57,20 @@ def test_lbfgsb_driver_is_bit_identical_to_scipy_minimize(maxiter):
                            options=dict(maxiter=maxiter)).x
             ours = _lbfgsb(fg, x0, maxiter, ftol=tol, gtol=tol)
             assert np.array_equal(ours, ref)
+    # side by side (k-means' clusters, one kernel call per round): each problem gets what it
+    # gets alone, though they stop after different numbers of evaluations
+    from uavwind.method.softdtw._lbfgsb import lbfgsb_many
+    problems = [(bary, Z0.ravel()), (rosenbrock, rng.normal(size=6)), (bary, Xs[2].ravel())]
+    calls = []
+
+    def fg_many(asked):
+        calls.append([k for k, _ in asked])
+        return [problems[k][0](x) for k, x in asked]
+    for tol in (1e-3, 1e-8):
+        alone = [_lbfgsb(fg, x0, maxiter, ftol=tol, gtol=tol) for fg, x0 in problems]
+        together = lbfgsb_many(fg_many, [x0 for _, x0 in problems], maxiter, tol, tol)
+        assert all(np.array_equal(a, b) for a, b in zip(alone, together))
+    assert calls[0] == [0, 1, 2] and any(len(c) < 3 for c in calls)
 
 
 def test_barycentre_objective_equals_tslearn():

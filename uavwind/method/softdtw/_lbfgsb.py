@@ -45,9 +45,45 @@ def lbfgsb(fg, x0, maxiter, ftol, gtol):
                     options={"maxiter": maxiter, "ftol": ftol, "gtol": gtol}).x
 
 
+def lbfgsb_many(fg_many, x0s, maxiter, ftol, gtol):
+    """Minimise several problems side by side: ``fg_many([(k, x), ...]) -> [(f, g), ...]``
+    evaluates problem k at x for every problem still running, in one call (so one kernel
+    call can serve them all). Each problem sees exactly the evaluations :func:`lbfgsb`
+    would give it, in the same order, so each final ``x`` is the same array; on an untested
+    scipy, one ``minimize`` after another."""
+    if not scipy_supported():
+        return [lbfgsb(lambda x, k=k: fg_many([(k, x)])[0], x0, maxiter, ftol, gtol)
+                for k, x0 in enumerate(x0s)]
+    runs = [_lbfgsb_steps(x0, maxiter, ftol, gtol) for x0 in x0s]
+    asked = {k: next(run) for k, run in enumerate(runs)}
+    out = [None] * len(runs)
+    while asked:
+        order = list(asked)
+        for k, fg in zip(order, fg_many([(k, asked[k]) for k in order])):
+            try:
+                asked[k] = runs[k].send(fg)
+            except StopIteration as done:
+                out[k] = done.value
+                del asked[k]
+    return out
+
+
 def _lbfgsb(fg, x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
+    """:func:`_lbfgsb_steps` driven by ``fg``: the final ``x``."""
+    run = _lbfgsb_steps(x0, maxiter, ftol, gtol, maxcor, maxls)
+    try:
+        x = next(run)
+        while True:
+            x = run.send(fg(x))
+    except StopIteration as done:
+        return done.value
+
+
+def _lbfgsb_steps(x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
     """Unconstrained L-BFGS-B: the loop of scipy's ``_minimize_lbfgsb`` without
-    the ``minimize`` / ``ScalarFunction`` / ``MemoizeJac`` layers around it.
+    the ``minimize`` / ``ScalarFunction`` / ``MemoizeJac`` layers around it, as a
+    generator: it yields each point to evaluate (a copy) and is sent ``(f, g)`` there;
+    it returns the final ``x``.
 
     Calls the same Fortran-derived ``setulb`` with the same arguments, feeds it
     the same (f, g) at the same points (an evaluation is reused when ``setulb``
@@ -77,7 +113,7 @@ def _lbfgsb(fg, x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
     # ScalarFunction evaluates at x0 when it is built; later evaluations happen only
     # where x has changed since the last one
     last_x = x.copy()
-    last_f, last_g = fg(last_x.copy())
+    last_f, last_g = yield last_x.copy()
     n_iterations = 0
     while True:
         g = g.astype(np.float64)
@@ -86,7 +122,7 @@ def _lbfgsb(fg, x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
         if task[0] == 3:
             if not np.array_equal(x, last_x):
                 last_x = x.copy()
-                last_f, last_g = fg(last_x.copy())
+                last_f, last_g = yield last_x.copy()
             f, g = last_f, last_g
         elif task[0] == 1:
             n_iterations += 1

@@ -26,7 +26,8 @@ epilogue triangles and short blocks use :func:`_mstep` too, so the last cell alw
 Layout: series are lane-interleaved, ``x[(i * d + k) * N + l]`` = feature k of step i of lane
 l's series; the S buffer is padded like tslearn's accumulated matrix (row -1 is -inf but for
 the corner (-1, -1) = 0 / -gamma, column -1 is -inf), so the borders run the same code.
-The same lanes serve the barycentre objective (N series against one centre: value, gradient
+The same lanes serve the barycentre objective (N series, each against its own centre, so
+k-means' clusters share the vectors: value, gradient
 matrix by the backward recursion over the union of the lanes' bands, and each lane's
 Jacobian by the scalar kernel's own function) and DTW (N pairs of the silhouette's matrix;
 min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
@@ -373,12 +374,13 @@ def _backward(Rf, D, m, n, gamma, E, clo, chi):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _jacobian_lanes(Z, Xs, s0, E, m, n, clo, chi, El, jlo, jhi, Gs):
-    """Per lane (series s0 + l): its E band copied into the scalar matrix El, its per-row
-    first and last non-zero column, then the scalar kernel's Jacobian product itself (same
-    compiled code and flags as tslearn's, so the same doubles), into the zeroed Gs[s]."""
+def _jacobian_lanes(Zs, cid, Xs, s0, E, m, n, clo, chi, El, jlo, jhi, Gs):
+    """Per lane (series s0 + l, against centre Zs[cid[s]]): its E band copied into the
+    scalar matrix El, its per-row first and last non-zero column, then the scalar kernel's
+    Jacobian product itself (same compiled code and flags as tslearn's, so the same
+    doubles), into the zeroed Gs[s]."""
     nN = n * N
-    d = Z.shape[1]
+    d = Zs.shape[2]
     for l in range(N):
         s = s0 + l
         if s >= Xs.shape[0]:
@@ -398,7 +400,7 @@ def _jacobian_lanes(Z, Xs, s0, E, m, n, clo, chi, El, jlo, jhi, Gs):
         for i in range(m):
             for k in range(d):
                 G[i, k] = 0.0
-        _jacobian_product_sq_euc(Z, Xs[s], El, jlo, jhi, G)
+        _jacobian_product_sq_euc(Zs[cid[s]], Xs[s], El, jlo, jhi, G)
         for c in range(n):
             for r in range(clo[c], chi[c] + 1):
                 El[r, c] = 0.0
@@ -427,17 +429,31 @@ def _pack_series(Xs, g, x):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _objgrad_groups(Z, Xs, gamma, g0, g1, step, vals, Gs):
-    """vals[s], Gs[s] = tslearn's ``_softdtw_func(Z, Xs[s], 1, gamma, ..)`` for the series of
-    lane groups g0, g0 + step, .. < g1, one private workspace."""
-    m, d = Z.shape
+def _pack_centres(Zs, cid, g, zl):
+    """Lane-interleave the centres of the series g * N .. g * N + N - 1 (Zs[cid[s]]; past
+    the last series: the last one's)."""
+    last = cid.shape[0] - 1
+    m, d = Zs.shape[1], Zs.shape[2]
+    for l in range(N):
+        z = Zs[cid[min(g * N + l, last)]]
+        for t in range(m):
+            for k in range(d):
+                zl[(t * d + k) * N + l] = z[t, k]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs):
+    """vals[s], Gs[s] = tslearn's ``_softdtw_func(Zs[cid[s]], Xs[s], 1, gamma, ..)`` for the
+    series of lane groups g0, g0 + step, .. < g1, one private workspace. A lane's centre is
+    its series' own (``cid``), so one vector can serve series of several barycentres; a
+    lane's arithmetic does not depend on its neighbours."""
+    m, d = Zs.shape[1], Zs.shape[2]
     n = Xs.shape[1]
     ns = Xs.shape[0]
+    one = Zs.shape[0] == 1
     zl = np.empty(m * d * N)
-    for t in range(m):
-        for k in range(d):
-            for l in range(N):
-                zl[(t * d + k) * N + l] = Z[t, k]
+    if one:  # one centre: packed once
+        _pack_centres(Zs, cid, 0, zl)
     x = np.empty(n * d * N)
     S = np.empty((R + 1) * (n + 1) * N)
     D = np.empty(m * n * N)
@@ -449,44 +465,61 @@ def _objgrad_groups(Z, Xs, gamma, g0, g1, step, vals, Gs):
     jlo = np.empty(m, dtype=np.int64)
     jhi = np.empty(m, dtype=np.int64)
     for g in range(g0, g1, step):
+        if not one:
+            _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
         last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
         _backward(Rf, D, m, n, gamma, E, clo, chi)
         for l in range(N):
             if g * N + l < ns:
                 vals[g * N + l] = lane(last, l)
-        _jacobian_lanes(Z, Xs, g * N, E, m, n, clo, chi, El, jlo, jhi, Gs)
+        _jacobian_lanes(Zs, cid, Xs, g * N, E, m, n, clo, chi, El, jlo, jhi, Gs)
         _clear_band(E, n, clo, chi)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_lockstep(Z, Xs, gamma):
-    """The barycentre objective and gradient = the scalar ``_objgrad_batch_serial``, N series
-    per vector: per-series values and gradients, then the same reduction in series order."""
-    ns = Xs.shape[0]
-    m, d = Z.shape
-    vals = np.empty(ns)
-    Gs = np.empty((ns, m, d))
-    _objgrad_groups(Z, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs)
-    return _reduce_objgrad(vals, Gs)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _objgrad_lockstep_inner(Z, Xs, gamma, nw, vals, Gs):
-    ngroups = (Xs.shape[0] + N - 1) // N
-    for w in prange(nw):
-        _objgrad_groups(Z, Xs, gamma, w, ngroups, nw, vals, Gs)
+def _reduce_many(vals, Gs, starts):
+    """Per barycentre j (its series starts[j] .. starts[j + 1] - 1): the scalar kernel's
+    reduction in series order; (objectives, gradients)."""
+    K = starts.shape[0] - 1
+    objs = np.empty(K)
+    G = np.empty((K, Gs.shape[1], Gs.shape[2]))
+    for j in range(K):
+        objs[j], G[j] = _reduce_objgrad(vals[starts[j]:starts[j + 1]],
+                                        Gs[starts[j]:starts[j + 1]])
+    return objs, G
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_lockstep_par(Z, Xs, gamma, nw):
-    """:func:`_objgrad_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+def _objgrad_lockstep(Zs, cid, starts, Xs, gamma):
+    """The barycentre objectives and gradients of ``K = len(Zs)`` centres at once, each =
+    the scalar ``_objgrad_batch_serial(Zs[j], Xs[starts[j]:starts[j + 1]], ..)``: N series
+    per vector (of any centres: k-means' clusters share the vectors), then each centre's
+    reduction in its series' order."""
     ns = Xs.shape[0]
-    m, d = Z.shape
+    m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_lockstep_inner(Z, Xs, gamma, nw, vals, Gs)
-    return _reduce_objgrad(vals, Gs)
+    _objgrad_groups(Zs, cid, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs)
+    return _reduce_many(vals, Gs, starts)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+def _objgrad_lockstep_inner(Zs, cid, Xs, gamma, nw, vals, Gs):
+    ngroups = (Xs.shape[0] + N - 1) // N
+    for w in prange(nw):
+        _objgrad_groups(Zs, cid, Xs, gamma, w, ngroups, nw, vals, Gs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _objgrad_lockstep_par(Zs, cid, starts, Xs, gamma, nw):
+    """:func:`_objgrad_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+    ns = Xs.shape[0]
+    m, d = Zs.shape[1], Zs.shape[2]
+    vals = np.empty(ns)
+    Gs = np.empty((ns, m, d))
+    _objgrad_lockstep_inner(Zs, cid, Xs, gamma, nw, vals, Gs)
+    return _reduce_many(vals, Gs, starts)
 
 
 # ---------------------------------- DTW ------------------------------------

@@ -19,8 +19,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from ._checks import _as_dataset, _check_gamma, _same_features, _use_parallel
 from ._consts import env_flag
-from ._dispatch import _objgrad, _sdtw_cross
-from ._lbfgsb import lbfgsb
+from ._dispatch import _objgrad_many, _sdtw_cross
+from ._lbfgsb import lbfgsb_many
 from ._libm import _libm_selfcheck
 
 
@@ -94,20 +94,24 @@ def _k_init_metric(X, n_clusters, cdist_metric, random_state):
 
 
 
-def _softdtw_barycenter(Xk, init, gamma, max_iter, objgrad, tol=1e-3):
-    """tslearn.barycenters.softdtw_barycenter(X=Xk, gamma, max_iter,
-    init=init) with unit weights and no constraint: ``scipy.optimize.minimize(
-    method="L-BFGS-B", tol=tol, jac=True, options={"maxiter": max_iter})``,
-    i.e. ``ftol = gtol = tol``, run by :func:`_lbfgsb`."""
+def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_many, tol=1e-3):
+    """``[tslearn.barycenters.softdtw_barycenter(X=Xks[k], gamma, max_iter, init=inits[k])]``
+    with unit weights and no constraint: ``scipy.optimize.minimize(method="L-BFGS-B",
+    tol=tol, jac=True, options={"maxiter": max_iter})``, i.e. ``ftol = gtol = tol``, run by
+    :func:`~uavwind.method.softdtw._lbfgsb.lbfgsb_many`: every cluster's L-BFGS-B side by
+    side, so each round's objectives and gradients are one kernel call. A barycentre
+    depends only on its own series and start, so this is tslearn's one-after-another
+    update, value for value."""
     if max_iter <= 0:
-        return init
-    m, d = init.shape
+        return list(inits)
+    m, d = inits[0].shape
 
-    def f(Z):
-        obj, G = objgrad(Z.reshape(m, d), Xk, gamma)
-        return float(obj), G.ravel()
+    def fg_many(asked):
+        done = objgrad_many([x.reshape(m, d) for _, x in asked], [Xks[k] for k, _ in asked])
+        return [(float(obj), G.ravel()) for obj, G in done]
 
-    return lbfgsb(f, init.ravel(), max_iter, ftol=tol, gtol=tol).reshape(init.shape)
+    xs = lbfgsb_many(fg_many, [init.ravel() for init in inits], max_iter, ftol=tol, gtol=tol)
+    return [x.reshape(m, d) for x in xs]
 
 
 _TP_CONTROLLER = None
@@ -168,8 +172,8 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
 
     fx = _libm_selfcheck()
 
-    def objgrad(Z, Xk, gamma):
-        return _objgrad(Z, Xk, gamma, par, fx)
+    def objgrad_many(Zs, Xks):
+        return _objgrad_many(Zs, Xks, gamma, par, fx)
     n_ts = X.shape[0]
 
     def cdist_sdtw(A, B):
@@ -214,11 +218,12 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
             if np.any(np.bincount(labels, minlength=n_clusters) == 0):
                 failed = True
                 break
-            # _update_centroids
+            # _update_centroids: the clusters' barycentres side by side
+            Xks = [np.ascontiguousarray(X[labels == k]) for k in range(n_clusters)]
+            new = _softdtw_barycenters(Xks, [centers[k] for k in range(n_clusters)], gamma,
+                                       max_iter_barycenter, objgrad_many)
             for k in range(n_clusters):
-                Xk = np.ascontiguousarray(X[labels == k])
-                centers[k] = _softdtw_barycenter(
-                    Xk, centers[k], gamma, max_iter_barycenter, objgrad)
+                centers[k] = new[k]
             if np.abs(old_inertia - inertia) < tol:
                 break
             old_inertia = inertia
