@@ -305,7 +305,7 @@ def test_bad_input_gets_a_value_error_naming_the_parameter():
 # --------------------------------------------------------------------------- #
 # the experiment
 # --------------------------------------------------------------------------- #
-def test_experiment_12_end_to_end_and_its_cache(tmp_path):
+def test_experiment_12_end_to_end_and_its_cache(tmp_path, monkeypatch):
     prof = {"loops": 2, "long_loops": 2, "fit_loops": 2, "episodes": 3,
             "cem": {"n_samples": 2, "n_elite": 1, "max_iter": 1}}
     df = run_experiment("exp12", profile=prof, reading="halves", cases=[2], results=tmp_path,
@@ -328,6 +328,21 @@ def test_experiment_12_end_to_end_and_its_cache(tmp_path):
     bad = df.copy()
     bad.loc[3, "correct"] = not bad.loc[3, "correct"]
     assert "correct" in _problem(bad, expect)
+    # the page's summaries (the curves' bootstraps, time to confidence, closing the loop)
+    # are made by the fill, kept under the table's digest and read back equal
+    from uavwind.analysis import closed_loop as cl
+    from uavwind.analysis import memo
+    from uavwind.core.io import READ_ONLY_ENV
+    made = memo.exp12_summaries(df, results=tmp_path)
+    for name, f in (("curves", cl.accuracy_over_time), ("time_to_confidence",
+                                                         cl.time_to_confidence),
+                    ("closing", cl.closing_the_loop)):
+        assert made[name].equals(f(df)), name
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    read = memo.exp12_summaries(again, results=tmp_path)
+    assert all(read[k].equals(made[k]) for k in made)
+    with pytest.raises(RuntimeError, match="the analysis exp12_curves"):
+        memo.exp12_summaries(df.iloc[:-1], results=tmp_path)  # another table: not cached
 
 
 def test_a_flight_unlike_every_member_is_not_read_with_certainty():

@@ -42,10 +42,11 @@ from ..study.registry import EXPERIMENTS
 from ..study.runner import run_experiment
 from . import inference, manoeuvres
 from .claims import c1_by_vehicle, compare_readings, needed_experiments
-from .closed_loop import time_to_confidence
+from .closed_loop import accuracy_over_time, closing_the_loop, time_to_confidence
 
 __all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses",
            "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary",
+           "exp12_summaries",
            "model_example", "model_vertical_exercise", "exp1_line_exercise",
            "exp1_scale_exercise", "exp6_rank_by_exercise", "exp7_noise_exercise",
            "inference_gusts_exercise"]
@@ -129,6 +130,19 @@ def scale_invariance_summary(profile: str, seed: int, results=None) -> pd.DataFr
     return memo("inference_scale_invariance", {"n_loops": n, "seed": seed}, compute, results)
 
 
+def exp12_summaries(exp12: pd.DataFrame, results=None) -> dict[str, pd.DataFrame]:
+    """Exp 12's page summaries of its result table, each cached under the table's content
+    digest (taken once for the three: 1.2 s on the paper profile's 115,200 rows):
+    ``"curves"`` (:func:`~uavwind.analysis.closed_loop.accuracy_over_time`, its bootstraps),
+    ``"time_to_confidence"`` and ``"closing"``
+    (:func:`~uavwind.analysis.closed_loop.closing_the_loop`)."""
+    inputs = {"inputs": {"exp12": content_digest(exp12.reset_index(drop=True))}}
+    summaries = {"curves": accuracy_over_time, "time_to_confidence": time_to_confidence,
+                 "closing": closing_the_loop}
+    return {k: memo(f"exp12_{k}", inputs, lambda f=f: f(exp12), results)
+            for k, f in summaries.items()}
+
+
 def _read(exp_id, profile, seed, results, reading=None):
     return run_experiment(exp_id, profile=profile, seed=seed, n_jobs=1, reading=reading,
                           results=results, progress=False)
@@ -139,6 +153,11 @@ def _fill_claims(profile, seed, results):
                   for r in ("inferred", "halves")}
     claims_verdicts(by_reading, results)
     c1_vehicles(_read("exp10", profile, seed, results, DEFAULT_READING), results)
+
+
+def _fill_exp12(profile, seed, results):
+    exp12_summaries(_read("exp12", profile, seed, results, EXPERIMENTS["exp12"].readings[0]),
+                    results)
 
 
 def _fill_inference(profile, seed, results):
@@ -337,6 +356,7 @@ def _fixed(f):
 
 PAGE_ANALYSES = {"claims": _fill_claims,
                  "inference": _fill_inference,
+                 "exp12": _fill_exp12,
                  "exp10_saturation_split": _seed_only(saturation_split),
                  "exp10_drift_offsets": _seed_only(drift_offsets),
                  "exp10_zero_thrust_sensitivity": _seed_only(zero_thrust_sensitivity),
