@@ -173,7 +173,9 @@ def content_digest(df: pd.DataFrame) -> str:
     columns as lists, floats by their shortest round-trip repr)."""
     h = hashlib.sha256()
     for col in df.columns:
-        values = [_plain(v) for v in df[col].tolist()]
+        values = df[col].tolist()
+        if df[col].dtype.kind not in "fiub":  # numbers and flags come out as Python scalars
+            values = [_plain(v) for v in values]
         h.update(json.dumps([str(col), str(df[col].dtype), values], default=str,
                             allow_nan=True).encode())
     return h.hexdigest()
