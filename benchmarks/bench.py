@@ -391,6 +391,7 @@ def bench_where_time_goes(report, n_loops=20):
     # lockstep (the default) and scalar (the reference) interleaved in one run
     from uavwind.method import softdtw as fk
     from uavwind.method.softdtw import _consts
+    from uavwind.method.softdtw._dispatch import _objgrad_many
     from uavwind.method.softdtw._lockstep import N
 
     X = np.ascontiguousarray(inputs[3])
@@ -402,18 +403,27 @@ def bench_where_time_goes(report, n_loops=20):
         value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False), repeat=20)
         grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False),
                       repeat=20)
-        per_cell[kernel] = (value / (len(X) * 2 * cells) * 1e9, grad / (10 * cells) * 1e9)
+        # a k-means round: both clusters' objectives and gradients (one call in lockstep)
+        both = timeit(lambda: _objgrad_many([centres[0], centres[1]], [X[:10], X[10:]], 0.5,
+                                            False, True), repeat=20)
+        per_cell[kernel] = (value / (len(X) * 2 * cells) * 1e9, grad / (10 * cells) * 1e9,
+                            both / (len(X) * cells) * 1e9)
     _consts.LOCKSTEP = True
-    ns_value, ns_grad = per_cell["lockstep"]
-    for kernel, (v, g) in per_cell.items():
+    ns_value, ns_grad, ns_both = per_cell["lockstep"]
+    for kernel, (v, g, b) in per_cell.items():
         print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix, {kernel}"
               f"{f' ({N} lanes)' if kernel == 'lockstep' else ''}: soft-DTW value {v:.2f} ns, "
-              f"value + gradient {g:.2f} ns (median of 20)")
+              f"value + gradient {g:.2f} ns (one cluster of 10), {b:.2f} ns (both clusters' "
+              f"round, 10 + 10 series) (median of 20)")
     report["time_shares"] = {"loops": n_loops, "iterations": iters, "seconds": total,
                              "shares": shares, "ns_per_cell_value": ns_value,
-                             "ns_per_cell_value_and_gradient": ns_grad, "lanes": N,
+                             "ns_per_cell_value_and_gradient": ns_grad,
+                             "ns_per_cell_value_and_gradient_both_clusters": ns_both,
+                             "lanes": N,
                              "ns_per_cell_scalar": {"value": per_cell["scalar"][0],
-                                                    "value_and_gradient": per_cell["scalar"][1]}}
+                                                    "value_and_gradient": per_cell["scalar"][1],
+                                                    "value_and_gradient_both_clusters":
+                                                        per_cell["scalar"][2]}}
 
 
 def _varied_loop(i):

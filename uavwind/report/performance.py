@@ -117,6 +117,10 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                     "value + gradient": t["ns_per_cell_value_and_gradient"]},
                 "scalar (ns)": {"soft-DTW value": t["ns_per_cell_scalar"]["value"],
                                 "value + gradient": t["ns_per_cell_scalar"]["value_and_gradient"]}})
+            if "ns_per_cell_value_and_gradient_both_clusters" in t:  # one k-means round
+                out["cells"].loc["value + gradient, both clusters in one call"] = [
+                    t["ns_per_cell_value_and_gradient_both_clusters"],
+                    t["ns_per_cell_scalar"]["value_and_gradient_both_clusters"]]
             out["cells"]["ratio"] = out["cells"].iloc[:, 1] / out["cells"].iloc[:, 0]
             out["cells"].index.name = "per cell, median of 20"
     if "spread" in report:
