@@ -360,4 +360,11 @@ def test_the_content_digest_of_numbers_is_what_it_was_before_its_fast_path():
                        "u": np.arange(5, dtype=np.uint8), "b": [True, False] * 2 + [True],
                        "s": list("abcde"), "a": [np.arange(3.0) / 7] * 5,
                        "f32": np.linspace(0, 1, 5, dtype=np.float32)})
+    nested = np.empty(5, dtype=object)  # a list<list<float>> column as pyarrow returns it
+    for i in range(5):
+        rows = np.empty(2, dtype=object)
+        rows[0], rows[1] = np.arange(3.0) * i, np.array([np.nan, 1e-310, -0.0])
+        nested[i] = rows
+    df["nested"] = nested
+    df["ints2d"] = [np.arange(6).reshape(2, 3)] * 5
     assert cache.content_digest(df) == reference(df)

@@ -160,6 +160,8 @@ class TransientReadError(OSError):
 
 def _plain(v):
     if isinstance(v, np.ndarray):
+        if v.dtype.kind in "fiub":  # tolist() gives Python scalars (in nested lists) already
+            return v.tolist()
         return [_plain(x) for x in v.tolist()]
     if isinstance(v, (list, tuple)):
         return [_plain(x) for x in v]
