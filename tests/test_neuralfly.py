@@ -117,6 +117,13 @@ def test_unknown_conditions_and_duplicates_are_refused(tmp_path):
     write_flight(tmp_path, condition="nowind", suffix=".csv.xz")
     with pytest.raises(ValueError, match="the same flight as"):
         load_neuralfly(tmp_path)
+    # read_flights, given files by hand, refuses a name that is not a flight's
+    from uavwind.data.neuralfly import read_flights
+    plain = tmp_path / "custom_figure8_ctl_nowind.csv"
+    (tmp_path / "notes.csv").write_bytes(plain.read_bytes())
+    with pytest.raises(ValueError, match="notes.csv: not a Neural-Fly flight"):
+        read_flights([plain, tmp_path / "notes.csv"])
+    assert read_flights([plain])[0].condition == "nowind"
 
 
 def test_laps_are_whole_reference_laps_resampled_the_first_dropped(tmp_path):

@@ -42,7 +42,7 @@ from ..core.checks import check_instance, check_scalar
 from ..core.parallel import check_jobs
 from ..core.stats import bootstrap_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, files_digest, flight_files,
-                              flight_laps, load_neuralfly)
+                              flight_laps, read_flights)
 from ..method.clustering import ClusteringParams, score_loop
 from ..method.softdtw import dtw_pdist
 from .memo import memo
@@ -292,7 +292,7 @@ def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "pa
         source = {"files": files_digest(files)}
 
         def load():
-            return load_neuralfly(files[0].parent)
+            return read_flights(files)
     else:
         source = {"flights": flights_digest(flights)}
 

@@ -36,7 +36,7 @@ import pandas as pd
 from ..core.checks import check_scalar
 
 __all__ = ["RealFlight", "CONDITIONS", "CHANNELS", "COLUMNS", "ENV_VAR", "load_neuralfly",
-           "neuralfly_folder", "flight_files", "files_digest", "flight_laps", "channel_series", "tilt_degrees", "CITATION"]
+           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "channel_series", "tilt_degrees", "CITATION"]
 
 #: The environment variable naming the folder of the flights.
 ENV_VAR = "UAVWIND_NEURALFLY"
@@ -166,9 +166,20 @@ def load_neuralfly(folder: os.PathLike | str | None = None, trajectory: str = "f
         The name's trajectory part (``"figure8"``: the lemniscate ``(1.25 sin t, 0,
         0.75 sin 2t)``).
     """
+    return read_flights(flight_files(folder, trajectory))
+
+
+def read_flights(files: list[Path]) -> list[RealFlight]:
+    """One :class:`RealFlight` per file (as :func:`flight_files` lists them), sorted by
+    controller and wind speed; a file not named as a flight of a known condition, or
+    malformed, is a ``ValueError`` naming it (and the column)."""
     flights = []
-    for f in flight_files(folder, trajectory):
+    for f in map(Path, files):
         m = _NAME.match(f.name)
+        if m is None or m["condition"] not in CONDITIONS:
+            raise ValueError(f"{f.name}: not a Neural-Fly flight of a known condition (files "
+                             f"named <vehicle>_<trajectory>_<controller>_<condition>.csv or "
+                             f".csv.xz, conditions {', '.join(CONDITIONS)})")
         flights.append(RealFlight(controller=m["controller"], condition=m["condition"],
                                   wind_speed=CONDITIONS[m["condition"]], source=f.name,
                                   vehicle=m["vehicle"], trajectory=m["trajectory"],
