@@ -158,9 +158,14 @@ class TransientReadError(OSError):
     the file is left where it is, since it may be sound, and the run stops."""
 
 
+#: numpy dtype kinds whose ``tolist()`` is Python scalars already (floats, ints, flags): the
+#: content digest takes them as they come.
+_SCALAR_KINDS = "fiub"
+
+
 def _plain(v):
     if isinstance(v, np.ndarray):
-        if v.dtype.kind in "fiub":  # tolist() gives Python scalars (in nested lists) already
+        if v.dtype.kind in _SCALAR_KINDS:  # nested lists of Python scalars already
             return v.tolist()
         return [_plain(x) for x in v.tolist()]
     if isinstance(v, (list, tuple)):
@@ -176,7 +181,7 @@ def content_digest(df: pd.DataFrame) -> str:
     h = hashlib.sha256()
     for col in df.columns:
         values = df[col].tolist()
-        if df[col].dtype.kind not in "fiub":  # numbers and flags come out as Python scalars
+        if df[col].dtype.kind not in _SCALAR_KINDS:
             values = [_plain(v) for v in values]
         h.update(json.dumps([str(col), str(df[col].dtype), values], default=str,
                             allow_nan=True).encode())
