@@ -14,15 +14,17 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from .._version import __version__
-from ..core.checks import check_scalar
-from ..core.stats import summarise
+from ..core.checks import check_instance
+from ..core.stats import loops_needed, summarise
 from ..study.paper import load_paper_values
 from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
 from ..study.runner import case_loops
+from ..study.sizing import SIZED_AT, SIZINGS, Sizing
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
@@ -133,7 +135,6 @@ def comparison_table(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows).set_index("row")
 
 
-
 def provenance(df: pd.DataFrame) -> str:
     """One line saying how a result table was made: experiment, reading, profile, seed,
     engine, loops, library version and commit (for captions)."""
@@ -141,7 +142,6 @@ def provenance(df: pd.DataFrame) -> str:
     return (f"Made by experiment {a.get('experiment', '?')} under the {a.get('reading', '?')!r} "
             f"reading, profile {a.get('profile', '?')}, seed {a.get('seed', '?')}, engine "
             f"{a.get('engine', '?')}, {len(df)} rows; uavwind {__version__}, commit {source_commit()}.")
-
 
 
 def profile_note(df: pd.DataFrame) -> str:
@@ -162,7 +162,7 @@ def profile_note(df: pd.DataFrame) -> str:
     else:
         n = df.groupby("case")["loop"].nunique()
         unit = "loops"
-        ref = sorted({case_loops(paper, c) for c in exp.cases()})
+        ref = sorted({case_loops(paper, c, exp.id) for c in exp.cases()})
 
     def span(v):
         v = sorted(set(int(x) for x in v))
@@ -177,43 +177,44 @@ def profile_note(df: pd.DataFrame) -> str:
     return text
 
 
-def loops_needed(sd: float, halfwidth: float, level: float = 0.95) -> int:
-    """Loops (or episodes) whose mean has a normal-approximation CI of ``+- halfwidth`` at
-    ``level`` when one loop's value has standard deviation ``sd``: ``ceil((z sd / h)^2)``.
+def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
+    """A sentence for a page: the question its verdicts decide and the 95% CI half-width it
+    needs, how the paper profile's count was chosen from it (:data:`~uavwind.study.sizing.SIZINGS`:
+    the spread measured in a paper build, the loops that spread needs, the floor), and the
+    same computation on ``df`` itself: one loop's spread here (the most variable group), the
+    loops that needs, the loops run and the half-width they give, and whether they suffice.
 
-    >>> loops_needed(30.0, 5.0)   # scores with SD 30 points, a CI of +-5 points
-    139
-    """
-    from math import ceil
-
-    from scipy.stats import norm
-    sd = check_scalar(sd, "sd", low=0.0)
-    halfwidth = check_scalar(halfwidth, "halfwidth", low=0.0, low_inclusive=False)
-    level = check_scalar(level, "level", low=0.0, high=1.0, low_inclusive=False,
-                         high_inclusive=False)
-    z = float(norm.ppf(0.5 + level / 2))
-    return max(2, ceil((z * sd / halfwidth) ** 2))
-
-
-def sizing_note(df: pd.DataFrame, halfwidth: float, question: str, value: str = "score",
-                unit: str = "points", by: str = "case", scale: float = 1.0) -> str:
-    """A sentence for a page: the CI half-width ``question`` needs, the spread of one loop's
-    ``value`` (times ``scale``) in ``df`` per ``by`` group, the loops that spread needs
-    (:func:`loops_needed`, for the most variable group), the loops run per group and the CI
-    half-width they give, and whether they suffice."""
+    ``sizing`` defaults to the record of ``df.attrs["experiment"]``."""
     from math import sqrt
-    g = df.groupby(by)[value]
-    sd = float((g.std(ddof=1) * scale).max())
+    if sizing is None:
+        exp_id = df.attrs.get("experiment")
+        if exp_id not in SIZINGS:
+            raise ValueError(f"sizing_note: no sizing for experiment {exp_id!r} (sized: "
+                             f"{sorted(SIZINGS)}); pass sizing=")
+        sizing = SIZINGS[exp_id]
+    s = check_instance(sizing, "sizing", Sizing)
+    if s.last_time:
+        df = df[df["time"] == df["time"].max()]
+    unit = ("episodes" if get_experiment(s.experiment).search == "closed_loop" else "loops")
+    one = unit[:-1]
+    g = df.groupby(list(s.by))[s.value]
+    sd = float((g.std(ddof=1) * s.scale).max())
     n_run = int(g.size().min())
-    need = loops_needed(sd, halfwidth)
+    need = loops_needed(sd, s.halfwidth) if np.isfinite(sd) else None
     got = 1.96 * sd / sqrt(n_run) if n_run > 1 else float("inf")
+    chosen = (f"{s.needed}" if s.count == s.needed else
+              f"{s.needed}, fewer than the {s.floor} it runs at the least ({s.floor_reason})")
+    text = (f"*Sizing.* {s.question} needs 95% CIs of about +-{s.halfwidth:g} {s.unit}. The "
+            f"paper profile runs **{s.count} {unit} per case**, chosen from that: one {one}'s "
+            f"value varied with a standard deviation of up to {s.sd:.1f} {s.unit} in the paper "
+            f"build at {SIZED_AT} ({s.measured_with} {unit} per case), which takes {chosen}.")
+    if need is None:
+        return text + f" This build ran {n_run} {unit} per case: too few to measure a spread."
     verdict = ("enough" if n_run >= need else
                "too few to decide differences of that size; a verdict whose CI spans both "
                "answers cannot decide")
-    return (f"*Sizing.* {question} needs 95% CIs of about +-{halfwidth:g} {unit}. One loop's "
-            f"value varies with a standard deviation of up to {sd:.1f} {unit} here, so that "
-            f"takes {need} loops per case; this build ran {n_run} (+-{got:.1f} {unit}): "
-            f"{verdict}.")
+    return text + (f" In this build one {one}'s value varies by up to {sd:.1f} {s.unit}, "
+                   f"which takes {need}; it ran {n_run} (+-{got:.1f} {s.unit}): {verdict}.")
 
 
 def source_commit(mark_changes: bool = False) -> str:

@@ -5,7 +5,9 @@ resamples, seed :data:`SEED`), :func:`paired_difference` (the same for loop-by-l
 differences between settings that flew the same thrust sequences), :func:`correct_share`
 (the share of loops grouped correctly) and :func:`summarise` (max, mean with its interval,
 correct share with its interval, count: the row of every summary table). Claims, summaries
-and figures all call these, so an interval means the same thing everywhere.
+and figures all call these, so an interval means the same thing everywhere;
+:func:`loops_needed` turns one loop's spread into the loops a CI of a given half-width needs
+(how the paper profile's counts beyond the paper are chosen: :mod:`uavwind.study.sizing`).
 """
 
 from __future__ import annotations
@@ -19,8 +21,8 @@ if TYPE_CHECKING:
     import pandas as pd
     from numpy.typing import ArrayLike
 
-__all__ = ["bootstrap_ci", "paired_difference", "correct_share", "summarise", "N_BOOT",
-           "SEED", "LEVEL"]
+__all__ = ["bootstrap_ci", "paired_difference", "correct_share", "summarise", "loops_needed",
+           "N_BOOT", "SEED", "LEVEL"]
 
 #: Bootstrap resamples of every interval.
 N_BOOT = 2000
@@ -96,3 +98,22 @@ def summarise(rows: pd.DataFrame | ArrayLike) -> dict:
     return {"max": float(scores.max()), "mean": mean, "ci_low": lo, "ci_high": hi,
             "correct_rate": rate, "correct_low": rlo, "correct_high": rhi,
             "n_loops": int(scores.size)}
+
+
+def loops_needed(sd: float, halfwidth: float, level: float = 0.95) -> int:
+    """Loops (or episodes) whose mean has a normal-approximation CI of ``+- halfwidth`` at
+    ``level`` when one loop's value has standard deviation ``sd``: ``ceil((z sd / h)^2)``.
+
+    >>> loops_needed(30.0, 5.0)   # scores with SD 30 points, a CI of +-5 points
+    139
+    """
+    from math import ceil
+    from statistics import NormalDist  # scipy.stats' ppf to 1e-16, without its import cost
+
+    from .checks import check_scalar
+    sd = check_scalar(sd, "sd", low=0.0)
+    halfwidth = check_scalar(halfwidth, "halfwidth", low=0.0, low_inclusive=False)
+    level = check_scalar(level, "level", low=0.0, high=1.0, low_inclusive=False,
+                         high_inclusive=False)
+    z = NormalDist().inv_cdf(0.5 + level / 2)
+    return max(2, ceil((z * sd / halfwidth) ** 2))

@@ -1,8 +1,9 @@
 """Profiles: how much work an experiment does (loops per case, CEM sizes).
 
 This module owns :class:`Profile` and :data:`PROFILES`: ``"paper"`` (the paper's counts: 50
-loops per case, 500 for Exp 1's long run, CEM with N = 30, Ne = 4 for 20 iterations) and
-``"quick"`` (a few loops per case, for CI and first looks), with :func:`get_profile`, which
+loops per case, 500 for Exp 1's long run, CEM with N = 30, Ne = 4 for 20 iterations; the
+experiments beyond the paper sized to their questions by :data:`uavwind.study.sizing.SIZINGS`)
+and ``"quick"`` (a few loops per case, for CI and first looks), with :func:`get_profile`, which
 also takes a custom profile as a :class:`Profile` or a dict of the same fields; and
 :data:`DEFAULT_SEED`, the root seed of every experiment, and :data:`CHUNK`, the loops per
 cache entry.
@@ -12,9 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
+from types import MappingProxyType
 from typing import Any
 
 from ..core.checks import check_instance, check_scalar
+from .sizing import SIZINGS
 
 __all__ = ["CEMSize", "Profile", "PROFILES", "get_profile", "DEFAULT_SEED", "CHUNK",
            "EPISODE_CHUNK"]
@@ -71,6 +74,10 @@ class Profile:
     flyable_loops : int
         Loops per case of Exp 14's flyable manoeuvres; default ``side_loops`` (the quick
         profile: 1, to keep its cost near 20 CPU-s).
+    sized_loops : mapping of str to int
+        Loops per plain case of the named experiments, instead of ``loops`` (the paper
+        profile: the counts :data:`~uavwind.study.sizing.SIZINGS` chose for Exps 7-10); an
+        experiment's fit, long, side and flyable cases keep their own counts.
     name : str
         ``"paper"``, ``"quick"``, or a name of your own (``"custom"`` by default).
     """
@@ -82,6 +89,7 @@ class Profile:
     side_loops: int | None = None
     episodes: int = 200
     flyable_loops: int | None = None
+    sized_loops: Mapping[str, int] = field(default_factory=dict, hash=False)
     name: str = field(default="custom", compare=False)
 
     def __post_init__(self):
@@ -92,6 +100,16 @@ class Profile:
         for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes", "flyable_loops"):
             object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
                                                      low=1, high=10 ** 6, integer=True))
+        from .registry import EXPERIMENTS  # the registry does not import profiles
+        sized = check_instance(self.sized_loops, "profile['sized_loops']", Mapping)
+        for exp_id, n in sized.items():
+            if exp_id not in EXPERIMENTS:
+                raise ValueError("profile['sized_loops'] maps experiment ids to loops per case; "
+                                 f"got the key {exp_id!r}, not one of {sorted(EXPERIMENTS)}")
+            check_scalar(n, f"profile['sized_loops'][{exp_id!r}]", low=1, high=10 ** 6,
+                         integer=True)
+        object.__setattr__(self, "sized_loops", MappingProxyType(
+            {k: int(sized[k]) for k in sorted(sized)}))
         cem = self.cem
         if isinstance(cem, Mapping):
             if set(cem) != {"n_samples", "n_elite", "max_iter"}:
@@ -104,9 +122,19 @@ class Profile:
     def __str__(self):
         return self.name
 
+    def loops_of(self, experiment: str) -> int:
+        """Loops per plain case of ``experiment`` (its ``sized_loops`` entry, else ``loops``)."""
+        return self.sized_loops.get(experiment, self.loops)
+
 
 PROFILES = {
+    # Exps 7-10 run their sized loops per case (the paper's 50 at the least), Exp 11 its
+    # sweep (side cases: also Exp 14's copies of them, which read its cache) and Exp 12 its
+    # episodes as sized; Exp 14's own flyable sweep stays at the fits' 20
     "paper": Profile(name="paper", loops=50, long_loops=500, fit_loops=20,
+                     side_loops=SIZINGS["exp11"].count, flyable_loops=20,
+                     episodes=SIZINGS["exp12"].count,
+                     sized_loops={e: SIZINGS[e].count for e in ("exp7", "exp8", "exp9", "exp10")},
                      cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
     "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2, episodes=10, flyable_loops=1,
                      cem=CEMSize(n_samples=6, n_elite=2, max_iter=3)),
@@ -122,7 +150,8 @@ def get_profile(profile: str | Profile | Mapping[str, Any]) -> Profile:
     if isinstance(profile, Mapping):
         need = {"loops", "long_loops", "fit_loops", "cem"}
         missing, extra = (need - set(profile),
-                          set(profile) - need - {"name", "side_loops", "episodes", "flyable_loops"})
+                          set(profile) - need - {"name", "side_loops", "episodes", "flyable_loops",
+                                                  "sized_loops"})
         if missing or extra:
             raise ValueError(f"profile dict must have exactly the keys {sorted(need)}; "
                              f"missing {sorted(missing)}, unknown {sorted(extra)}")

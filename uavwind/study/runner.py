@@ -278,7 +278,7 @@ def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, e
                                  engine=CLOSED_LOOP_ENGINE, params={}, start=start, stop=stop,
                                  options=opts, labels=labels))
             continue
-        n_loops = case_loops(prof, case)
+        n_loops = case_loops(prof, case, exp.id)
         for start in range(0, n_loops, CHUNK):
             stop = min(start + CHUNK, n_loops)
             key = cache_key(s, seed, start, stop, engine, params)
@@ -304,13 +304,18 @@ def check_cases(cases: Iterable[int] | None, n: int) -> list[int]:
     return out
 
 
-def case_loops(prof: Profile, case: Case) -> int:
-    """Loops ``case`` runs under profile ``prof`` (its fit, long or plain count)."""
+def case_loops(prof: Profile, case: Case, experiment: str | None = None) -> int:
+    """Loops ``case`` runs under profile ``prof`` (its fit, long, side, flyable or plain
+    count; a plain case of ``experiment`` its sized count, :meth:`Profile.loops_of`)."""
     if case.flyable:
         return prof.flyable_loops
     if case.side:
         return prof.side_loops
-    return prof.fit_loops if case.fit else prof.long_loops if case.long else prof.loops
+    if case.fit:
+        return prof.fit_loops
+    if case.long:
+        return prof.long_loops
+    return prof.loops if experiment is None else prof.loops_of(experiment)
 
 
 def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
@@ -325,5 +330,5 @@ def n_loops_total(profile: str | Profile | Mapping[str, Any]) -> int:
             cfg = cem_size(exp, prof)
             total += cfg.n_samples * cfg.max_iter * len(exp.cases())
         else:
-            total += sum(case_loops(prof, c) for c in exp.cases())
+            total += sum(case_loops(prof, c, exp.id) for c in exp.cases())
     return total
