@@ -41,13 +41,14 @@ def test_runtime_dependencies_are_declared_and_pinned():
 
 def test_reading_results_imports_neither_the_kernels_nor_scikit_learn(tmp_path):
     # a page that only reads cached results starts in about 1 s instead of 1.8 s: numba's
-    # kernels and scikit-learn (0.6 s of imports, through scipy.stats) load when a loop runs
+    # kernels and scikit-learn (0.6 s of imports, through scipy.stats) load when a loop
+    # runs, scipy.special (0.3 s more) when a closed-loop belief is formed
     code = ("import sys, uavwind as uw\n"
             "from uavwind.study import run_experiment\n"
             "from uavwind.analysis import summary_table\n"
             "from uavwind.report import plotting\n"
             "bad = sorted(m for m in sys.modules if m.split('.')[0] == 'sklearn'\n"
-            "             or m.startswith('uavwind.method.softdtw'))\n"
+            "             or m.startswith(('uavwind.method.softdtw', 'scipy.special')))\n"
             "assert not bad, bad[:5]\n"
             "s = uw.table3_setting(); uw.score_loop(s.simulate(uw.PAPER_EXAMPLE), s.groups)\n"
             "assert 'uavwind.method.softdtw' in sys.modules\n")

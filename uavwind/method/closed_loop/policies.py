@@ -47,7 +47,6 @@ from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
-from scipy.special import logsumexp
 
 from ...core.checks import check_array, check_instance, check_scalar
 from ...core.seeding import child_rng
@@ -190,6 +189,7 @@ def separation_bound(sit: Situation, plans: np.ndarray) -> np.ndarray:
     n_numbers = 3 * m * uniq.shape[1]
     spread = sit.belief.spread + (within / (n_within * n_numbers) if n_within else 0.0)
     log_c = 0.5 * (np.log(w[a])[:, None] + np.log(w[b])[None, :])
+    from scipy.special import logsumexp  # here: see belief.Evidence.belief
     val = logsumexp(log_c[None] - pair / (8.0 * spread[:, None, None]), axis=(1, 2))
     return val[inv]
 
