@@ -111,8 +111,8 @@ SIZINGS: dict[str, Sizing] = {s.experiment: s for s in (
     Sizing(experiment="exp12", question="Telling policies whose accuracies differ by 20 "
            "percentage points", halfwidth=10, unit="percentage points", sd=38.1,
            measured_with=200, floor=200,
-           floor_reason="the page's calibration (right when 95% sure) and time to confidence "
-                        "read only the episodes where a policy reached confidence, a subset "
-                        "of them", value="correct", by=("case", "policy"), scale=100.0,
+           floor_reason="the page's calibration and time to confidence read only the "
+                        "episodes where a policy reached confidence, a subset of them",
+           value="correct", by=("case", "policy"), scale=100.0,
            last_time=True),
 )}
