@@ -6,6 +6,9 @@ A deliberate change of results (a new reading, a bumped RESULTS_VERSION) updates
 pins in the same commit, and says so. Changed since: the inferred reading's mixed-strength
 constant and shear pairs take Table 3's spacing (exp1-4 under "inferred", and exp1's case 1).
 Added since: exp14 and exp14_cem (issue 31's flyable manoeuvres; no earlier pin changed).
+Changed since: the paper profile's Exps 7 and 9 (128 loops a case) and Exp 11 with Exp 14's
+copies of its cases (82) run the counts their sizing chose (uavwind.study.sizing): more
+chunks (Exp 7's first 50 loops keep their entry; Exp 11's 0-20 entry becomes 0-50 and 50-82).
 """
 import hashlib
 import tempfile
@@ -66,14 +69,14 @@ ENTRY_PATHS = {
     "paper/inferred/exp5": "22b4a412a7cdd06d",
     "paper/inferred/exp6": "d00836cf68652e8a",
     "paper/inferred/exp6_raw": "6f8435c7511136c3",
-    "paper/inferred/exp7": "f6a86d54c4959fcf",
+    "paper/inferred/exp7": "2d5ecf50677fc920",
     "paper/inferred/exp8": "0df52e69bd1d0ff9",
-    "paper/inferred/exp9": "f6a86d54c4959fcf",
+    "paper/inferred/exp9": "2d5ecf50677fc920",
     "paper/inferred/exp10": "c273d1a915d5f450",
-    "paper/inferred/exp11": "b06d46f03fa28a4b",
+    "paper/inferred/exp11": "834a4498d674efd1",
     "paper/inferred/exp11_cem": "e3ebb8f3828df308",
     "paper/inferred/exp12": "4f5bf690e507a7b0",
-    "paper/inferred/exp14": "8ca10af4ebcffbcb",
+    "paper/inferred/exp14": "fbfc659420ff056a",
     "paper/inferred/exp14_cem": "9e4a6a018f38677b",
     "paper/inferred/fit_layout": "98d979c639533209",
     "paper/inferred/fit_mixed": "d0e7a315564174f2",
@@ -86,14 +89,14 @@ ENTRY_PATHS = {
     "paper/halves/exp5": "4f4fe9f0d256eacd",
     "paper/halves/exp6": "af5b1e15b1664857",
     "paper/halves/exp6_raw": "17fd33a9c6c8d000",
-    "paper/halves/exp7": "f265297e3dc4e61b",
+    "paper/halves/exp7": "c1099abe99e5e23f",
     "paper/halves/exp8": "899b6fde6de46a3b",
-    "paper/halves/exp9": "f265297e3dc4e61b",
+    "paper/halves/exp9": "c1099abe99e5e23f",
     "paper/halves/exp10": "aa65a1e090669563",
-    "paper/halves/exp11": "1e3a3c3984d63763",
+    "paper/halves/exp11": "81cc717e9251ba25",
     "paper/halves/exp11_cem": "593149cfb21684b6",
     "paper/halves/exp12": "d5ef54547e0c443a",
-    "paper/halves/exp14": "fde11e3981733f1f",
+    "paper/halves/exp14": "a13629e6701a083f",
     "paper/halves/exp14_cem": "602a6e7470d94fc5",
     "paper/halves/fit_layout": "98d979c639533209",
     "paper/halves/fit_mixed": "d0e7a315564174f2",
