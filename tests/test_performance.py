@@ -67,6 +67,14 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
     assert "2132 MiB (RSS summed over the process tree), 84 MiB over 2 GB" in line
     assert "1700 MiB (PSS summed over the process tree), under 2 GB" in line
     assert "CPU 180%, under 190%" in line and "compile" not in line
+    assert "earlier paper profile" not in line  # no loop count recorded: nothing to compare
+    from uavwind.study import n_loops_total
+    now = n_loops_total("paper")
+    line = summary_lines({"paper_profile": {**missed, "loops": now}})["paper"]
+    assert "earlier paper profile" not in line
+    line = summary_lines({"paper_profile": {**missed, "loops": 25270}})["paper"]
+    assert (f"earlier paper profile**: 25270 loops (before cache sharing) then, {now} now"
+            in line) and line.endswith("more work than this figure shows.")
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
         "spread": "2026-11-24 03:00 UTC", "paper": "2026-11-24 04:44 UTC"}})["header"]
     assert header.endswith("since: spread 2026-11-24 03:00 UTC; paper 2026-11-24 04:44 UTC.")

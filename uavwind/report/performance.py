@@ -267,6 +267,16 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     if "measured_seconds" in p:
         out["paper"] = "Against the target: " + "; ".join(_paper_verdicts(
             p, report.get("cold_compile"))) + "."
+        from ..study.runner import n_loops_total
+        now = n_loops_total("paper")
+        if "loops" in p and p["loops"] != now:
+            more = now > p["loops"]
+            out["paper"] += (
+                f" **This measurement is of an earlier paper profile**: {p['loops']} loops "
+                f"(before cache sharing) then, {now} now (the sizing of Exps 7-12, "
+                f"`uavwind.study.sizing`), so today's build does "
+                + ("more work than this figure shows." if more else
+                   "less work than this figure shows."))
     if p.get("by_experiment") and "measured_seconds" in p:
         t = pd.DataFrame(p["by_experiment"])
         cpu = t["cpu_seconds"].sum()
