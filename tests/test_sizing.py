@@ -9,7 +9,7 @@ import pytest
 from scipy.stats import norm
 
 from uavwind.analysis.tables import sizing_note
-from uavwind.core.stats import loops_needed
+from uavwind.core.stats import ci_halfwidth, loops_needed
 from uavwind.study import EXPERIMENTS, PROFILES
 from uavwind.study.profiles import get_profile
 from uavwind.study.runner import case_loops
@@ -21,7 +21,11 @@ def test_loops_needed_is_the_normal_approximation():
                          (12.9, 5.0, 0.9), (3.0, 0.5, 0.99)]:
         z = norm.ppf(0.5 + level / 2)
         assert loops_needed(sd, h, level) == max(2, ceil((z * sd / h) ** 2))
+        n = loops_needed(sd, h, level)  # the inverse: n loops reach h, n - 1 do not
+        assert ci_halfwidth(sd, n, level) <= h < ci_halfwidth(sd, n - 1, level)
+        assert ci_halfwidth(sd, n, level) == pytest.approx(z * sd / n ** 0.5, rel=1e-12)
     assert loops_needed(0.0, 5.0) == 2
+    assert ci_halfwidth(10.0, 1) == float("inf")
     with pytest.raises(ValueError, match="halfwidth"):
         loops_needed(10.0, 0.0)
     with pytest.raises(ValueError, match="level"):

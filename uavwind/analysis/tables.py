@@ -19,7 +19,7 @@ import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance
-from ..core.stats import loops_needed, summarise
+from ..core.stats import ci_halfwidth, loops_needed, summarise
 from ..study.paper import load_paper_values
 from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
@@ -185,7 +185,6 @@ def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
     loops that needs, the loops run and the half-width they give, and whether they suffice.
 
     ``sizing`` defaults to the record of ``df.attrs["experiment"]``."""
-    from math import sqrt
     if sizing is None:
         exp_id = df.attrs.get("experiment")
         if exp_id not in SIZINGS:
@@ -201,7 +200,7 @@ def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
     sd = float((g.std(ddof=1) * s.scale).max())
     n_run = int(g.size().min())
     need = loops_needed(sd, s.halfwidth) if np.isfinite(sd) else None
-    got = 1.96 * sd / sqrt(n_run) if n_run > 1 else float("inf")
+    got = ci_halfwidth(sd, n_run)
     chosen = (f"{s.needed}" if s.count == s.needed else
               f"{s.needed}, fewer than the {s.floor} it runs at the least ({s.floor_reason})")
     text = (f"*Sizing.* {s.question} needs 95% CIs of about +-{s.halfwidth:g} {s.unit}. The "

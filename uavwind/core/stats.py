@@ -13,16 +13,20 @@ and figures all call these, so an interval means the same thing everywhere;
 from __future__ import annotations
 
 from collections.abc import Callable
+from math import ceil, sqrt
+from statistics import NormalDist
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from .checks import check_scalar
 
 if TYPE_CHECKING:
     import pandas as pd
     from numpy.typing import ArrayLike
 
 __all__ = ["bootstrap_ci", "paired_difference", "correct_share", "summarise", "loops_needed",
-           "N_BOOT", "SEED", "LEVEL"]
+           "ci_halfwidth", "N_BOOT", "SEED", "LEVEL"]
 
 #: Bootstrap resamples of every interval.
 N_BOOT = 2000
@@ -100,6 +104,14 @@ def summarise(rows: pd.DataFrame | ArrayLike) -> dict:
             "n_loops": int(scores.size)}
 
 
+def _z(level: float) -> float:
+    """The two-sided normal quantile of ``level`` (1.96 at 0.95); the standard library's,
+    equal to scipy.stats' ppf to 1e-16, without its import cost."""
+    level = check_scalar(level, "level", low=0.0, high=1.0, low_inclusive=False,
+                         high_inclusive=False)
+    return NormalDist().inv_cdf(0.5 + level / 2)
+
+
 def loops_needed(sd: float, halfwidth: float, level: float = 0.95) -> int:
     """Loops (or episodes) whose mean has a normal-approximation CI of ``+- halfwidth`` at
     ``level`` when one loop's value has standard deviation ``sd``: ``ceil((z sd / h)^2)``.
@@ -107,13 +119,18 @@ def loops_needed(sd: float, halfwidth: float, level: float = 0.95) -> int:
     >>> loops_needed(30.0, 5.0)   # scores with SD 30 points, a CI of +-5 points
     139
     """
-    from math import ceil
-    from statistics import NormalDist  # scipy.stats' ppf to 1e-16, without its import cost
-
-    from .checks import check_scalar
     sd = check_scalar(sd, "sd", low=0.0)
     halfwidth = check_scalar(halfwidth, "halfwidth", low=0.0, low_inclusive=False)
-    level = check_scalar(level, "level", low=0.0, high=1.0, low_inclusive=False,
-                         high_inclusive=False)
-    z = NormalDist().inv_cdf(0.5 + level / 2)
-    return max(2, ceil((z * sd / halfwidth) ** 2))
+    return max(2, ceil((_z(level) * sd / halfwidth) ** 2))
+
+
+def ci_halfwidth(sd: float, n: int, level: float = 0.95) -> float:
+    """The half-width ``z sd / sqrt(n)`` of the normal-approximation CI of a mean of ``n``
+    loops whose values have standard deviation ``sd`` (infinite below 2 loops): the inverse
+    of :func:`loops_needed`.
+
+    >>> round(ci_halfwidth(30.0, 139), 2)
+    4.99
+    """
+    n = check_scalar(n, "n", low=0, integer=True)
+    return _z(level) * sd / sqrt(n) if n > 1 else float("inf")
