@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from ..study.runner import n_loops_total
 from .display import show_missing
 
 __all__ = ["TARGETS", "PAPER_TARGET", "PaperTarget", "load_report", "report_tables",
@@ -267,7 +268,6 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     if "measured_seconds" in p:
         out["paper"] = "Against the target: " + "; ".join(_paper_verdicts(
             p, report.get("cold_compile"))) + "."
-        from ..study.runner import n_loops_total
         now = n_loops_total("paper")
         if "loops" in p and p["loops"] != now:
             more = now > p["loops"]

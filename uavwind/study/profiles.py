@@ -17,6 +17,7 @@ from types import MappingProxyType
 from typing import Any
 
 from ..core.checks import check_instance, check_scalar
+from .registry import EXPERIMENTS
 from .sizing import SIZINGS
 
 __all__ = ["CEMSize", "Profile", "PROFILES", "get_profile", "DEFAULT_SEED", "CHUNK",
@@ -100,7 +101,6 @@ class Profile:
         for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes", "flyable_loops"):
             object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
                                                      low=1, high=10 ** 6, integer=True))
-        from .registry import EXPERIMENTS  # the registry does not import profiles
         sized = check_instance(self.sized_loops, "profile['sized_loops']", Mapping)
         for exp_id, n in sized.items():
             if exp_id not in EXPERIMENTS:
