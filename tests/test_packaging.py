@@ -1,5 +1,6 @@
 """pip install . gives a working uavwind without a checkout or the book stack."""
 import os
+import shutil
 import subprocess
 import sys
 import tomllib
@@ -14,6 +15,11 @@ def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
                     "--no-build-isolation", "--disable-pip-version-check", "--target",
                     str(target), str(ROOT)], check=True, capture_output=True,
                    env={**os.environ, "PIP_NO_INDEX": "1"})
+    # numba keys its cache on a source file's content (a hash of its bytes), so the kernels
+    # this session compiled (tests/conftest.py) serve the installed copy's identical files:
+    # copied beside them, the loop below loads them instead of compiling every kernel again
+    # (40 s on 2 cores). A file that differs would simply be compiled.
+    _copy_numba_cache(ROOT / "uavwind", target / "uavwind")
     code = ("import sys, uavwind as uw; from uavwind.study.paper import load_paper_values\n"
             "assert 'site' in uw.__file__, uw.__file__\n"
             "t4 = load_paper_values('exp1'); assert t4.loc[0, 'maximum'] == 85.86\n"
@@ -26,6 +32,14 @@ def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+def _copy_numba_cache(src, dst):
+    for f in src.rglob("__pycache__/*.nb[ic]"):
+        rel = f.relative_to(src)
+        if (dst / rel.parent.parent / f.name.split(".")[0]).with_suffix(".py").exists():
+            (dst / rel.parent).mkdir(exist_ok=True)
+            shutil.copy2(f, dst / rel)
 
 
 def test_runtime_dependencies_are_declared_and_pinned():
