@@ -71,6 +71,10 @@ def test_shear_profile_is_libm_pow_on_every_cpu():
         expect = np.array([math.pow(max(z, 0.5) / 10.0, alpha) for z in heights])
         assert np.array_equal(w.factor(heights), expect)
         assert np.array_equal(libm_pow(np.maximum(heights, 0.5) / 10.0, alpha), expect)
+        # a scalar exponent skips the broadcast; an array of exponents takes it: same doubles
+        assert np.array_equal(libm_pow(np.maximum(heights, 0.5) / 10.0,
+                                       np.full(len(heights), alpha)), expect)
+        assert libm_pow(np.float64(2.5), alpha).shape == ()
         pos = np.zeros((len(heights), 3))
         pos[:, 2] = heights
         assert np.array_equal(w.velocity(0.0, pos), expect[:, None] * [2.0, 1.0, 0.0])

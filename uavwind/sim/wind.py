@@ -48,7 +48,12 @@ def libm_pow(base: ArrayLike, exponent: ArrayLike) -> np.ndarray:
     machine (tests/test_wind.py and tests/test_pins.py). The profile has one power per
     environment and step, so the scalar calls cost microseconds per step.
     """
-    b, e = np.broadcast_arrays(np.asarray(base, dtype=float), np.asarray(exponent, dtype=float))
+    b, e = np.asarray(base, dtype=float), np.asarray(exponent, dtype=float)
+    if e.ndim == 0:  # the shear profile's case, once per step: no broadcast copy of alpha
+        e = float(e)
+        return np.fromiter([math.pow(x, e) for x in b.ravel().tolist()], dtype=float,
+                           count=b.size).reshape(b.shape)
+    b, e = np.broadcast_arrays(b, e)
     return np.fromiter(map(math.pow, b.ravel().tolist(), e.ravel().tolist()), dtype=float,
                        count=b.size).reshape(b.shape)
 
