@@ -10,11 +10,20 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
+    # installed from a copy of the sources: setuptools builds in the source tree, and a
+    # build/ left in the checkout would put modules deleted since into the installed package
+    src = tmp_path / "src"
+    shutil.copytree(ROOT / "uavwind", src / "uavwind",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.nb[ic]"))
+    for name in ("pyproject.toml", "README.md"):
+        shutil.copy2(ROOT / name, src / name)
     target = tmp_path / "site"
     subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps",
                     "--no-build-isolation", "--disable-pip-version-check", "--target",
-                    str(target), str(ROOT)], check=True, capture_output=True,
+                    str(target), str(src)], check=True, capture_output=True,
                    env={**os.environ, "PIP_NO_INDEX": "1"})
+    # every module of the sources is installed, and nothing else
+    assert _modules(target / "uavwind") == _modules(ROOT / "uavwind")
     # numba keys its cache on a source file's content (a hash of its bytes), so the kernels
     # this session compiled (tests/conftest.py) serve the installed copy's identical files:
     # copied beside them, the loop below loads them instead of compiling every kernel again
@@ -32,6 +41,10 @@ def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
+
+
+def _modules(package):
+    return {p.relative_to(package).as_posix() for p in package.rglob("*.py")}
 
 
 def _copy_numba_cache(src, dst):
