@@ -21,6 +21,7 @@ the lazily generated, seeded gust history of :class:`DrydenWind`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from abc import ABC, abstractmethod
 from typing import TYPE_CHECKING
@@ -49,12 +50,12 @@ def libm_pow(base: ArrayLike, exponent: ArrayLike) -> np.ndarray:
     environment and step, so the scalar calls cost microseconds per step.
     """
     b, e = np.asarray(base, dtype=float), np.asarray(exponent, dtype=float)
-    if e.ndim == 0:  # the shear profile's case, once per step: no broadcast copy of alpha
-        e = float(e)
-        return np.fromiter([math.pow(x, e) for x in b.ravel().tolist()], dtype=float,
-                           count=b.size).reshape(b.shape)
-    b, e = np.broadcast_arrays(b, e)
-    return np.fromiter(map(math.pow, b.ravel().tolist(), e.ravel().tolist()), dtype=float,
+    if e.ndim == 0:  # the shear profile's alpha, once per step: no broadcast copy of it
+        exponents = itertools.repeat(float(e))
+    else:
+        b, e = np.broadcast_arrays(b, e)
+        exponents = e.ravel().tolist()
+    return np.fromiter(map(math.pow, b.ravel().tolist(), exponents), dtype=float,
                        count=b.size).reshape(b.shape)
 
 
