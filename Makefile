@@ -40,7 +40,7 @@ UAVWIND_RESULTS ?= $(CURDIR)/data/results
 export UAVWIND_RESULTS
 # papermill loses every figure under a non-interactive backend: never inherit one
 unexport MPLBACKEND
-# the venv is installed without compiling its 188 packages' bytecode (53 s of the 126 s
+# the venv is installed without compiling its 186 packages' bytecode (53 s of the 126 s
 # install on 2 cores); each process then writes the bytecode of what it imports, once, so
 # an inherited PYTHONDONTWRITEBYTECODE (set in many CI images) would make every page's
 # kernel and worker compile its imports from source again

@@ -66,6 +66,19 @@ def test_runtime_dependencies_are_declared_and_pinned():
     assert (ROOT / "CITATION.cff").exists()
 
 
+def test_the_page_runner_does_not_build_jsonschemas_iri_grammar():
+    # rfc3987-syntax (jsonschema's optional format-nongpl extra) compiles a Lark grammar on
+    # import, 2.2 CPU-s in every process that imports nbformat: each of the book's page
+    # runners paid it. environment.txt leaves it (and lark) out, and nothing pulls it back.
+    pins = {line.split("==")[0].lower() for line in (ROOT / "environment.txt").read_text().split()
+            if "==" in line}
+    assert not {"rfc3987-syntax", "lark"} & pins
+    code = ("import sys, papermill, jupytext, nbformat\n"
+            "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rfc3987_syntax', 'lark'))\n"
+            "assert not bad, bad\n")
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
 def test_reading_results_imports_neither_the_kernels_nor_scikit_learn(tmp_path):
     # a page that only reads cached results starts in about 1 s instead of 1.8 s: numba's
     # kernels and scikit-learn (0.6 s of imports, through scipy.stats) load when a loop
