@@ -46,6 +46,10 @@ unexport MPLBACKEND
 # kernel and worker compile its imports from source again
 unexport PYTHONDONTWRITEBYTECODE
 
+# the pins install in two halves side by side (--no-deps: no resolver, disjoint files):
+# 36 s instead of 66 s for a fresh venv on 2 cores, the same files and `pip freeze`
+PIP_INSTALL := $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps --no-compile
+
 .DEFAULT_GOAL := help
 .PHONY: help venv test bench book results lab clean clean-results FORCE
 
@@ -55,7 +59,10 @@ help:  ## list the targets
 $(STAMP): environment.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "uavwind pins need Python 3.11, got " + sys.version'
 	$(PYTHON) -m venv $(VENV)
-	$(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps --no-compile -r environment.txt
+	grep '==' environment.txt | awk 'NR % 2 == 1' > $(VENV)/pins.0
+	grep '==' environment.txt | awk 'NR % 2 == 0' > $(VENV)/pins.1
+	$(TIMEOUT) $(PIP_TIMEOUT) sh -c '$(PIP_INSTALL) -r $(VENV)/pins.0 & a=$$!; \
+	  $(PIP_INSTALL) -r $(VENV)/pins.1 || { wait $$a; exit 1; }; wait $$a'
 	$(BIN)/python -m pip check --disable-pip-version-check
 	touch $@
 

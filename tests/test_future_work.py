@@ -3,6 +3,7 @@ and IMU observation channels, against closed forms and RotorPy's own IMU."""
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import uavwind as uw
@@ -255,3 +256,26 @@ def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
                           ({"kinds": ()}, ValueError)):
         with pytest.raises(error, match="probe|kinds"):
             filter_comparison(s, n_flights=1, n_jobs=1, results=tmp_path, **kwargs)
+
+
+def test_the_filter_table_flies_two_scenarios_quick_and_all_four_at_the_paper_profile(
+        monkeypatch):
+    from uavwind.analysis import filters as F
+
+    asked = []
+
+    def fake(setting, n_flights, seed, probe, n_jobs, results):
+        asked.append((setting.name, n_flights, probe))
+        return pd.DataFrame({"filter": ["ekf", "ukf"] * n_flights,
+                             "flight": np.repeat(np.arange(n_flights), 2),
+                             "rmse": 1.0, "diverged": 0, "correct": True})
+
+    monkeypatch.setattr(F, "filter_comparison", fake)
+    scen = list(dict.fromkeys(c.labels["scenario"] for c in uw.study.EXPERIMENTS["exp11"].cases()))
+    quick = F.filter_table("quick", n_jobs=1)
+    assert list(dict.fromkeys(quick["scenario"])) == [scen[i] for i in F.QUICK_SCENARIOS]
+    assert len(quick) == 2 * 2 * 2 and set(quick["n_flights"]) == {1}
+    assert [p for _, _, p in asked] == [True, False] * 2
+    paper = F.filter_table("paper", n_jobs=1)
+    assert list(dict.fromkeys(paper["scenario"])) == scen and len(scen) == 4
+    assert len(paper) == 4 * 2 * 2 and set(paper["n_flights"]) == {3}

@@ -1,4 +1,6 @@
 """The fast engine against tslearn itself: kernels, k-means, silhouette, whole loops."""
+import json
+import os
 import subprocess
 import sys
 import warnings
@@ -95,17 +97,8 @@ def _loop(scenario, seed, n_per_group=5):
     return s.simulate(thrust, seed=seed), s.groups
 
 
-@pytest.mark.parametrize("scenario", sorted(PAPER_SCENARIOS))
-def test_fast_equals_tslearn_on_table2_loops(scenario):
-    X, g = _loop(scenario, seed=scenario)
-    ref = score_loop(X, g, engine="tslearn")
-    fast = score_loop(X, g, engine="fast")
-    # the contract: the same doubles, not close ones
-    assert np.array_equal(fast.labels, ref.labels)
-    assert fast.correct == ref.correct
-    assert fast.score == ref.score
-    assert fast.silhouette == ref.silhouette or (np.isnan(fast.silhouette) and np.isnan(ref.silhouette))
-    assert fast.n_iter == ref.n_iter
+# whole Table 2 loops, the fast engine against tslearn's, exactly: tests/test_lockstep.py
+# (every scenario under both readings)
 
 
 def test_fast_equals_tslearn_k_means_directly():
@@ -132,23 +125,29 @@ def test_parallel_kernels_give_the_same_answer():
 
 
 def test_exact_with_the_libm_replica_forced_off():
-    """UAVWIND_SOFTDTW_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal."""
-    import os
-    import subprocess
-    import sys
-
-    code = ("import numpy as np, uavwind as uw\n"
+    """UAVWIND_SOFTDTW_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal.
+    tslearn's references are computed here, where its kernels are compiled already (it
+    caches none: 17 CPU-s of compiling in a fresh process); the child runs only ours."""
+    s = uw.make_setting("light constant", "light shear", 4)
+    ref = []
+    for seed in range(3):
+        r = score_loop(s.simulate(s.sample_thrust(np.random.default_rng(seed))), s.groups,
+                       engine="tslearn")
+        ref.append({"labels": [int(v) for v in r.labels], "score": float(r.score).hex()})
+    code = ("import json, numpy as np, uavwind as uw\n"
             "from uavwind.method.softdtw._libm import _libm_selfcheck\n"
             "assert _libm_selfcheck() is False\n"
             "s = uw.make_setting('light constant', 'light shear', 4)\n"
+            "out = []\n"
             "for seed in range(3):\n"
             "    X = s.simulate(s.sample_thrust(np.random.default_rng(seed)))\n"
             "    a = uw.score_loop(X, s.groups, engine='fast')\n"
-            "    b = uw.score_loop(X, s.groups, engine='tslearn')\n"
-            "    assert (a.labels == b.labels).all() and a.score == b.score, seed\n")
+            "    out.append({'labels': [int(v) for v in a.labels], 'score': float(a.score).hex()})\n"
+            "print(json.dumps(out))\n")
     env = {**os.environ, "UAVWIND_SOFTDTW_GLIBC_REPLICA": "0"}
     out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr[-2000:]
+    assert json.loads(out.stdout.strip().splitlines()[-1]) == ref  # scores as exact hex floats
 
 
 def test_a_failed_selfcheck_warns_once_and_falls_back(monkeypatch):

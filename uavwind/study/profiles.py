@@ -74,7 +74,7 @@ class Profile:
         (the paper profile's count).
     flyable_loops : int
         Loops per case of Exp 14's flyable manoeuvres; default ``side_loops`` (the quick
-        profile: 1, to keep its cost near 20 CPU-s).
+        profile: 1).
     sized_loops : mapping of str to int
         Loops per plain case of the named experiments, instead of ``loops`` (the paper
         profile: the counts :data:`~uavwind.study.sizing.SIZINGS` chose for Exps 7-10); an
@@ -136,8 +136,12 @@ PROFILES = {
                      episodes=SIZINGS["exp12"].count,
                      sized_loops={e: SIZINGS[e].count for e in ("exp7", "exp8", "exp9", "exp10")},
                      cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
-    "quick": Profile(name="quick", loops=4, long_loops=8, fit_loops=2, episodes=10, flyable_loops=1,
-                     cem=CEMSize(n_samples=6, n_elite=2, max_iter=3)),
+    # quick: a first look at every page, and what `make test` builds beside the suite. Two
+    # loops a case (the fewest that give a spread), one a case of the wide multirotor sweeps
+    # (Exp 11's 80 cases, Exp 14's flyable ones: their cells show single loops), six Exp 12
+    # episodes, a CEM of two iterations of four draws
+    "quick": Profile(name="quick", loops=2, long_loops=4, fit_loops=2, side_loops=1, episodes=6,
+                     flyable_loops=1, cem=CEMSize(n_samples=4, n_elite=2, max_iter=2)),
 }
 
 
