@@ -33,6 +33,35 @@ def compiled_kernels():
     softdtw.warmup(parallel=True, every=True)
 
 
+# ---- one dask LocalCluster for the session (tests/test_cluster_fill.py, tests/test_parallel.py)
+
+def _forbid_writes():
+    """Run on every worker: any attempt to write a cache entry there fails its task."""
+    from uavwind.study import cache
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a cluster worker tried to write a cache entry")
+    cache.atomic_write = refuse
+    return os.getcwd()
+
+
+@pytest.fixture(scope="session")
+def dask_client(tmp_path_factory):
+    """A client of a LocalCluster of two one-thread worker processes, each with its own
+    working folder and forbidden to write cache entries (a cluster fill's workers compute,
+    its client writes). One for the session: each cluster's workers cost about 12 CPU-s to
+    start and to load the kernels."""
+    distributed = pytest.importorskip("distributed")
+    work = tmp_path_factory.mktemp("workers")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, local_directory=str(work),
+                                  env={"UAVWIND_RESULTS": str(work / "nowhere")}) as cluster, \
+            distributed.Client(cluster) as c:
+        c.register_worker_callbacks(_forbid_writes)  # also on a restarted worker
+        yield c
+    assert not (work / "nowhere").exists()
+
+
 # ---- the quick book, built beside the other tests ---------------------------------------
 # tests/test_book.py reads a whole quick book (about 5 minutes on 2 cores). Its build runs in
 # the background from the start of the session (or the end of collection), and its tests are

@@ -20,26 +20,10 @@ distributed = pytest.importorskip("distributed")
 IDS = ["exp5", "exp6"]
 
 
-def _forbid_writes():
-    """Run on every worker: any attempt to write a cache entry there fails its task."""
-    from uavwind.study import cache
-
-    def refuse(*args, **kwargs):
-        raise AssertionError("a cluster worker tried to write a cache entry")
-    cache.atomic_write = refuse
-    return os.getcwd()
-
-
-@pytest.fixture(scope="module")
-def client(tmp_path_factory):
-    work = tmp_path_factory.mktemp("workers")
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                                  dashboard_address=None, local_directory=str(work),
-                                  env={"UAVWIND_RESULTS": str(work / "nowhere")}) as cluster, \
-            distributed.Client(cluster) as c:
-        c.register_worker_callbacks(_forbid_writes)  # also on a restarted worker
-        yield c
-    assert not (work / "nowhere").exists()
+@pytest.fixture
+def client(dask_client):
+    """The session's LocalCluster (conftest.py): workers that may not write cache entries."""
+    return dask_client
 
 
 def _rows(folder, reading):
