@@ -118,6 +118,9 @@ def test_sizing_note_states_the_choice_and_remeasures_it():
     text8 = sizing_note(_frame(1.0, 1.0, 5, "exp8"))
     s8 = SIZINGS["exp8"]
     assert f"takes {s8.needed}, fewer than the 50 it runs at the least" in text8
+    one = pd.DataFrame({"case": [0, 1], "score": [50.0, 60.0]})  # the quick Exp 11's one loop
+    one.attrs["experiment"] = "exp7"
+    assert sizing_note(one).endswith(" This build ran 1 loop per case: too few to measure a spread.")
     with pytest.raises(ValueError, match="no sizing for experiment 'exp1'"):
         sizing_note(_frame(1.0, 1.0, 5, "exp1"))
     with pytest.raises(TypeError, match="sizing"):
@@ -161,3 +164,18 @@ def test_the_replication_notes_state_the_sized_counts():
     assert (f"Exps 8 and 10 the paper's 50 (their\nquestions need {n['exp8']} and "
             f"{n['exp10']})") in notes
     assert f"Exp 12 its {c['exp12']} episodes (the accuracy question needs {n['exp12']};" in notes
+
+
+def test_profile_note_counts_loops_per_case_and_flags_a_quick_build():
+    from uavwind.analysis.tables import profile_note
+
+    def frame(loops, profile="quick"):
+        df = pd.DataFrame({"case": [0] * loops + [1] * loops, "loop": list(range(loops)) * 2})
+        df.attrs.update(experiment="exp11", profile=profile)
+        return df
+    one = profile_note(frame(1))
+    assert one.startswith("**This page shows the *quick* profile:** 1 loop per case over 2 cases.")
+    assert "**Its verdicts are provisional**" in one
+    assert f"the paper profile runs {SIZINGS['exp11'].count} loops per case" in one
+    assert "2 loops per case over 2 cases." in profile_note(frame(2))
+    assert "provisional" not in profile_note(frame(3, "paper"))

@@ -121,7 +121,8 @@ def claim_c3(r: Mapping[str, pd.DataFrame]) -> Verdict:
     short = long[:min(50, max(1, long.size // 10))]
     gain = long.max() - short.max()
     verdict = "reproduced" if gain <= 1.0 else "partly" if gain <= 3.0 else "not reproduced"
-    ev = (f"max of the first {short.size} loops {short.max():.2f}; max of all {long.size} loops "
+    first = "the first loop" if short.size == 1 else f"the first {short.size} loops"
+    ev = (f"max of {first} {short.max():.2f}; max of all {long.size} loops "
           f"{long.max():.2f} (gain {gain:.2f}); mean {_fmt(bootstrap_ci(long))}")
     return Verdict("C3", "Running 500 loops instead of 50 does not raise the light-vs-light "
                    "maximum.", "reproduced: the maximum over all loops exceeds the maximum over "

@@ -168,8 +168,9 @@ def profile_note(df: pd.DataFrame) -> str:
         v = sorted(set(int(x) for x in v))
         return f"{v[0]}" if len(v) == 1 else f"{v[0]}-{v[-1]}"
 
-    text = (f"**This page shows the *{prof}* profile:** {span(n)} {unit} per case over "
-            f"{df['case'].nunique()} cases.")
+    one = {int(x) for x in n} == {1}  # "1 loop per case", not "1 loops"
+    text = (f"**This page shows the *{prof}* profile:** {span(n)} {unit[:-1] if one else unit} "
+            f"per case over {df['case'].nunique()} cases.")
     if prof != "paper":
         text += (f" **Its verdicts are provisional**: the paper profile runs {span(ref)} "
                  f"{unit} per case (`make book`), and a CI from this few cannot decide most "
@@ -208,7 +209,8 @@ def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
             f"value varied with a standard deviation of up to {s.sd:.1f} {s.unit} in the paper "
             f"build at {SIZED_AT} ({s.measured_with} {unit} per case), which takes {chosen}.")
     if need is None:
-        return text + f" This build ran {n_run} {unit} per case: too few to measure a spread."
+        return text + (f" This build ran {n_run} {one if n_run == 1 else unit} per case: too "
+                       "few to measure a spread.")
     verdict = ("enough" if n_run >= need else
                "too few to decide differences of that size; a verdict whose CI spans both "
                "answers cannot decide")
