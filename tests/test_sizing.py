@@ -179,3 +179,6 @@ def test_profile_note_counts_loops_per_case_and_flags_a_quick_build():
     assert f"the paper profile runs {SIZINGS['exp11'].count} loops per case" in one
     assert "2 loops per case over 2 cases." in profile_note(frame(2))
     assert "provisional" not in profile_note(frame(3, "paper"))
+    cem = pd.DataFrame({"case": [0] * 8})  # Exp 6's quick CEM: one case, 8 samples
+    cem.attrs.update(experiment="exp6", profile="quick")
+    assert "8 CEM samples per case over 1 case." in profile_note(cem)

@@ -169,8 +169,9 @@ def profile_note(df: pd.DataFrame) -> str:
         return f"{v[0]}" if len(v) == 1 else f"{v[0]}-{v[-1]}"
 
     one = {int(x) for x in n} == {1}  # "1 loop per case", not "1 loops"
+    n_cases = df["case"].nunique()
     text = (f"**This page shows the *{prof}* profile:** {span(n)} {unit[:-1] if one else unit} "
-            f"per case over {df['case'].nunique()} cases.")
+            f"per case over {n_cases} case{'' if n_cases == 1 else 's'}.")
     if prof != "paper":
         text += (f" **Its verdicts are provisional**: the paper profile runs {span(ref)} "
                  f"{unit} per case (`make book`), and a CI from this few cannot decide most "
