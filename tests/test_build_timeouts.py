@@ -102,14 +102,13 @@ def test_a_page_runs_with_the_builds_parameters_and_hides_them(tmp_path):
 def test_every_long_build_step_has_a_timeout():
     make = (ROOT / "Makefile").read_text()
     code = [ln for ln in make.replace("\\\n", " ").splitlines() if not ln.lstrip().startswith("#")]
+    # a variable holding a step (PIP_INSTALL := ... pip install ...) stands for it where used
+    defs = {m.group(1): ln for ln in code if (m := re.match(r"([A-Z_]+)\s*:?=", ln))}
+    runs = [ln for ln in code if ln not in defs.values()]
     for step in ("pip install", "-m uavwind run all", "-m uavwind.report.pages",
                  "jupyter-book build"):
-        lines = [ln for ln in code if step in ln]
-        # a variable holding the step (PIP_INSTALL := ... pip install ...): the lines that use it
-        names = [m.group(1) for ln in lines if (m := re.match(r"([A-Z_]+)\s*:?=", ln))]
-        lines = [ln for ln in lines if not re.match(r"[A-Z_]+\s*:?=", ln)]
-        lines += [ln for ln in code for n in names
-                  if f"$({n})" in ln and not re.match(r"[A-Z_]+\s*:?=", ln)]
+        names = [step] + [f"$({n})" for n, ln in defs.items() if step in ln]
+        lines = [ln for ln in runs if any(n in ln for n in names)]
         assert lines and all("$(TIMEOUT)" in ln for ln in lines), step
     assert "--execution-timeout $(CELL_TIMEOUT)" in make
 

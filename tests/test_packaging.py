@@ -55,12 +55,17 @@ def _copy_numba_cache(src, dst):
             shutil.copy2(f, dst / rel)
 
 
+def _pins():
+    """The package names environment.txt pins, lower case."""
+    return {line.split("==")[0].lower() for line in (ROOT / "environment.txt").read_text().split()
+            if "==" in line}
+
+
 def test_runtime_dependencies_are_declared_and_pinned():
     meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     declared = {d.split("[")[0].split("=")[0].split(">")[0].split("<")[0].strip().lower()
                 for d in meta["dependencies"]}
-    pins = {line.split("==")[0].lower() for line in (ROOT / "environment.txt").read_text().split()
-            if "==" in line}
+    pins = _pins()
     assert {"numpy", "scipy", "pandas", "numba", "tslearn", "control", "pyarrow"} <= declared
     assert declared <= pins, declared - pins
     assert (ROOT / "CITATION.cff").exists()
@@ -70,9 +75,7 @@ def test_the_page_runner_does_not_build_jsonschemas_iri_grammar():
     # rfc3987-syntax (jsonschema's optional format-nongpl extra) compiles a Lark grammar on
     # import, 2.2 CPU-s in every process that imports nbformat: each of the book's page
     # runners paid it. environment.txt leaves it (and lark) out, and nothing pulls it back.
-    pins = {line.split("==")[0].lower() for line in (ROOT / "environment.txt").read_text().split()
-            if "==" in line}
-    assert not {"rfc3987-syntax", "lark"} & pins
+    assert not {"rfc3987-syntax", "lark"} & _pins()
     code = ("import sys, papermill, jupytext, nbformat\n"
             "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rfc3987_syntax', 'lark'))\n"
             "assert not bad, bad\n")

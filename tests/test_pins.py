@@ -159,6 +159,6 @@ def test_every_cache_entry_path_is_pinned():
 def test_result_rows_are_pinned(key):
     exp, case, reading = key.split("/")
     with tempfile.TemporaryDirectory() as d:
-        df = run_experiment(exp, profile=PINNED_PROFILES["quick"], cases=[int(case)], reading=reading,
-                            results=d, n_jobs=1, progress=False)
+        df = run_experiment(exp, profile=PINNED_PROFILES["quick"], cases=[int(case)],
+                            reading=reading, results=d, n_jobs=1, progress=False)
     assert _rows_digest(df) == RESULT_ROWS[key]

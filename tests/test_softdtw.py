@@ -98,7 +98,7 @@ def _loop(scenario, seed, n_per_group=5):
 
 
 # whole Table 2 loops, the fast engine against tslearn's, exactly: tests/test_lockstep.py
-# (every scenario under both readings)
+# (every scenario, the two readings alternating)
 
 
 def test_fast_equals_tslearn_k_means_directly():
