@@ -1,5 +1,6 @@
 """The result cache: keys, verified reads, atomic writes, locks."""
 import os
+import shutil
 import threading
 import time
 import warnings
@@ -35,6 +36,23 @@ def _chunks(folder):
     return sorted((folder / "loops").glob("*.parquet"))
 
 
+@pytest.fixture(scope="module")
+def exp5_computed(tmp_path_factory):
+    """Exp 5 at TINY, computed once: {"case0": (folder, rows of run_experiment(**RUN))} and
+    {"all": folder with both cases' chunks}. Tests copy a folder, never write into it."""
+    import shutil
+    one = tmp_path_factory.mktemp("exp5_case0")
+    first = ex.run_experiment("exp5", results=one, **RUN)
+    both = tmp_path_factory.mktemp("exp5_all")
+    shutil.copytree(one, both, dirs_exist_ok=True)
+    ex.run_experiment("exp5", results=both, profile=TINY, n_jobs=1, progress=False)
+    return {"case0": (one, first), "all": both}
+
+
+def _copy_of(folder, dest):
+    shutil.copytree(folder, dest, dirs_exist_ok=True, ignore=shutil.ignore_patterns("*.lock"))
+
+
 @pytest.mark.parametrize("damage", [
     lambda p: p.write_bytes(p.read_bytes()[: len(p.read_bytes()) // 2]),  # truncated
     lambda p: p.write_bytes(b""),                                        # empty
@@ -43,8 +61,9 @@ def _chunks(folder):
     lambda p: pd.read_parquet(p).assign(score=999.0).to_parquet(p),      # impossible score
     lambda p: pd.read_parquet(p).assign(seed=7).to_parquet(p),           # another seed
 ])
-def test_a_damaged_chunk_is_moved_aside_and_recomputed(tmp_path, damage):
-    first = ex.run_experiment("exp5", results=tmp_path, **RUN)
+def test_a_damaged_chunk_is_moved_aside_and_recomputed(tmp_path, damage, exp5_computed):
+    folder, first = exp5_computed["case0"]
+    _copy_of(folder, tmp_path)
     (chunk,) = _chunks(tmp_path)
     damage(chunk)
     with pytest.warns(cache.CorruptChunkWarning, match="moved to"):
@@ -57,8 +76,8 @@ def test_a_damaged_chunk_is_moved_aside_and_recomputed(tmp_path, damage):
         assert ex.run_experiment("exp5", results=tmp_path, **RUN).attrs["cached"] == 1
 
 
-def test_a_chunk_copied_over_another_is_detected(tmp_path):
-    ex.run_experiment("exp5", results=tmp_path, profile=TINY, n_jobs=1, progress=False)
+def test_a_chunk_copied_over_another_is_detected(tmp_path, exp5_computed):
+    _copy_of(exp5_computed["all"], tmp_path)
     a, b = _chunks(tmp_path)
     b.write_bytes(a.read_bytes())
     with pytest.warns(cache.CorruptChunkWarning, match="setting_key"):
@@ -171,8 +190,8 @@ def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
 # --------------------------------------------------------------------------- #
 # nothing lost, nothing trusted that should not be
 # --------------------------------------------------------------------------- #
-def _one_chunk(tmp_path):
-    ex.run_experiment("exp5", results=tmp_path, **RUN)
+def _one_chunk(tmp_path, computed):
+    _copy_of(computed["case0"][0], tmp_path)
     (path,) = _chunks(tmp_path)
     return path
 
@@ -206,8 +225,8 @@ def _rewrite(path, edit, keep_checksum=True):
     (lambda d: d.assign(uavwind_version="0.1.0").drop(columns=["silhouette"]), False,
      "no silhouette column"),
 ])
-def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why):
-    path = _one_chunk(tmp_path)
+def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why, exp5_computed):
+    path = _one_chunk(tmp_path, exp5_computed)
     _rewrite(path, edit, keep)
     with pytest.warns(cache.CorruptChunkWarning, match=why):
         df = ex.run_experiment("exp5", results=tmp_path, **RUN)
@@ -215,8 +234,8 @@ def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why):
     assert path.with_name(path.name + ".corrupt").exists()
 
 
-def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path):
-    path = _one_chunk(tmp_path)
+def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path, exp5_computed):
+    path = _one_chunk(tmp_path, exp5_computed)
     before = pd.read_parquet(path)
     _rewrite(path, lambda d: d.assign(uavwind_version="0.1.0"), keep_checksum=False)
     with warnings.catch_warnings():
@@ -227,8 +246,8 @@ def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path):
     assert cache.CHECKSUM_KEY in pq.read_table(path).schema.metadata  # upgraded in place
 
 
-def test_a_second_corrupt_copy_keeps_the_first(tmp_path):
-    path = _one_chunk(tmp_path)
+def test_a_second_corrupt_copy_keeps_the_first(tmp_path, exp5_computed):
+    path = _one_chunk(tmp_path, exp5_computed)
     for _ in range(2):
         path.write_bytes(b"PAR1 damaged")
         with pytest.warns(cache.CorruptChunkWarning):
@@ -238,11 +257,11 @@ def test_a_second_corrupt_copy_keeps_the_first(tmp_path):
 
 
 def test_a_chunk_that_cannot_be_read_is_left_in_place_and_nothing_is_recomputed(
-        tmp_path, monkeypatch):
+        tmp_path, monkeypatch, exp5_computed):
     import errno
     from pathlib import Path
 
-    path = _one_chunk(tmp_path)
+    path = _one_chunk(tmp_path, exp5_computed)
     good = path.read_bytes()
     real = Path.read_bytes
 
@@ -259,9 +278,8 @@ def test_a_chunk_that_cannot_be_read_is_left_in_place_and_nothing_is_recomputed(
                                                  for p in path.parent.iterdir())
 
 
-def test_a_complete_cache_in_a_read_only_folder_is_read(tmp_path, monkeypatch):
-    ex.run_experiment("exp5", results=tmp_path, profile=RUN["profile"], n_jobs=1,
-                      progress=False)
+def test_a_complete_cache_in_a_read_only_folder_is_read(tmp_path, monkeypatch, exp5_computed):
+    _copy_of(exp5_computed["all"], tmp_path)
     monkeypatch.setattr(cache, "check_writable", lambda f: pytest.fail("checked writability"))
     monkeypatch.setattr(runner, "check_writable", lambda f: pytest.fail("checked writability"))
     df = ex.run_experiment("exp5", results=tmp_path, **RUN)

@@ -243,7 +243,8 @@ def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
     from uavwind.analysis.filters import filter_comparison
     from uavwind.study.cache import CorruptChunkWarning, atomic_write
 
-    s = uw.make_setting("light constant", "strong constant", 2, uav=Multirotor(start="hover"))
+    s = uw.make_setting("light constant", "strong constant", 2, duration=6.0,
+                        uav=Multirotor(start="hover"))
     kw = dict(n_flights=2, probe=True, kinds="ekf", n_jobs=1, results=tmp_path)  # the cheaper one
     df = filter_comparison(s, **kw)
     (path,) = (tmp_path / "filters").iterdir()
