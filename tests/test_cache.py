@@ -40,7 +40,6 @@ def _chunks(folder):
 def exp5_computed(tmp_path_factory):
     """Exp 5 at TINY, computed once: {"case0": (folder, rows of run_experiment(**RUN))} and
     {"all": folder with both cases' chunks}. Tests copy a folder, never write into it."""
-    import shutil
     one = tmp_path_factory.mktemp("exp5_case0")
     first = ex.run_experiment("exp5", results=one, **RUN)
     both = tmp_path_factory.mktemp("exp5_all")
