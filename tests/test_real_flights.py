@@ -185,6 +185,23 @@ def test_a_simulated_flight_reads_as_a_real_one():
         figure8.simulated_flight(uw.UAV(), "nowind")
 
 
+def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
+    """flight_duration: the quick study's 27 s flight holds the very laps a 50 s flight keeps
+    (the same doubles), the paper study flies the real flights' 50 s."""
+    quick, v = rf.STUDIES["quick"], Multirotor.neural_fly(drag_scale=0.84)
+    assert figure8.flight_duration(rf.STUDIES["paper"]) == figure8.DURATION == 50.0
+    assert figure8.flight_duration(quick) == 27.0
+    assert figure8.flight_duration(rf.RealFlightStudy(max_laps=100)) == 50.0  # never longer
+    chans, keep = quick.channels + ("aero_force",), slice(0, quick.max_laps)
+    full = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0), chans, quick.n_samples,
+                          quick.drop_first)
+    cut = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0, duration=27.0), chans,
+                         quick.n_samples, quick.drop_first)
+    assert len(full["starts"]) > len(cut["starts"]) >= quick.max_laps
+    for ch in chans + ("starts", "tilt"):
+        assert np.array_equal(full[ch][keep], cut[ch][keep]), ch
+
+
 def test_the_drag_fit_hits_its_target(monkeypatch):
     study = rf.RealFlightStudy(max_laps=1)
     flown, real = {}, figure8._mean_force_x
