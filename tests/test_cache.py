@@ -385,3 +385,19 @@ def test_the_content_digest_of_numbers_is_what_it_was_before_its_fast_path():
     df["nested"] = nested
     df["ints2d"] = [np.arange(6).reshape(2, 3)] * 5
     assert cache.content_digest(df) == reference(df)
+
+
+def test_a_chunks_digest_and_checks_ignore_its_attrs_and_leave_them(exp5_computed):
+    """Verification reads columns without the frame's attrs (pandas deep-copies them into
+    every column): same digest with or without them, and the frame keeps its own."""
+    (path,) = _chunks(exp5_computed["case0"][0])
+    df = pd.read_parquet(path)
+    assert df.attrs  # the chunks carry their summary in attrs
+    attrs = dict(df.attrs)
+    plain = df.copy()
+    plain.attrs = {}
+    assert cache.content_digest(df) == cache.content_digest(plain)
+    assert df.attrs == attrs
+    edited = df.copy()
+    edited.loc[0, "score"] = edited.loc[0, "score"] + 1
+    assert cache.content_digest(edited) != cache.content_digest(df)

@@ -175,15 +175,25 @@ def _plain(v):
     return v
 
 
+def _bare(df: pd.DataFrame) -> pd.DataFrame:
+    """``df``'s columns without its ``attrs``: pandas deep-copies a frame's ``attrs`` into
+    every column it hands out, which was a fifth of the time a cached chunk took to verify."""
+    if not df.attrs:
+        return df
+    out = df.copy(deep=False)
+    out.attrs = {}
+    return out
+
+
 def content_digest(df: pd.DataFrame) -> str:
     """SHA-256 of a chunk's content: every column's name, dtype and values, in order (list
     columns as lists, floats by their shortest round-trip repr)."""
     h = hashlib.sha256()
-    for col in df.columns:
-        values = df[col].tolist()
-        if df[col].dtype.kind not in _SCALAR_KINDS:
+    for col, column in _bare(df).items():
+        values = column.tolist()
+        if column.dtype.kind not in _SCALAR_KINDS:
             values = [_plain(v) for v in values]
-        h.update(json.dumps([str(col), str(df[col].dtype), values], default=str,
+        h.update(json.dumps([str(col), str(column.dtype), values], default=str,
                             allow_nan=True).encode())
     return h.hexdigest()
 
@@ -225,6 +235,7 @@ def _episode_problem(df):
 
 def _problem(df, expect):
     """Why ``df`` cannot be trusted as ``expect`` (empty string: it can)."""
+    df = _bare(df)
     if len(df) != expect.n_rows:
         return f"{len(df)} rows, expected {expect.n_rows}"
     required = EPISODE_REQUIRED if expect.kind == "episodes" else REQUIRED
