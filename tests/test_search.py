@@ -184,3 +184,44 @@ def test_an_interrupt_shuts_the_workers_down(monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         uw.random_search(s, n_loops=2, n_jobs=2, progress=False)
     assert stopped == [True]
+
+
+def test_a_cem_run_stepped_by_hand_is_cem_to_the_double():
+    s = uw.make_setting("light constant", "light shear", 3, dt=0.2, duration=4.0, n_changes=1)
+    whole = uw.cem(s, n_samples=4, n_elite=2, max_iter=2, seed=5, n_jobs=1, progress=False,
+                   rank_by="silhouette", clustering={"max_iter": 5})
+    run = search.CEMRun(s, n_samples=4, n_elite=2, max_iter=2, seed=5, rank_by="silhouette",
+                        params={"max_iter": 5})
+    with pytest.raises(ValueError, match="ask"):
+        run.tell([])
+    with pytest.raises(ValueError, match="finished an iteration"):
+        run.result()
+    while not run.done:
+        thrusts, seeds = run.ask()
+        again, _ = run.ask()  # asking twice gives the same draws
+        assert [t.to_dict() for t in again] == [t.to_dict() for t in thrusts]
+        with pytest.raises(ValueError, match="one loop result per sample"):
+            run.tell([])
+        # each sample scored on its own, in reverse order, as a worker would
+        res = [search.evaluate(s, [th], [ws], engine=run.engine, n_jobs=1, progress=False,
+                               **run.params)[0] for th, ws in reversed(list(zip(thrusts, seeds)))]
+        run.tell(res[::-1])
+    with pytest.raises(ValueError, match="done"):
+        run.ask()
+    got = run.result()
+    assert got.samples.to_dict("list") == whole.samples.to_dict("list")
+    assert got.history.to_dict("list") == whole.history.to_dict("list")
+    assert got.best_score == whole.best_score and run.iteration == 2
+    # an objective instead of loops, with patience
+    f = lambda x: -np.abs(x).sum(axis=1)  # noqa: E731
+    run = search.CEMRun(s, n_samples=5, n_elite=2, max_iter=9, seed=1, patience=2)
+    while not run.done:
+        run.ask()
+        run.tell_scores(f(run.draws()))
+    whole = uw.cem(s, n_samples=5, n_elite=2, max_iter=9, seed=1, patience=2, objective=f,
+                   progress=False)
+    assert run.result().history.to_dict("list") == whole.history.to_dict("list")
+    with pytest.raises(ValueError, match="max_iter"):
+        search.CEMRun(s, max_iter=0)
+    with pytest.raises(ValueError, match="engine"):
+        search.CEMRun(s, engine="slow")

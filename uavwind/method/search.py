@@ -4,7 +4,9 @@ This module owns the loops of the paper (replication notes, decisions 7 and 8):
 
 * :func:`evaluate` -- fly a batch of thrust sequences through a setting and score each;
 * :func:`random_search` -- ``n_loops`` fresh random thrust sequences, one row each;
-* :func:`cem` -- the Cross-Entropy Method over magnitudes and direction components.
+* :func:`cem` -- the Cross-Entropy Method over magnitudes and direction components;
+* :class:`CEMRun` -- one CEM run stepped from outside (ask for an iteration's samples, tell
+  their results), which the fill uses to hand each sample out as a task of its own.
 
 Randomness: one ``numpy.random.SeedSequence`` per call. Loop ``i`` draws its
 thrust from the child with spawn key ``(i, 0)`` and its turbulence from
@@ -44,7 +46,7 @@ from .clustering import ClusteringParams, LoopResult, check_engine, score_loop
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["evaluate", "random_search", "cem", "CEMResult", "cem_step"]
+__all__ = ["evaluate", "random_search", "cem", "CEMRun", "CEMResult", "cem_step"]
 
 
 def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
@@ -261,6 +263,160 @@ def cem_step(samples: ArrayLike, scores: ArrayLike,
     return mu, sigma, order[:n_elite]
 
 
+class CEMRun:
+    """One CEM run, stepped from outside: :meth:`ask` gives the next iteration's draws (the
+    actions and their turbulence seeds), :meth:`tell` takes their loop results in the same
+    order and updates the distribution, :attr:`done` says when the run is over, and
+    :meth:`result` gives what :func:`cem` returns.
+
+    :func:`cem` steps it with :func:`evaluate` (each iteration's samples over ``n_jobs``
+    workers); the fill (:func:`uavwind.study.fill.fill_cache`) hands each sample out as a
+    task of its own, beside other experiments' work, and steps the run as an iteration's
+    last sample returns. Every draw and seed is fixed by ``seed`` and the iteration, so the
+    rows are the same doubles however the samples were computed. The parameters are
+    :func:`cem`'s; ``engine`` and ``params`` (the clustering parameters, checked) are carried
+    for whoever scores the samples (:func:`evaluate` with them).
+    """
+
+    def __init__(self, setting: Setting, n_samples: int = 30, n_elite: int = 4,
+                 max_iter: int = 20, seed: int | np.random.SeedSequence | None = 0,
+                 patience: int | None = None, magnitude_mean: float = 25.0,
+                 magnitude_std: float = 50.0, direction_mean: float = 0.0,
+                 direction_std: float = 0.33, max_magnitude: float = MAX_THRUST,
+                 rank_by: str = "score", engine: str | None = None,
+                 params: Mapping[str, float | str] | None = None):
+        check_instance(setting, "setting", Setting)
+        self.n_samples = check_scalar(n_samples, "n_samples", low=1, integer=True)
+        self.n_elite = check_scalar(n_elite, "n_elite", low=1, high=self.n_samples,
+                                    integer=True)
+        self.max_iter = check_scalar(max_iter, "max_iter", low=1, integer=True)
+        self.patience = (None if patience is None
+                         else check_scalar(patience, "patience", low=1, integer=True))
+        magnitude_std = check_scalar(magnitude_std, "magnitude_std", low=0)
+        direction_std = check_scalar(direction_std, "direction_std", low=0)
+        magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
+        direction_mean = check_scalar(direction_mean, "direction_mean")
+        self.rank_by = check_choice(rank_by, "rank_by", ("score", "silhouette"))
+        self.setting = setting
+        self.engine = check_engine(engine)
+        self.params = ClusteringParams.from_kwargs(dict(params or {}),
+                                                   "clustering parameters").to_dict()
+        self._root = root_seed(seed)
+
+        first = setting.sample_thrust(child_rng(self._root, 0))
+        times = self.times = first.times
+        k = times.shape[0]
+        action = type(first)
+        if action is ThrustSequence:
+            mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
+            sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
+        elif action is WaypointSpline:  # waypoint offsets from the hover start [m]
+            mu = np.zeros(3 * (k - 1))
+            sigma = np.tile(WAYPOINT_CEM_STD, k - 1).astype(float)
+        else:  # attitude actions: thrust [N], roll, pitch, yaw [rad] per segment
+            mu = np.tile(action.CEM_MEAN, k).astype(float)
+            sigma = np.tile(action.CEM_STD, k).astype(float)
+        if action is WaypointSpline:
+            start = first.waypoints[0]
+            self._decode = lambda x: waypoints_from_vector(x, times, start)
+        else:
+            self._decode = lambda x: action.from_vector(x, times, max_magnitude)
+        self.mu, self.sigma = mu, sigma
+        self._history, self._sample_rows = [], []
+        self._best_score, self._best_thrust, self._best_iter = -np.inf, None, -1
+        self._it = 0
+        self._draws = self._thrusts = None
+        self._stopped = False
+
+    @property
+    def iteration(self) -> int:
+        """Iterations done so far."""
+        return self._it
+
+    @property
+    def done(self) -> bool:
+        """True once ``max_iter`` iterations ran, or ``patience`` stopped the run."""
+        return self._stopped or self._it >= self.max_iter
+
+    def ask(self) -> tuple[list, list[np.random.SeedSequence]]:
+        """The next iteration's ``n_samples`` actions and their turbulence seeds (iteration
+        ``t`` draws from the seed's child ``(t + 1,)``, sample ``j``'s turbulence from
+        ``(t + 1, j + 1)``). Asking again before :meth:`tell` gives the same draws."""
+        if self.done:
+            raise ValueError("the run is done: nothing left to ask")
+        it = self._it
+        self._draws = child_rng(self._root, it + 1).normal(
+            self.mu, self.sigma, size=(self.n_samples, self.mu.size))
+        self._thrusts = [self._decode(x) for x in self._draws]
+        seeds = [child_seed(self._root, it + 1, j + 1) for j in range(self.n_samples)]
+        return self._thrusts, seeds
+
+    def tell(self, results: Sequence[LoopResult]) -> None:
+        """The loop results of the samples :meth:`ask` gave, in its order."""
+        if self._draws is None:
+            raise ValueError("tell() needs the samples of ask() first")
+        if len(results) != self.n_samples:
+            raise ValueError(f"results must hold one loop result per sample "
+                             f"({self.n_samples}), got {len(results)}")
+        scores = np.array([r.score for r in results])
+        rank = scores if self.rank_by == "score" else np.nan_to_num(
+            np.array([r.silhouette for r in results]), nan=-1.0)
+        self._update(scores, rank, _rows(results, self._thrusts))
+
+    def tell_scores(self, scores: ArrayLike) -> None:
+        """Scores of the samples :meth:`ask` gave, from an objective instead of loops (the
+        samples' rows then hold only ``score``)."""
+        if self._draws is None:
+            raise ValueError("tell_scores() needs the samples of ask() first")
+        scores = np.asarray(scores, dtype=float)
+        if scores.shape != (self.n_samples,):
+            raise ValueError(f"objective must return one score per sample, shape "
+                             f"({self.n_samples},), got {scores.shape}")
+        self._update(scores, scores, [{"loop": j, "score": s} for j, s in enumerate(scores)])
+
+    def draws(self) -> np.ndarray:
+        """The search vectors of the samples :meth:`ask` gave last, ``(n_samples, dim)``."""
+        if self._draws is None:
+            raise ValueError("draws() needs the samples of ask() first")
+        return self._draws
+
+    def _update(self, scores, rank, rows):
+        it = self._it
+        if np.all(np.isnan(scores)):
+            raise ValueError(f"every score of CEM iteration {it + 1} is NaN: nothing to rank "
+                             f"the samples by")
+        draws, thrusts = self._draws, self._thrusts
+        self.mu, self.sigma, elite = cem_step(draws, rank, self.n_elite)
+        chosen = set(elite.tolist())
+        for j, row in enumerate(rows):
+            row.pop("loop", None)
+            self._sample_rows.append({"iteration": it + 1, "sample": j, **row,
+                                      "elite": bool(j in chosen),
+                                      "vector": draws[j].tolist()})
+        j_best = int(np.nanargmax(scores))
+        if scores[j_best] > self._best_score:
+            self._best_score, self._best_thrust, self._best_iter = (
+                float(scores[j_best]), thrusts[j_best], it)
+        self._history.append({"iteration": it + 1, "max": float(np.nanmax(scores)),
+                              "mean": float(np.nanmean(scores)),
+                              "elite_mean": float(np.nanmean(scores[elite])),
+                              "best_so_far": self._best_score, "mu": self.mu.tolist(),
+                              "sigma": self.sigma.tolist()})
+        self._it = it + 1
+        self._draws = self._thrusts = None
+        if self.patience is not None and it - self._best_iter >= self.patience:
+            self._stopped = self._it < self.max_iter
+
+    def result(self) -> CEMResult:
+        """What the run found: its history, every sample's row and the best action."""
+        if not self._it:
+            raise ValueError("the run has not finished an iteration yet")
+        return CEMResult(history=pd.DataFrame(self._history),
+                         samples=pd.DataFrame(self._sample_rows), best_thrust=self._best_thrust,
+                         best_score=self._best_score, times=self.times,
+                         stopped_early=self._stopped)
+
+
 def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int = 20,
         seed: int | np.random.SeedSequence | None = 0, patience: int | None = None,
         magnitude_mean: float = 25.0, magnitude_std: float = 50.0,
@@ -319,84 +475,19 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
     -------
     CEMResult
     """
-    check_instance(setting, "setting", Setting)
-    n_samples = check_scalar(n_samples, "n_samples", low=1, integer=True)
-    n_elite = check_scalar(n_elite, "n_elite", low=1, high=n_samples, integer=True)
-    max_iter = check_scalar(max_iter, "max_iter", low=1, integer=True)
-    if patience is not None:
-        patience = check_scalar(patience, "patience", low=1, integer=True)
-    magnitude_std = check_scalar(magnitude_std, "magnitude_std", low=0)
-    direction_std = check_scalar(direction_std, "direction_std", low=0)
-    magnitude_mean = check_scalar(magnitude_mean, "magnitude_mean")
-    direction_mean = check_scalar(direction_mean, "direction_mean")
-    params = {**params, **(clustering or {})}
-    check_choice(rank_by, "rank_by", ("score", "silhouette"))
     if rank_by == "silhouette" and objective is not None:
         raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
-    root = root_seed(seed)
-
-    first = setting.sample_thrust(child_rng(root, 0))
-    times = first.times
-    k = times.shape[0]
-    action = type(first)
-    if action is ThrustSequence:
-        mu = np.tile([magnitude_mean, direction_mean, direction_mean, direction_mean], k)
-        sigma = np.tile([magnitude_std, direction_std, direction_std, direction_std], k)
-    elif action is WaypointSpline:  # waypoint offsets from the hover start [m]
-        mu = np.zeros(3 * (k - 1))
-        sigma = np.tile(WAYPOINT_CEM_STD, k - 1).astype(float)
-    else:  # attitude actions: thrust [N], roll, pitch, yaw [rad] per segment
-        mu = np.tile(action.CEM_MEAN, k).astype(float)
-        sigma = np.tile(action.CEM_STD, k).astype(float)
-    if action is WaypointSpline:
-        start = first.waypoints[0]
-
-        def decode(x):
-            return waypoints_from_vector(x, times, start)
-    else:
-        def decode(x):
-            return action.from_vector(x, times, max_magnitude)
-
-    history, sample_rows = [], []
-    best_score, best_thrust, best_iter = -np.inf, None, -1
-    stopped = False
-    for it in range(max_iter):
-        draws = child_rng(root, it + 1).normal(mu, sigma, size=(n_samples, mu.size))
-        thrusts = [decode(x) for x in draws]
+    run = CEMRun(setting, n_samples=n_samples, n_elite=n_elite, max_iter=max_iter, seed=seed,
+                 patience=patience, magnitude_mean=magnitude_mean, magnitude_std=magnitude_std,
+                 direction_mean=direction_mean, direction_std=direction_std,
+                 max_magnitude=max_magnitude, rank_by=rank_by, engine=engine,
+                 params={**params, **(clustering or {})})
+    while not run.done:
+        thrusts, seeds = run.ask()
         if objective is None:
-            seeds = [child_seed(root, it + 1, j + 1) for j in range(n_samples)]
-            results = evaluate(setting, thrusts, seeds, engine=engine, n_jobs=n_jobs,
-                               progress=progress, desc=f"CEM iteration {it + 1}", **params)
-            scores = np.array([r.score for r in results])
-            rows = _rows(results, thrusts)
-            rank = scores if rank_by == "score" else np.nan_to_num(
-                np.array([r.silhouette for r in results]), nan=-1.0)
+            run.tell(evaluate(setting, thrusts, seeds, engine=run.engine, n_jobs=n_jobs,
+                              progress=progress, desc=f"CEM iteration {run.iteration + 1}",
+                              **run.params))
         else:
-            scores = np.asarray(objective(draws), dtype=float)
-            if scores.shape != (n_samples,):
-                raise ValueError(f"objective must return one score per sample, shape "
-                                 f"({n_samples},), got {scores.shape}")
-            rows = [{"loop": j, "score": s} for j, s in enumerate(scores)]
-            rank = scores
-        if np.all(np.isnan(scores)):
-            raise ValueError(f"every score of CEM iteration {it + 1} is NaN: nothing to rank "
-                             f"the samples by")
-        mu, sigma, elite = cem_step(draws, rank, n_elite)
-        for j, row in enumerate(rows):
-            row.pop("loop", None)
-            sample_rows.append({"iteration": it + 1, "sample": j, **row,
-                                "elite": bool(j in set(elite.tolist())),
-                                "vector": draws[j].tolist()})
-        j_best = int(np.nanargmax(scores))
-        if scores[j_best] > best_score:
-            best_score, best_thrust, best_iter = float(scores[j_best]), thrusts[j_best], it
-        history.append({"iteration": it + 1, "max": float(np.nanmax(scores)),
-                        "mean": float(np.nanmean(scores)),
-                        "elite_mean": float(np.nanmean(scores[elite])),
-                        "best_so_far": best_score, "mu": mu.tolist(), "sigma": sigma.tolist()})
-        if patience is not None and it - best_iter >= patience:
-            stopped = it + 1 < max_iter
-            break
-    return CEMResult(history=pd.DataFrame(history), samples=pd.DataFrame(sample_rows),
-                     best_thrust=best_thrust, best_score=best_score, times=times,
-                     stopped_early=stopped)
+            run.tell_scores(objective(run.draws()))
+    return run.result()
