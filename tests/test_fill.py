@@ -104,6 +104,58 @@ def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
     assert _exact(pooled) == _exact(alone)
 
 
+def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch):
+    """Two workers, run in this process by an executor that records what it is handed: each
+    CEM sample is a task of its own, a run's next iteration is handed out only after its
+    last sample returned, and ahead of every chunk still waiting; the rows are
+    run_experiment's to the double."""
+    from concurrent.futures import Future
+
+    import joblib.executor
+
+    handed = []
+
+    class Recorder:
+        def submit(self, fn, *args):
+            if fn is fill._cem_sample:
+                handed.append(("sample", args[0].key(), args[2].spawn_key))
+            else:
+                handed.append(("chunk", args[0].path))
+            fut = Future()
+            fut.set_result(fn(*args))
+            return fut
+
+    monkeypatch.setattr(joblib.executor, "get_memmapping_executor", lambda n, **kw: Recorder())
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)  # this process keeps its threads
+    ids = ["exp6", "exp5"]
+    done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
+                           readings="all", progress=False)
+    cem_entries = [e for e in fill.needed_entries(ids, TINY, "all", results=tmp_path)
+                   if e.search == "cem"]
+    n_samples, n_iter = TINY["cem"]["n_samples"], TINY["cem"]["max_iter"]
+    samples = [h for h in handed if h[0] == "sample"]
+    assert len(cem_entries) == 2 and len(samples) == 2 * n_samples * n_iter
+    # every sample before any chunk: a run's next iteration goes ahead of the waiting chunks
+    assert [h[0] for h in handed] == ["sample"] * len(samples) + ["chunk"] * (
+        len(handed) - len(samples))
+    for run in {h[1] for h in samples}:  # one run's samples: iteration by iteration
+        keys = [h[2] for h in samples if h[1] == run]
+        assert sorted(keys) == [(it, j) for it in range(1, n_iter + 1)
+                                for j in range(1, n_samples + 1)]
+        assert [k[0] for k in keys] == sorted(k[0] for k in keys)
+    cem_times = [t for t in done["times"] if t["search"] == "cem"]
+    assert [t["tasks"] for t in cem_times] == [n_samples * n_iter] * 2
+    assert all(t["tasks"] == 1 for t in done["times"] if t["search"] != "cem")
+    for reading in ("inferred", "halves"):
+        for eid in ids:
+            pooled = ex.run_experiment(eid, profile=TINY, results=tmp_path / "pool", n_jobs=1,
+                                       progress=False, reading=reading)
+            assert pooled.attrs["cached"] == pooled.attrs["chunks"]
+            alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone",
+                                      n_jobs=1, progress=False, reading=reading)
+            assert _exact(pooled) == _exact(alone)
+
+
 def test_time_by_experiment_sums_per_experiment_in_registry_order():
     rec = [{"experiment": e, "reading": r, "case": 0, "search": "random", "n_env": 6, "rows": n,
             "cpu_seconds": c}

@@ -3,15 +3,17 @@
 This module owns how the book's results are computed in one go (``make results``,
 ``python -m uavwind run all``): :func:`needed_entries` lists the cache entries
 (:class:`~uavwind.study.runner.Entry`) the experiments need, each once, however many
-experiments and readings share it; :func:`fill_cache` computes the missing ones as one task
-per entry, longest first, over a pool of local workers or on a ``dask.distributed``
-cluster (``scheduler=``), and records the CPU seconds of each; :func:`time_by_experiment`
-sums those records per experiment and reading.
+experiments and readings share it; :func:`fill_cache` computes the missing ones as
+tasks -- one per chunk, longest first, and one per sample of a CEM run, ahead of the
+chunks, each iteration put as the last one returns -- over a pool of local workers or on
+a ``dask.distributed`` cluster (``scheduler=``), and records the CPU seconds of each
+entry; :func:`time_by_experiment` sums those records per experiment and reading.
 
-Local workers write their entries themselves (the results folder is theirs too). Cluster
-workers only compute: each returns its rows to the client, which verifies and writes every
-entry, so the workers need no shared folder, and an entry whose worker dies is computed
-again elsewhere by the scheduler while the entries already returned stay written.
+Local workers write their chunks themselves (the results folder is theirs too); a CEM run
+is written by the fill's own process, which steps it. Cluster workers only compute: each
+returns its rows to the client, which verifies and writes every entry, so the workers need
+no shared folder, and a task whose worker dies is computed again elsewhere by the
+scheduler while the entries already returned stay written.
 
 What an entry holds, where it is cached and how it is verified is
 :mod:`uavwind.study.runner`' (and :mod:`uavwind.study.cache`'s): the rows a fill stores are the
@@ -134,6 +136,99 @@ def _compute_remote(entry):
     return df, time.process_time() - cpu0
 
 
+def _cem_sample(setting, thrust, wind_seed, engine, params):
+    """A task: one CEM sample's loop (:func:`~uavwind.method.search.evaluate` of one action,
+    on one thread) and the CPU seconds it took; the run is stepped where the fill runs."""
+    from ..method.search import evaluate
+
+    pin_threads()
+    cpu0 = time.process_time()
+    res = evaluate(setting, [thrust], [wind_seed], engine=engine, n_jobs=1, progress=False,
+                   **params)[0]
+    return res, time.process_time() - cpu0
+
+
+#: Priority of a CEM sample's task: above every entry's (an entry's is its cost, capped
+#: below this), since each CEM iteration waits for its last sample.
+SAMPLE_PRIORITY = 2 ** 62 + 1
+
+
+class _LocalPool:
+    """Tasks on the local worker processes (joblib's reusable loky executor, the one its
+    ``Parallel`` uses and :func:`~uavwind.core.parallel.stop_workers` stops): at most one
+    task per worker is handed out, the pending ones wait here in priority order, so a task
+    put later with a higher priority (the next CEM iteration's samples) goes before those
+    already waiting."""
+
+    def __init__(self, n_workers: int):
+        from joblib.executor import get_memmapping_executor
+
+        self.n = n_workers
+        self.executor = get_memmapping_executor(n_workers)
+        self.pending, self.running, self._seq = [], {}, 0
+
+    def put(self, key, priority, fn, *args):
+        import heapq
+
+        heapq.heappush(self.pending, (-priority, self._seq, key, fn, args))
+        self._seq += 1
+
+    def busy(self) -> bool:
+        return bool(self.pending or self.running)
+
+    def wait(self, timeout: float) -> list:
+        """``(key, result)`` of the tasks finished within ``timeout`` seconds (a task that
+        failed raises its error here); the free workers get the next tasks first."""
+        import heapq
+        from concurrent.futures import FIRST_COMPLETED, wait
+
+        while self.pending and len(self.running) < self.n:
+            _, _, key, fn, args = heapq.heappop(self.pending)
+            self.running[self.executor.submit(fn, *args)] = key
+        done, _ = wait(list(self.running), timeout=timeout, return_when=FIRST_COMPLETED)
+        return [(self.running.pop(f), f.result()) for f in done]
+
+    def cancel(self):
+        self.pending.clear()
+
+
+class _ClusterPool:
+    """Tasks on a dask cluster: each is submitted at once with its priority (the scheduler
+    runs the highest first, and computes again a task whose worker died)."""
+
+    def __init__(self, client):
+        from distributed import as_completed
+
+        self.client, self.futures = client, {}
+        self.arrivals = as_completed([])
+
+    def put(self, key, priority, fn, *args):
+        # a chunk's key is its path; a CEM sample's (path, iteration, sample)
+        name = (f"uavwind-fill-{key.stem}" if not isinstance(key, tuple)
+                else f"uavwind-cem-{key[0].stem}-{key[1]}-{key[2]}")
+        fut = self.client.submit(fn, *args, key=name, priority=priority, pure=False)
+        self.futures[fut] = key
+        self.arrivals.add(fut)
+
+    def busy(self) -> bool:
+        return bool(self.futures)
+
+    def wait(self, timeout: float) -> list:
+        if not self.arrivals.has_ready():
+            time.sleep(min(timeout, 0.1))
+            return []
+        out = []
+        for fut in self.arrivals.next_batch(block=False):
+            key = self.futures.pop(fut)
+            out.append((key, fut.result()))
+            fut.release()
+        return out
+
+    def cancel(self):
+        if self.futures:
+            self.client.cancel(list(self.futures), force=True)
+
+
 #: Seconds a scheduler address has to accept a connection and send dask's handshake.
 PROBE_SECONDS = 5.0
 #: The largest handshake a dask scheduler sends [bytes] (its first message is a few hundred).
@@ -246,36 +341,69 @@ def _check_scheduler(scheduler, stop=None):
                          f"({type(exc).__name__}: {exc})") from None
 
 
-def _on_cluster(missing, client, stop=None):
-    """Yield ``(path, rows, from_cache, CPU seconds)`` as the cluster returns each entry,
-    stored here by :meth:`Entry.store <uavwind.study.runner.Entry.store>`. The scheduler
-    runs the costliest first (``priority``) and computes again a task whose worker died;
-    ``stop`` is checked every 0.1 s while waiting (``KeyboardInterrupt`` once set); on
-    leaving early (an interrupt, an error) the remaining tasks are cancelled."""
-    from distributed import as_completed
+def _run_tasks(missing, pool, local, stop=None, bar=None):
+    """Yield ``(path, rows, from_cache, CPU seconds, rows shown, tasks)`` as each entry of
+    ``missing`` is done, its work handed out as tasks on ``pool``.
 
-    futures = {}
-    for e in missing:
-        fut = client.submit(_compute_remote, e, key=f"uavwind-fill-{e.path.stem}",
-                            priority=int(min(e.cost, 2 ** 62)), pure=False)
-        futures[fut] = e
+    A chunk is one task (``local``: the worker writes it, :func:`_fill_one`; on a cluster it
+    only computes, :func:`_compute_remote`, and it is stored here by :meth:`Entry.store
+    <uavwind.study.runner.Entry.store>`). A CEM run is stepped here
+    (:meth:`Entry.cem_run <uavwind.study.runner.Entry.cem_run>`): each sample of an
+    iteration is a task of its own, above every chunk in priority, the next iteration's
+    put as the last sample returns, and the run stored here when it is done. A run's
+    samples thus spread over every worker instead of one, and the cores stay busy through
+    its iterations with other entries' chunks. ``stop`` is checked every 0.1 s
+    (``KeyboardInterrupt`` once set); on leaving early the remaining tasks are cancelled.
+    ``bar`` counts each CEM sample as it returns ("rows shown"), a chunk when it is done."""
+    runs = {}  # entry path -> [entry, CEMRun, results of this iteration, left, CPU seconds]
+    by_path = {e.path: e for e in missing}
+
+    def put_iteration(st):
+        e, run = st[0], st[1]
+        thrusts, seeds = run.ask()
+        st[2], st[3] = [None] * len(thrusts), len(thrusts)
+        for j, (th, ws) in enumerate(zip(thrusts, seeds)):
+            pool.put((e.path, run.iteration, j), SAMPLE_PRIORITY, _cem_sample, e.setting, th,
+                     ws, run.engine, run.params)
+
     try:
-        arrivals = as_completed(list(futures))
-        while not arrivals.is_empty():
+        for e in missing:
+            if e.search == "cem":
+                st = runs[e.path] = [e, e.cem_run(), None, 0, 0.0]
+                put_iteration(st)
+            else:
+                pool.put(e.path, int(min(e.cost, 2 ** 62)),
+                         _fill_one if local else _compute_remote, e)
+        while pool.busy():
             if stop is not None and stop.is_set():
                 raise KeyboardInterrupt
-            if not arrivals.has_ready():
-                time.sleep(0.1)
-                continue
-            for fut in arrivals.next_batch(block=False):
-                df, cpu = fut.result()
-                e = futures.pop(fut)
-                back, hit = e.store(df)
-                fut.release()
-                yield e.path, len(back), hit, cpu
+            for key, res in pool.wait(0.1):
+                if not isinstance(key, tuple):  # a chunk
+                    if local:
+                        yield (*res, 0, 1)
+                    else:
+                        e = by_path[key]
+                        back, hit = e.store(res[0])
+                        yield e.path, len(back), hit, res[1], 0, 1
+                    continue
+                path, _, j = key
+                st = runs[path]
+                st[2][j], st[3], st[4] = res[0], st[3] - 1, st[4] + res[1]
+                if bar is not None:
+                    bar.update(1)
+                if st[3]:
+                    continue
+                e, run = st[0], st[1]
+                run.tell(st[2])
+                if not run.done:
+                    put_iteration(st)
+                    continue
+                del runs[path]
+                back, hit = e.store(run.result().samples)
+                n = run.iteration * run.n_samples
+                yield e.path, len(back), hit, st[4], n, n
     finally:
-        if futures:
-            client.cancel(list(futures), force=True)
+        pool.cancel()
 
 
 def fill_cache(exp_ids: str | Iterable[str] = "all",
@@ -289,11 +417,14 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
     over the workers, so a worker idles at the end of every chunk and every CEM iteration.
-    Here every missing entry (a chunk, or a whole CEM run) is one task, the tasks run
-    longest first (:attr:`Entry.cost <uavwind.study.runner.Entry.cost>`) with one worker per task, and a worker writes its
-    entry as soon as it is done: the cores stay busy until the last few chunks, an
-    interrupt keeps every finished entry, and the rows are the same doubles as
-    :func:`~uavwind.study.runner.run_experiment`'s (which then reads them from the cache).
+    Here every missing chunk is one task and every sample of a CEM run is one task (the
+    run is stepped in this process, its next iteration's samples put as the last one
+    returns, ahead of any chunk); chunks run longest first (:attr:`Entry.cost
+    <uavwind.study.runner.Entry.cost>`) with one worker per task, and an entry is written
+    as soon as it is done: the cores stay busy until the last few tasks, a CEM run is not
+    bound to one worker, an interrupt keeps every finished entry, and the rows are the
+    same doubles as :func:`~uavwind.study.runner.run_experiment`'s (which then reads them
+    from the cache).
 
     Parameters
     ----------
@@ -321,9 +452,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         Fill on a ``dask.distributed`` cluster instead of local workers: the address of its
         scheduler (``"tcp://host:8786"``) or a ``Client``. A ``tcp://`` address that refuses
         the connection, stays silent or is not a dask scheduler is a ``ValueError`` within
-        :data:`PROBE_SECONDS`. Each worker computes one entry at
-        a time per thread and returns its rows; this process verifies and writes them (the
-        workers need no access to ``results``). The rows equal a local fill's, bit for bit.
+        :data:`PROBE_SECONDS`. Each worker computes one task (a chunk, or
+        one CEM sample) at a time per thread and returns its rows; this process steps the
+        CEM runs, verifies and writes every entry (the workers need no access to
+        ``results``). The rows equal a local fill's, bit for bit.
 
     Returns
     -------
@@ -332,8 +464,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         filled meanwhile by another run on the same folder), ``computed``, ``rows_computed``,
         and ``times``: one record per computed entry, in the order they finished --
         ``experiment`` (the first that needs it), ``reading`` (``"both"`` if both readings
-        need it), ``shared_with`` (the other experiments that need it), ``case``, ``kind``,
-        ``n_env``, ``rows`` and ``cpu_seconds`` (of the processes that computed it).
+        need it), ``shared_with`` (the other experiments that need it), ``case``, ``search``,
+        ``n_env``, ``rows``, ``tasks`` (1 for a chunk or an entry computed in this process, a
+        CEM run's samples when they were tasks) and ``cpu_seconds`` (of the processes that
+        computed it).
         :func:`time_by_experiment` sums them.
     """
     n_jobs = check_jobs(n_jobs)
@@ -349,7 +483,7 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
 def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, times, stop,
           client, **params):
     """:func:`fill_cache` once its pool is chosen (``client``: a cluster, or ``None``)."""
-    from joblib import Parallel, delayed, effective_n_jobs
+    from joblib import effective_n_jobs
 
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
@@ -367,13 +501,13 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
         from tqdm import tqdm
         bar = tqdm(total=sum(e.n_rows for e in missing), desc="results", unit="loop",
                    file=sys.stderr)
-    watcher = None
+    watcher = done = None
     try:
         if client is not None:
-            done = _on_cluster(missing, client, stop)
+            done = _run_tasks(missing, _ClusterPool(client), False, stop, bar)
         elif effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
             # in this process; a lone entry still gets every worker
-            done = (_fill_one(e, pin=False, n_jobs=n_jobs) for e in missing)
+            done = ((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing)
         else:
             # the loop kernels compiled (or loaded from numba's cache) here first: on a fresh
             # checkout, workers that each compiled them at once would spend a core-minute on
@@ -381,13 +515,12 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # a page that only reads results needs neither the kernels nor scikit-learn)
             from ..method import softdtw
             softdtw.warmup()
-            # one task per entry, dispatched in cost order as workers free up
-            done = Parallel(n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
-                            return_as="generator_unordered")(
-                delayed(_fill_one)(e) for e in missing)
+            # one task per chunk and per CEM sample, dispatched in priority order as
+            # workers free up
+            done = _run_tasks(missing, _LocalPool(effective_n_jobs(n_jobs)), True, stop, bar)
             if stop is not None:  # waiting on the workers: a stop request ends them at once
                 watcher = _Watcher(stop)
-        for path, n_rows, hit, cpu in done:
+        for path, n_rows, hit, cpu, shown, n_tasks in done:
             out["computed"] += not hit
             out["cached"] += hit  # another run on the same folder got there first
             out["rows_computed"] += 0 if hit else n_rows
@@ -400,9 +533,9 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
                     "reading": pairs[0][1] if len(rds) == 1 else "both",
                     "shared_with": sorted({x for x, _ in pairs} - {pairs[0][0]}),
                     "case": e.labels["case"], "search": e.search, "n_env": e.setting.n_env,
-                    "rows": n_rows, "cpu_seconds": cpu})
+                    "rows": n_rows, "tasks": n_tasks, "cpu_seconds": cpu})
             if bar is not None:
-                bar.update(n_rows)
+                bar.update(max(0, n_rows - shown))
             if stop is not None and stop.is_set():
                 raise KeyboardInterrupt
     except BaseException:  # interrupted or failed: finished entries are on disk
@@ -414,8 +547,8 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
     finally:
         if watcher is not None:
             watcher.close()
-        if client is not None:
-            done.close()  # cancels the cluster tasks still pending
+        if done is not None:
+            done.close()  # cancels the tasks still pending
         if bar is not None:
             bar.close()
     return out

@@ -30,7 +30,7 @@ from .._version import __version__
 from ..core.checks import check_scalar
 from ..method.clustering import ClusteringParams, check_engine
 from ..method.closed_loop import ClosedLoop, run_episodes
-from ..method.search import cem, random_search
+from ..method.search import CEMRun, cem, random_search
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
@@ -142,7 +142,8 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
 @dataclass(frozen=True, eq=False, kw_only=True)
 class Entry:
     """One cache entry an experiment needs: a chunk of random loops of one case
-    (``search="random"``, loops ``start .. stop-1``), one whole CEM run (``search="cem"``),
+    (``search="random"``, loops ``start .. stop-1``), one whole CEM run (``search="cem"``;
+    the fill hands its samples out as tasks, :meth:`cem_run`),
     or a chunk of closed-loop episodes, each flown by every policy (``search="closed_loop"``,
     episodes ``start .. stop-1``; ``engine`` is ``"none"``: no clustering).
 
@@ -205,6 +206,15 @@ class Entry:
         return random_search(s, n_loops=self.stop - self.start, seed=self.seed,
                              loop_offset=self.start, n_jobs=n_jobs, engine=self.engine,
                              progress=progress, **self.params)
+
+    def cem_run(self) -> CEMRun:
+        """A ``"cem"`` entry's run, to be stepped from outside: the fill hands each of its
+        samples out as a task (:func:`uavwind.study.fill.fill_cache`); its result's
+        ``samples`` are the doubles :meth:`compute` returns."""
+        if self.search != "cem":
+            raise ValueError(f"cem_run() needs a 'cem' entry, this one is {self.search!r}")
+        return CEMRun(self.setting, seed=self.seed, engine=self.engine, params=self.params,
+                      **self.options)
 
     def fill(self, n_jobs: int | None = None,
              progress: bool = False) -> tuple[pd.DataFrame, bool]:
