@@ -111,8 +111,6 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
     run_experiment's to the double."""
     from concurrent.futures import Future
 
-    import joblib.executor
-
     handed = []
 
     class Recorder:
@@ -125,7 +123,8 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
             fut.set_result(fn(*args))
             return fut
 
-    monkeypatch.setattr(joblib.executor, "get_memmapping_executor", lambda n, **kw: Recorder())
+    pool = fill._LocalPool
+    monkeypatch.setattr(fill, "_LocalPool", lambda n: pool(n, executor=Recorder()))
     monkeypatch.setattr(fill, "pin_threads", lambda: None)  # this process keeps its threads
     ids = ["exp6", "exp5"]
     done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
@@ -154,6 +153,107 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
             alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone",
                                       n_jobs=1, progress=False, reading=reading)
             assert _exact(pooled) == _exact(alone)
+
+
+class _Batch:
+    """A pool whose every task finishes at once, in this process, failed ones listed first;
+    ``hold``: the first wait returns nothing and sets it (a stop request arriving while
+    the tasks run), the next one returns them."""
+
+    def __init__(self, n_workers, hold=None):
+        self.tasks, self.hold = [], hold
+
+    def put(self, key, priority, fn, *args):
+        self.tasks.append((key, fn, args))
+
+    def busy(self):
+        return bool(self.tasks)
+
+    def wait(self, timeout, dispatch=True):
+        if self.hold is not None and not self.hold.is_set():
+            self.hold.set()
+            return []
+        out = []
+        for key, fn, args in self.tasks:
+            try:
+                out.append((key, fn(*args), None))
+            except Exception as exc:
+                out.append((key, None, exc))
+        self.tasks = []
+        return sorted(out, key=lambda t: t[2] is None)
+
+    def cancel(self):
+        self.tasks = []
+
+
+ONE_ITERATION = {**TINY, "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 1}}
+
+
+def _cem_entry(folder):
+    return next(e for e in fill.needed_entries(["exp6", "exp5"], ONE_ITERATION, results=folder)
+                if e.search == "cem")
+
+
+def test_a_failed_task_raises_after_what_finished_beside_it_is_stored(tmp_path, monkeypatch):
+    monkeypatch.setattr(fill, "_LocalPool", _Batch)
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)
+
+    def boom(entry, pin=True, n_jobs=1):
+        raise RuntimeError("boom")
+    monkeypatch.setattr(fill, "_fill_one", boom)
+    with pytest.raises(RuntimeError, match="boom"):
+        fill.fill_cache(["exp6", "exp5"], profile=ONE_ITERATION, results=tmp_path, n_jobs=2,
+                        progress=False)
+    # the CEM run whose last sample returned in the failed chunk's batch was stored
+    assert _cem_entry(tmp_path).present()
+
+
+def test_a_stop_request_keeps_what_finished_before_it_was_seen(tmp_path, monkeypatch):
+    import threading
+
+    stop = threading.Event()
+    monkeypatch.setattr(fill, "_LocalPool", lambda n: _Batch(n, hold=stop))
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)
+    with pytest.raises(KeyboardInterrupt):
+        fill.fill_cache(["exp6", "exp5"], profile=ONE_ITERATION, results=tmp_path, n_jobs=2,
+                        progress=False, stop=stop)
+    assert _cem_entry(tmp_path).present()
+
+
+def test_the_fills_workers_are_the_ones_joblib_reuses():
+    import os
+
+    from joblib import Parallel, delayed
+
+    pool = fill._LocalPool(2)
+    pool.put("a", 1, os.getpid)
+    pool.put("b", 1, os.getpid)
+    pids = set()
+    while pool.busy():
+        pids |= {res for _, res, _ in pool.wait(5)}
+    # a later Parallel of this process (Exp 13 after the fill) reuses them, none started
+    assert set(Parallel(n_jobs=2)(delayed(os.getpid)() for _ in range(8))) <= \
+        set(pool.executor._processes)
+
+
+def test_another_joblib_backend_keeps_one_task_per_entry(tmp_path, monkeypatch):
+    from joblib import parallel_config
+
+    def no_pool(n):
+        raise AssertionError("the task pool is loky's only")
+    monkeypatch.setattr(fill, "_LocalPool", no_pool)
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)
+    with parallel_config(backend="threading"):
+        done = fill.fill_cache(["exp6", "exp5"], profile=ONE_ITERATION, results=tmp_path,
+                               n_jobs=2, progress=False)
+    assert done["computed"] == done["entries"] and {t["tasks"] for t in done["times"]} == {1}
+    for eid in ("exp6", "exp5"):
+        pooled = ex.run_experiment(eid, profile=ONE_ITERATION, results=tmp_path, n_jobs=1,
+                                   progress=False)
+        assert pooled.attrs["cached"] == pooled.attrs["chunks"]
+        alone = ex.run_experiment(eid, profile=ONE_ITERATION, results=tmp_path / "alone",
+                                  n_jobs=1, progress=False)
+        assert _exact(pooled) == _exact(alone)
 
 
 def test_time_by_experiment_sums_per_experiment_in_registry_order():

@@ -463,7 +463,8 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
         Clustering parameters of every loop (see :func:`uavwind.method.clustering.score_loop`);
         the k-means cap goes here, ``clustering={"max_iter": 50}``, since ``max_iter``
         is this search's own cap. Other clustering parameters may also be given as
-        keyword arguments.
+        keyword arguments. They are checked with or without ``objective``: an unknown
+        one is a ``TypeError`` naming it.
     rank_by : {"score", "silhouette"}
         What picks the elites: the paper's score (0 when the clusters miss the
         groups, so a population without a correct loop carries no signal) or the
@@ -475,13 +476,13 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
     -------
     CEMResult
     """
-    if rank_by == "silhouette" and objective is not None:
-        raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
     run = CEMRun(setting, n_samples=n_samples, n_elite=n_elite, max_iter=max_iter, seed=seed,
                  patience=patience, magnitude_mean=magnitude_mean, magnitude_std=magnitude_std,
                  direction_mean=direction_mean, direction_std=direction_std,
                  max_magnitude=max_magnitude, rank_by=rank_by, engine=engine,
                  params={**params, **(clustering or {})})
+    if rank_by == "silhouette" and objective is not None:
+        raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
     while not run.done:
         thrusts, seeds = run.ask()
         if objective is None:

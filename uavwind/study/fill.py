@@ -154,18 +154,29 @@ SAMPLE_PRIORITY = 2 ** 62 + 1
 
 
 class _LocalPool:
-    """Tasks on the local worker processes (joblib's reusable loky executor, the one its
-    ``Parallel`` uses and :func:`~uavwind.core.parallel.stop_workers` stops): at most one
-    task per worker is handed out, the pending ones wait here in priority order, so a task
-    put later with a higher priority (the next CEM iteration's samples) goes before those
-    already waiting."""
+    """Tasks on the local worker processes: joblib's reusable loky executor, made with the
+    arguments joblib's own ``Parallel`` gives it (so a later ``Parallel`` in this process,
+    e.g. Experiment 13's after the fill, reuses these workers instead of starting others),
+    and which :func:`~uavwind.core.parallel.stop_workers` stops. At most one task per
+    worker is handed out; the pending ones wait here in priority order, so a task put later
+    with a higher priority (the next CEM iteration's samples) goes before those already
+    waiting."""
 
-    def __init__(self, n_workers: int):
-        from joblib.executor import get_memmapping_executor
+    def __init__(self, n_workers: int, executor=None):
+        from joblib import Parallel
 
-        self.n = n_workers
-        self.executor = get_memmapping_executor(n_workers)
         self.pending, self.running, self._seq = [], {}, 0
+        if executor is not None:  # any concurrent.futures-style executor (tests)
+            self.n, self.executor = n_workers, executor
+            return
+        try:  # the executor a Parallel(n_jobs=n_workers) would run on (joblib's private
+            # set-up; tests/test_fill.py checks that a later Parallel reuses its workers)
+            par = Parallel(n_jobs=n_workers)
+            self.n = par._initialize_backend()
+            self.executor = par._backend._workers
+        except Exception:  # pragma: no cover - another joblib: its own workers, not shared
+            from joblib.executor import get_memmapping_executor
+            self.n, self.executor = n_workers, get_memmapping_executor(n_workers)
 
     def put(self, key, priority, fn, *args):
         import heapq
@@ -176,17 +187,22 @@ class _LocalPool:
     def busy(self) -> bool:
         return bool(self.pending or self.running)
 
-    def wait(self, timeout: float) -> list:
-        """``(key, result)`` of the tasks finished within ``timeout`` seconds (a task that
-        failed raises its error here); the free workers get the next tasks first."""
+    def wait(self, timeout: float, dispatch: bool = True) -> list:
+        """``(key, result, error)`` of every task finished within ``timeout`` seconds
+        (``error`` is ``None``, or the exception the task raised, its result ``None``);
+        first (``dispatch``) the free workers get the next tasks."""
         import heapq
         from concurrent.futures import FIRST_COMPLETED, wait
 
-        while self.pending and len(self.running) < self.n:
+        while dispatch and self.pending and len(self.running) < self.n:
             _, _, key, fn, args = heapq.heappop(self.pending)
             self.running[self.executor.submit(fn, *args)] = key
         done, _ = wait(list(self.running), timeout=timeout, return_when=FIRST_COMPLETED)
-        return [(self.running.pop(f), f.result()) for f in done]
+        out = []
+        for f in done:
+            key, exc = self.running.pop(f), f.exception()
+            out.append((key, None if exc is not None else f.result(), exc))
+        return out
 
     def cancel(self):
         self.pending.clear()
@@ -194,18 +210,22 @@ class _LocalPool:
 
 class _ClusterPool:
     """Tasks on a dask cluster: each is submitted at once with its priority (the scheduler
-    runs the highest first, and computes again a task whose worker died)."""
+    runs the highest first, and computes again a task whose worker died). Task names carry
+    a token of this fill, so two fills on one cluster never share a task."""
 
     def __init__(self, client):
+        import uuid
+
         from distributed import as_completed
 
         self.client, self.futures = client, {}
         self.arrivals = as_completed([])
+        self.token = uuid.uuid4().hex[:8]
 
     def put(self, key, priority, fn, *args):
         # a chunk's key is its path; a CEM sample's (path, iteration, sample)
-        name = (f"uavwind-fill-{key.stem}" if not isinstance(key, tuple)
-                else f"uavwind-cem-{key[0].stem}-{key[1]}-{key[2]}")
+        name = (f"uavwind-fill-{key.stem}-{self.token}" if not isinstance(key, tuple)
+                else f"uavwind-cem-{key[0].stem}-{key[1]}-{key[2]}-{self.token}")
         fut = self.client.submit(fn, *args, key=name, priority=priority, pure=False)
         self.futures[fut] = key
         self.arrivals.add(fut)
@@ -213,14 +233,19 @@ class _ClusterPool:
     def busy(self) -> bool:
         return bool(self.futures)
 
-    def wait(self, timeout: float) -> list:
+    def wait(self, timeout: float, dispatch: bool = True) -> list:
+        """As :meth:`_LocalPool.wait` (every task was submitted when put)."""
         if not self.arrivals.has_ready():
-            time.sleep(min(timeout, 0.1))
+            if timeout:
+                time.sleep(min(timeout, 0.1))
             return []
         out = []
         for fut in self.arrivals.next_batch(block=False):
             key = self.futures.pop(fut)
-            out.append((key, fut.result()))
+            try:
+                out.append((key, fut.result(), None))
+            except Exception as exc:  # the task's error (or its cancellation)
+                out.append((key, None, exc))
             fut.release()
         return out
 
@@ -352,9 +377,14 @@ def _run_tasks(missing, pool, local, stop=None, bar=None):
     iteration is a task of its own, above every chunk in priority, the next iteration's
     put as the last sample returns, and the run stored here when it is done. A run's
     samples thus spread over every worker instead of one, and the cores stay busy through
-    its iterations with other entries' chunks. ``stop`` is checked every 0.1 s
-    (``KeyboardInterrupt`` once set); on leaving early the remaining tasks are cancelled.
-    ``bar`` counts each CEM sample as it returns ("rows shown"), a chunk when it is done."""
+    its iterations with other entries' chunks.
+
+    Every task that finished is taken in before a failed one's error is raised, and every
+    entry finished is stored before it is yielded, so neither an error nor an interrupt
+    loses a finished entry. ``stop`` is checked every 0.1 s: once set, what has finished
+    is taken in and ``KeyboardInterrupt`` raised; on leaving early the remaining tasks are
+    cancelled. ``bar`` counts each CEM sample as it returns ("rows shown"), a chunk when it
+    is done."""
     runs = {}  # entry path -> [entry, CEMRun, results of this iteration, left, CPU seconds]
     by_path = {e.path: e for e in missing}
 
@@ -366,6 +396,49 @@ def _run_tasks(missing, pool, local, stop=None, bar=None):
             pool.put((e.path, run.iteration, j), SAMPLE_PRIORITY, _cem_sample, e.setting, th,
                      ws, run.engine, run.params)
 
+    def take(finished):
+        """The entries ``finished`` completes, stored; then the first error, raised."""
+        done, error = [], None
+        for key, res, exc in finished:
+            if exc is not None:
+                error = error or exc
+                continue
+            if not isinstance(key, tuple):  # a chunk
+                if local:
+                    done.append((*res, 0, 1))
+                else:
+                    e = by_path[key]
+                    back, hit = e.store(res[0])
+                    done.append((e.path, len(back), hit, res[1], 0, 1))
+                continue
+            path, _, j = key
+            st = runs.get(path)
+            if st is None:  # a run given up after an error
+                continue
+            st[2][j], st[3], st[4] = res[0], st[3] - 1, st[4] + res[1]
+            if bar is not None:
+                bar.update(1)
+            if st[3]:
+                continue
+            e, run = st[0], st[1]
+            try:
+                run.tell(st[2])
+            except Exception as exc:  # e.g. an iteration whose every score is NaN
+                error = error or exc
+                del runs[path]
+                continue
+            if not run.done:
+                if error is None and not (stop is not None and stop.is_set()):
+                    put_iteration(st)
+                continue
+            del runs[path]
+            back, hit = e.store(run.result().samples)
+            n = run.iteration * run.n_samples
+            done.append((e.path, len(back), hit, st[4], n, n))
+        if error is not None:
+            raise error
+        return done
+
     try:
         for e in missing:
             if e.search == "cem":
@@ -376,32 +449,9 @@ def _run_tasks(missing, pool, local, stop=None, bar=None):
                          _fill_one if local else _compute_remote, e)
         while pool.busy():
             if stop is not None and stop.is_set():
+                take(pool.wait(0, dispatch=False))  # what finished meanwhile is kept
                 raise KeyboardInterrupt
-            for key, res in pool.wait(0.1):
-                if not isinstance(key, tuple):  # a chunk
-                    if local:
-                        yield (*res, 0, 1)
-                    else:
-                        e = by_path[key]
-                        back, hit = e.store(res[0])
-                        yield e.path, len(back), hit, res[1], 0, 1
-                    continue
-                path, _, j = key
-                st = runs[path]
-                st[2][j], st[3], st[4] = res[0], st[3] - 1, st[4] + res[1]
-                if bar is not None:
-                    bar.update(1)
-                if st[3]:
-                    continue
-                e, run = st[0], st[1]
-                run.tell(st[2])
-                if not run.done:
-                    put_iteration(st)
-                    continue
-                del runs[path]
-                back, hit = e.store(run.result().samples)
-                n = run.iteration * run.n_samples
-                yield e.path, len(back), hit, st[4], n, n
+            yield from take(pool.wait(0.1))
     finally:
         pool.cancel()
 
@@ -483,7 +533,9 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
 def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, times, stop,
           client, **params):
     """:func:`fill_cache` once its pool is chosen (``client``: a cluster, or ``None``)."""
-    from joblib import effective_n_jobs
+    from joblib import Parallel, delayed, effective_n_jobs
+    from joblib._parallel_backends import LokyBackend
+    from joblib.parallel import get_active_backend
 
     users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
     unique = list(users)
@@ -515,9 +567,15 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # a page that only reads results needs neither the kernels nor scikit-learn)
             from ..method import softdtw
             softdtw.warmup()
-            # one task per chunk and per CEM sample, dispatched in priority order as
-            # workers free up
-            done = _run_tasks(missing, _LocalPool(effective_n_jobs(n_jobs)), True, stop, bar)
+            if isinstance(get_active_backend()[0], LokyBackend):
+                # one task per chunk and per CEM sample, dispatched in priority order as
+                # workers free up
+                done = _run_tasks(missing, _LocalPool(effective_n_jobs(n_jobs)), True, stop,
+                                  bar)
+            else:  # another joblib backend (joblib.parallel_config): one task per entry
+                done = ((*r, 0, 1) for r in Parallel(
+                    n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
+                    return_as="generator_unordered")(delayed(_fill_one)(e) for e in missing))
             if stop is not None:  # waiting on the workers: a stop request ends them at once
                 watcher = _Watcher(stop)
         for path, n_rows, hit, cpu, shown, n_tasks in done:

@@ -148,9 +148,11 @@ class Entry:
     episodes ``start .. stop-1``; ``engine`` is ``"none"``: no clustering).
 
     :func:`run_experiment` fills its entries one after the other, each over ``n_jobs``
-    workers; :func:`uavwind.study.fill.fill_cache` fills the missing entries of many
-    experiments at once, one entry per worker, longest first. Either way an entry is
-    computed under its lock, verified and written atomically by
+    workers, each computed under its lock; :func:`uavwind.study.fill.fill_cache` fills the
+    missing entries of many experiments at once: a chunk per worker, longest first, under
+    its lock, and a CEM run's samples as tasks of their own, the run stored under its lock
+    when done (two fills on one folder may then both compute a run; the first stored is
+    kept). Either way an entry is verified and written atomically by
     :func:`uavwind.study.cache.cached`, and its rows do not depend on the number of workers.
     """
 
