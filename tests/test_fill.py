@@ -155,15 +155,46 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
             assert _exact(pooled) == _exact(alone)
 
 
+def test_closed_loop_entries_fly_while_the_kernels_compile(tmp_path, monkeypatch):
+    """The fill's process compiles the clustering kernels before any clustering task is
+    handed out; meanwhile the workers fly Experiment 12's first closed-loop entries (no
+    clustering), at most two per worker."""
+    from concurrent.futures import Future
+
+    from uavwind.method import softdtw
+
+    handed = []
+
+    class Recorder:  # hands back each entry as if computed, computing nothing
+        def submit(self, fn, *args):
+            assert fn is fill._fill_one, fn
+            handed.append(args[0].search)
+            fut = Future()
+            fut.set_result((args[0].path, args[0].n_rows, False, 0.0))
+            return fut
+
+    monkeypatch.setattr(softdtw, "warmup", lambda: handed.append("warm"))
+    pool = fill._LocalPool
+    monkeypatch.setattr(fill, "_LocalPool", lambda n: pool(n, executor=Recorder()))
+    done = fill.fill_cache(["exp12", "exp5"], profile={**TINY, "episodes": 1},
+                           results=tmp_path, n_jobs=2, readings="all", progress=False)
+    n_closed = handed.count("closed_loop")
+    assert n_closed > 4 and handed[:5] == ["closed_loop"] * 4 + ["warm"]
+    assert handed.count("warm") == 1 and done["computed"] == done["entries"] == len(handed) - 1
+
+
 class _Batch:
     """A pool whose every task finishes at once, in this process, failed ones listed first;
     ``hold``: the first wait returns nothing and sets it (a stop request arriving while
     the tasks run), the next one returns them."""
 
     def __init__(self, n_workers, hold=None):
-        self.tasks, self.hold = [], hold
+        self.n, self.tasks, self.hold = n_workers, [], hold
 
     def put(self, key, priority, fn, *args):
+        self.tasks.append((key, fn, args))
+
+    def start(self, key, fn, *args):
         self.tasks.append((key, fn, args))
 
     def busy(self):

@@ -178,6 +178,11 @@ class _LocalPool:
             from joblib.executor import get_memmapping_executor
             self.n, self.executor = n_workers, get_memmapping_executor(n_workers)
 
+    def start(self, key, fn, *args):
+        """Hand a task to the workers now, beside those already handed out (it may wait
+        in the executor's queue for a free worker)."""
+        self.running[self.executor.submit(fn, *args)] = key
+
     def put(self, key, priority, fn, *args):
         import heapq
 
@@ -366,7 +371,7 @@ def _check_scheduler(scheduler, stop=None):
                          f"({type(exc).__name__}: {exc})") from None
 
 
-def _run_tasks(missing, pool, local, stop=None, bar=None):
+def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
     """Yield ``(path, rows, from_cache, CPU seconds, rows shown, tasks)`` as each entry of
     ``missing`` is done, its work handed out as tasks on ``pool``.
 
@@ -384,7 +389,12 @@ def _run_tasks(missing, pool, local, stop=None, bar=None):
     loses a finished entry. ``stop`` is checked every 0.1 s: once set, what has finished
     is taken in and ``KeyboardInterrupt`` raised; on leaving early the remaining tasks are
     cancelled. ``bar`` counts each CEM sample as it returns ("rows shown"), a chunk when it
-    is done."""
+    is done.
+
+    ``warm`` (local workers): called here before any other task is handed out, to compile
+    (or load) the clustering kernels once, for the workers to load; meanwhile the workers
+    start on the first closed-loop entries (Experiment 12's episodes cluster nothing), at
+    most two per worker, so the compile of a fresh checkout leaves no core idle."""
     runs = {}  # entry path -> [entry, CEMRun, results of this iteration, left, CPU seconds]
     by_path = {e.path: e for e in missing}
 
@@ -440,13 +450,19 @@ def _run_tasks(missing, pool, local, stop=None, bar=None):
         return done
 
     try:
+        early = ([e for e in missing if e.search == "closed_loop"][:2 * pool.n]
+                 if warm is not None else [])
+        for e in early:
+            pool.start(e.path, _fill_one, e)
         for e in missing:
             if e.search == "cem":
                 st = runs[e.path] = [e, e.cem_run(), None, 0, 0.0]
                 put_iteration(st)
-            else:
+            elif e not in early:
                 pool.put(e.path, int(min(e.cost, 2 ** 62)),
                          _fill_one if local else _compute_remote, e)
+        if warm is not None:
+            warm()
         while pool.busy():
             if stop is not None and stop.is_set():
                 take(pool.wait(0, dispatch=False))  # what finished meanwhile is kept
@@ -566,13 +582,13 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # copies of the same work; now they load what this process wrote (imported here:
             # a page that only reads results needs neither the kernels nor scikit-learn)
             from ..method import softdtw
-            softdtw.warmup()
             if isinstance(get_active_backend()[0], LokyBackend):
                 # one task per chunk and per CEM sample, dispatched in priority order as
-                # workers free up
+                # workers free up (closed-loop entries fly while the kernels compile)
                 done = _run_tasks(missing, _LocalPool(effective_n_jobs(n_jobs)), True, stop,
-                                  bar)
+                                  bar, warm=softdtw.warmup)
             else:  # another joblib backend (joblib.parallel_config): one task per entry
+                softdtw.warmup()
                 done = ((*r, 0, 1) for r in Parallel(
                     n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
                     return_as="generator_unordered")(delayed(_fill_one)(e) for e in missing))
