@@ -628,10 +628,62 @@ def bench_exp13(report):
     report["exp13"] = out
 
 
+#: The CEM run the cluster section fills: Experiment 6's (point mass, 20 environments).
+CLUSTER_CEM = {"n_samples": 12, "n_elite": 3, "max_iter": 4}
+
+
+def _warm_worker():
+    from uavwind.method import softdtw
+    softdtw.warmup()
+
+
+def bench_cluster(report):
+    """One CEM run on a dask ``LocalCluster`` of 2 one-thread workers, side by side: as one
+    task (``fill._compute_remote`` of the whole entry, how the fill ran a CEM run before
+    its samples were tasks) and as the fill runs it now (each sample a task of its own).
+    Alternated, 3 each, after each worker loaded the kernels; the rows are checked equal."""
+    import tempfile
+
+    from distributed import Client, LocalCluster
+
+    from uavwind.study import fill
+
+    print("\n== a CEM run on a cluster: one task, or its samples as tasks ==")
+    prof = {"loops": 2, "long_loops": 2, "fit_loops": 2, "cem": CLUSTER_CEM}
+    one, tasks, same = [], [], True
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster, Client(cluster) as client:
+        client.run(_warm_worker)
+        for _ in range(3):
+            with tempfile.TemporaryDirectory() as tmp:
+                entry = next(e for e in fill.needed_entries(["exp6"], prof, results=tmp)
+                             if e.search == "cem")
+                t0 = time.perf_counter()
+                whole, _ = client.submit(fill._compute_remote, entry, pure=False).result()
+                one.append(time.perf_counter() - t0)
+                t0 = time.perf_counter()
+                fill.fill_cache(["exp6"], profile=prof, results=tmp, progress=False,
+                                scheduler=client)
+                tasks.append(time.perf_counter() - t0)
+                stored = entry.read()
+                same &= all(np.array_equal(whole[c].to_numpy(), stored[c].to_numpy(),
+                                           equal_nan=True)
+                            for c in ("iteration", "sample", "score", "silhouette", "elite"))
+    n = CLUSTER_CEM["n_samples"] * CLUSTER_CEM["max_iter"]
+    out = {"experiment": "exp6", "workers": 2, **CLUSTER_CEM, "samples": n,
+           "one_task_seconds": one, "sample_tasks_seconds": tasks, "same_rows": bool(same)}
+    print(f"  exp6's CEM run, {CLUSTER_CEM['n_samples']} samples x {CLUSTER_CEM['max_iter']} "
+          f"iterations, 2 workers: one task {statistics.median(one):.1f} s "
+          f"({min(one):.1f}-{max(one):.1f}), samples as tasks "
+          f"{statistics.median(tasks):.1f} s ({min(tasks):.1f}-{max(tasks):.1f}); "
+          f"same rows: {same}")
+    report["cluster"] = out
+
+
 SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
             "agreement": bench_agreement, "search": bench_search,
             "profile": bench_where_time_goes, "compile": bench_cold_compile,
-            "closed_loop": bench_closed_loop, "exp13": bench_exp13,
+            "closed_loop": bench_closed_loop, "exp13": bench_exp13, "cluster": bench_cluster,
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 
 

@@ -92,3 +92,17 @@ def test_the_closed_loop_section_shows_flights_and_the_measured_run():
                                  measured_command="python -m uavwind run exp12")
     line = summary_lines(report)["closed_loop"]
     assert "4.3 min wall" in line and "8.5 CPU-minutes" in line
+
+
+def test_the_cluster_sentence_gives_both_ways_their_medians_spread_and_ratio():
+    c = {"experiment": "exp6", "workers": 2, "n_samples": 12, "n_elite": 3, "max_iter": 4,
+         "samples": 48, "one_task_seconds": [15.0, 13.0, 14.0],
+         "sample_tasks_seconds": [8.0, 7.0, 9.5], "same_rows": True}
+    line = summary_lines({**REPORT, "cluster": c})["cluster"]
+    assert "12 samples x 4 iterations" in line and "2 one-thread workers" in line
+    assert "14.0 s as one task (13.0-15.0 s over 3 runs)" in line
+    assert "8.0 s with its samples as tasks (7.0-9.5 s)" in line and "1.8x" in line
+    assert line.endswith("the same rows both ways.")
+    line = summary_lines({**REPORT, "cluster": {**c, "same_rows": False}})["cluster"]
+    assert "**the rows differed**" in line
+    assert "cluster" not in summary_lines(REPORT)

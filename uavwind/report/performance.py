@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import statistics
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -264,6 +265,19 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
         out["closed_loop"] = line + "."
+    if "cluster" in report:
+        c = report["cluster"]
+        one, tasks = sorted(c["one_task_seconds"]), sorted(c["sample_tasks_seconds"])
+        med = statistics.median
+        out["cluster"] = (
+            f"Measured on a local cluster of {c['workers']} one-thread workers "
+            f"(`make bench ONLY=cluster`), one CEM run of {c['experiment']} "
+            f"({c['n_samples']} samples x {c['max_iter']} iterations): {med(one):.1f} s as one "
+            f"task ({one[0]:.1f}-{one[-1]:.1f} s over {len(one)} runs) and {med(tasks):.1f} s "
+            f"with its samples as tasks ({tasks[0]:.1f}-{tasks[-1]:.1f} s), "
+            f"{med(one) / med(tasks):.1f}x; "
+            + ("the same rows both ways." if c["same_rows"] else
+               "**the rows differed**."))
     p = report.get("paper_profile", {})
     if "measured_seconds" in p:
         out["paper"] = "Against the target: " + "; ".join(_paper_verdicts(
