@@ -407,6 +407,16 @@ class CEMRun:
         if self.patience is not None and it - self._best_iter >= self.patience:
             self._stopped = self._it < self.max_iter
 
+    def run(self, n_jobs: int | None = None, progress: bool = True) -> CEMResult:
+        """Step the run to its end in this process, each iteration's samples scored by
+        :func:`evaluate` over ``n_jobs`` workers; its :meth:`result`."""
+        while not self.done:
+            thrusts, seeds = self.ask()
+            self.tell(evaluate(self.setting, thrusts, seeds, engine=self.engine, n_jobs=n_jobs,
+                               progress=progress, desc=f"CEM iteration {self._it + 1}",
+                               **self.params))
+        return self.result()
+
     def result(self) -> CEMResult:
         """What the run found: its history, every sample's row and the best action."""
         if not self._it:
@@ -483,12 +493,9 @@ def cem(setting: Setting, n_samples: int = 30, n_elite: int = 4, max_iter: int =
                  params={**params, **(clustering or {})})
     if rank_by == "silhouette" and objective is not None:
         raise ValueError("rank_by='silhouette' needs the simulation: leave objective=None")
+    if objective is None:
+        return run.run(n_jobs=n_jobs, progress=progress)
     while not run.done:
-        thrusts, seeds = run.ask()
-        if objective is None:
-            run.tell(evaluate(setting, thrusts, seeds, engine=run.engine, n_jobs=n_jobs,
-                              progress=progress, desc=f"CEM iteration {run.iteration + 1}",
-                              **run.params))
-        else:
-            run.tell_scores(objective(run.draws()))
+        run.ask()
+        run.tell_scores(objective(run.draws()))
     return run.result()

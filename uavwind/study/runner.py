@@ -30,7 +30,7 @@ from .._version import __version__
 from ..core.checks import check_scalar
 from ..method.clustering import ClusteringParams, check_engine
 from ..method.closed_loop import ClosedLoop, run_episodes
-from ..method.search import CEMRun, cem, random_search
+from ..method.search import CEMRun, random_search
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
@@ -199,9 +199,7 @@ class Entry:
         """The entry's rows, computed (no cache)."""
         s = self.setting
         if self.search == "cem":
-            res = cem(s, seed=self.seed, n_jobs=n_jobs, engine=self.engine, progress=progress,
-                      **self.options, clustering=self.params)
-            return res.samples
+            return self.cem_run().run(n_jobs=n_jobs, progress=progress).samples
         if self.search == "closed_loop":
             return run_episodes(self.problem, list(self.options["policies"]), self.start,
                                 self.stop, seed=self.seed, n_jobs=n_jobs)
@@ -210,9 +208,9 @@ class Entry:
                              progress=progress, **self.params)
 
     def cem_run(self) -> CEMRun:
-        """A ``"cem"`` entry's run, to be stepped from outside: the fill hands each of its
-        samples out as a task (:func:`uavwind.study.fill.fill_cache`); its result's
-        ``samples`` are the doubles :meth:`compute` returns."""
+        """A ``"cem"`` entry's run: :meth:`compute` steps it in this process, the fill
+        (:func:`uavwind.study.fill.fill_cache`) hands each of its samples out as a task;
+        either way its result's ``samples`` are the entry's rows."""
         if self.search != "cem":
             raise ValueError(f"cem_run() needs a 'cem' entry, this one is {self.search!r}")
         return CEMRun(self.setting, seed=self.seed, engine=self.engine, params=self.params,
