@@ -23,11 +23,15 @@ workers, and it then reads them from the cache.
 
 from __future__ import annotations
 
+import heapq
 import os
 import sys
 import threading
 import time
+import uuid
 from collections.abc import Iterable, Mapping, Sequence
+from concurrent.futures import FIRST_COMPLETED, wait
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -35,6 +39,7 @@ import pandas as pd
 
 from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..method.clustering import ClusteringParams
+from ..method.search import CEMRun, evaluate
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
 from .readings import DEFAULT_READING, READINGS, get_reading
@@ -139,8 +144,6 @@ def _compute_remote(entry):
 def _cem_sample(setting, thrust, wind_seed, engine, params):
     """A task: one CEM sample's loop (:func:`~uavwind.method.search.evaluate` of one action,
     on one thread) and the CPU seconds it took; the run is stepped where the fill runs."""
-    from ..method.search import evaluate
-
     pin_threads()
     cpu0 = time.process_time()
     res = evaluate(setting, [thrust], [wind_seed], engine=engine, n_jobs=1, progress=False,
@@ -184,8 +187,6 @@ class _LocalPool:
         self.running[self.executor.submit(fn, *args)] = key
 
     def put(self, key, priority, fn, *args):
-        import heapq
-
         heapq.heappush(self.pending, (-priority, self._seq, key, fn, args))
         self._seq += 1
 
@@ -196,9 +197,6 @@ class _LocalPool:
         """``(key, result, error)`` of every task finished within ``timeout`` seconds
         (``error`` is ``None``, or the exception the task raised, its result ``None``);
         first (``dispatch``) the free workers get the next tasks."""
-        import heapq
-        from concurrent.futures import FIRST_COMPLETED, wait
-
         while dispatch and self.pending and len(self.running) < self.n:
             _, _, key, fn, args = heapq.heappop(self.pending)
             self.running[self.executor.submit(fn, *args)] = key
@@ -219,8 +217,6 @@ class _ClusterPool:
     a token of this fill, so two fills on one cluster never share a task."""
 
     def __init__(self, client):
-        import uuid
-
         from distributed import as_completed
 
         self.client, self.futures = client, {}
@@ -371,6 +367,17 @@ def _check_scheduler(scheduler, stop=None):
                          f"({type(exc).__name__}: {exc})") from None
 
 
+@dataclass(eq=False)
+class _Stepping:
+    """A CEM entry the fill is stepping: its run, the loop results of the iteration under
+    way (``None`` where a sample has not returned) and the CPU seconds of its samples."""
+
+    entry: Entry
+    run: CEMRun
+    results: list = field(default_factory=list)
+    cpu: float = 0.0
+
+
 def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
     """Yield ``(path, rows, from_cache, CPU seconds, rows shown, tasks)`` as each entry of
     ``missing`` is done, its work handed out as tasks on ``pool``.
@@ -395,16 +402,15 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
     (or load) the clustering kernels once, for the workers to load; meanwhile the workers
     start on the first closed-loop entries (Experiment 12's episodes cluster nothing), at
     most two per worker, so the compile of a fresh checkout leaves no core idle."""
-    runs = {}  # entry path -> [entry, CEMRun, results of this iteration, left, CPU seconds]
+    runs = {}  # entry path -> its _Stepping
     by_path = {e.path: e for e in missing}
 
     def put_iteration(st):
-        e, run = st[0], st[1]
-        thrusts, seeds = run.ask()
-        st[2], st[3] = [None] * len(thrusts), len(thrusts)
+        thrusts, seeds = st.run.ask()
+        st.results = [None] * len(thrusts)
         for j, (th, ws) in enumerate(zip(thrusts, seeds)):
-            pool.put((e.path, run.iteration, j), SAMPLE_PRIORITY, _cem_sample, e.setting, th,
-                     ws, run.engine, run.params)
+            pool.put((st.entry.path, st.run.iteration, j), SAMPLE_PRIORITY, _cem_sample,
+                     st.entry.setting, th, ws, st.run.engine, st.run.params)
 
     def take(finished):
         """The entries ``finished`` completes, stored; then the first error, raised."""
@@ -425,14 +431,14 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
             st = runs.get(path)
             if st is None:  # a run given up after an error
                 continue
-            st[2][j], st[3], st[4] = res[0], st[3] - 1, st[4] + res[1]
+            st.results[j], st.cpu = res[0], st.cpu + res[1]
             if bar is not None:
                 bar.update(1)
-            if st[3]:
+            if None in st.results:
                 continue
-            e, run = st[0], st[1]
+            e, run = st.entry, st.run
             try:
-                run.tell(st[2])
+                run.tell(st.results)
             except Exception as exc:  # e.g. an iteration whose every score is NaN
                 error = error or exc
                 del runs[path]
@@ -444,7 +450,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
             del runs[path]
             back, hit = e.store(run.result().samples)
             n = run.iteration * run.n_samples
-            done.append((e.path, len(back), hit, st[4], n, n))
+            done.append((e.path, len(back), hit, st.cpu, n, n))
         if error is not None:
             raise error
         return done
@@ -456,8 +462,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
             pool.start(e.path, _fill_one, e)
         for e in missing:
             if e.search == "cem":
-                st = runs[e.path] = [e, e.cem_run(), None, 0, 0.0]
-                put_iteration(st)
+                put_iteration(runs.setdefault(e.path, _Stepping(e, e.cem_run())))
             elif e not in early:
                 pool.put(e.path, int(min(e.cost, 2 ** 62)),
                          _fill_one if local else _compute_remote, e)
