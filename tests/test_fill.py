@@ -117,6 +117,8 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
         def submit(self, fn, *args):
             if fn is fill._cem_sample:
                 handed.append(("sample", args[0].key(), args[2].spawn_key))
+            elif not args:  # the compile, first (recorded by the test below)
+                pass
             else:
                 handed.append(("chunk", args[0].path))
             fut = Future()
@@ -156,37 +158,49 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
 
 
 def test_closed_loop_entries_fly_while_the_kernels_compile(tmp_path, monkeypatch):
-    """The fill's process compiles the clustering kernels before any clustering task is
-    handed out; meanwhile the workers fly Experiment 12's first closed-loop entries (no
-    clustering), at most two per worker."""
+    """The kernels compile on a worker, as the first task; no task that clusters is handed
+    out before it returns, and meanwhile the other worker flies Experiment 12's
+    closed-loop entries (no clustering); this process only waits, so it can stop at once."""
     from concurrent.futures import Future
 
     from uavwind.method import softdtw
 
-    handed = []
+    handed, compiling = [], []
 
-    class Recorder:  # hands back each entry as if computed, computing nothing
+    class Recorder:  # hands back each task as if computed, computing nothing
         def submit(self, fn, *args):
-            assert fn is fill._fill_one, fn
-            handed.append(args[0].search)
             fut = Future()
-            fut.set_result((args[0].path, args[0].n_rows, False, 0.0))
+            if fn is softdtw.warmup:
+                handed.append("warm")
+                compiling.append(fut)  # returns after three closed-loop entries
+                return fut
+            if fn is fill._cem_sample:
+                handed.append("sample")
+                fut.set_result(fn(*args))
+            else:
+                assert fn is fill._fill_one, fn
+                handed.append(args[0].search)
+                fut.set_result((args[0].path, args[0].n_rows, False, 0.0))
+            if handed.count("closed_loop") == 3 and not compiling[0].done():
+                compiling[0].set_result(None)
             return fut
 
-    monkeypatch.setattr(softdtw, "warmup", lambda: handed.append("warm"))
+    monkeypatch.setattr(softdtw, "warmup", lambda: None)
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)
     pool = fill._LocalPool
     monkeypatch.setattr(fill, "_LocalPool", lambda n: pool(n, executor=Recorder()))
-    done = fill.fill_cache(["exp12", "exp5"], profile={**TINY, "episodes": 1},
+    done = fill.fill_cache(["exp12", "exp6"], profile={**TINY, "episodes": 1},
                            results=tmp_path, n_jobs=2, readings="all", progress=False)
-    n_closed = handed.count("closed_loop")
-    assert n_closed > 4 and handed[:5] == ["closed_loop"] * 4 + ["warm"]
-    assert handed.count("warm") == 1 and done["computed"] == done["entries"] == len(handed) - 1
+    assert handed[:4] == ["warm"] + ["closed_loop"] * 3  # nothing else while compiling
+    assert handed[4] == "sample"  # then the CEM samples go first
+    assert handed.count("warm") == 1 and handed.count("closed_loop") > 3
+    assert done["computed"] == done["entries"]
 
 
 class _Batch:
     """A pool whose every task finishes at once, in this process, failed ones listed first;
-    ``hold``: the first wait returns nothing and sets it (a stop request arriving while
-    the tasks run), the next one returns them."""
+    ``hold``: the first wait with a task besides the compile returns nothing and sets it (a
+    stop request arriving while the tasks run), the next one returns them."""
 
     def __init__(self, n_workers, hold=None):
         self.n, self.tasks, self.hold = n_workers, [], hold
@@ -201,7 +215,8 @@ class _Batch:
         return bool(self.tasks)
 
     def wait(self, timeout, dispatch=True):
-        if self.hold is not None and not self.hold.is_set():
+        if (self.hold is not None and not self.hold.is_set()
+                and any(key is not fill._WARM for key, _, _ in self.tasks)):
             self.hold.set()
             return []
         out = []

@@ -182,8 +182,8 @@ class _LocalPool:
             self.n, self.executor = n_workers, get_memmapping_executor(n_workers)
 
     def start(self, key, fn, *args):
-        """Hand a task to the workers now, beside those already handed out (it may wait
-        in the executor's queue for a free worker)."""
+        """Hand a task to the workers now, ahead of every task put (it counts as one of the
+        tasks in flight)."""
         self.running[self.executor.submit(fn, *args)] = key
 
     def put(self, key, priority, fn, *args):
@@ -367,6 +367,10 @@ def _check_scheduler(scheduler, stop=None):
                          f"({type(exc).__name__}: {exc})") from None
 
 
+#: The key of the task that compiles the clustering kernels (see :func:`_run_tasks`).
+_WARM = "compile the clustering kernels"
+
+
 @dataclass(eq=False)
 class _Stepping:
     """A CEM entry the fill is stepping: its run, the loop results of the iteration under
@@ -398,26 +402,44 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
     cancelled. ``bar`` counts each CEM sample as it returns ("rows shown"), a chunk when it
     is done.
 
-    ``warm`` (local workers): called here before any other task is handed out, to compile
-    (or load) the clustering kernels once, for the workers to load; meanwhile the workers
-    start on the first closed-loop entries (Experiment 12's episodes cluster nothing), at
-    most two per worker, so the compile of a fresh checkout leaves no core idle."""
+    ``warm`` (local workers): the first task, on one worker, to compile (or load) the
+    clustering kernels once, for the other workers to load from numba's cache; no task
+    that clusters is handed out before it returns, and meanwhile the other workers fly
+    closed-loop entries (Experiment 12's episodes cluster nothing), so the compile of a
+    fresh checkout leaves no core idle. It runs on a worker, not here, so that this
+    process, which only waits, answers a stop request at once (a compile cannot be
+    interrupted, and takes tens of seconds)."""
+    if all(e.search == "closed_loop" for e in missing):
+        warm = None  # nothing to cluster
     runs = {}  # entry path -> its _Stepping
     by_path = {e.path: e for e in missing}
+    held = [] if warm is not None else None  # tasks that cluster, until the kernels compile
+
+    def put(key, priority, fn, *args):
+        if held is None:
+            pool.put(key, priority, fn, *args)
+        else:
+            held.append((key, priority, fn, *args))
 
     def put_iteration(st):
         thrusts, seeds = st.run.ask()
         st.results = [None] * len(thrusts)
         for j, (th, ws) in enumerate(zip(thrusts, seeds)):
-            pool.put((st.entry.path, st.run.iteration, j), SAMPLE_PRIORITY, _cem_sample,
-                     st.entry.setting, th, ws, st.run.engine, st.run.params)
+            put((st.entry.path, st.run.iteration, j), SAMPLE_PRIORITY, _cem_sample,
+                st.entry.setting, th, ws, st.run.engine, st.run.params)
 
     def take(finished):
         """The entries ``finished`` completes, stored; then the first error, raised."""
+        nonlocal held
         done, error = [], None
         for key, res, exc in finished:
             if exc is not None:
                 error = error or exc
+                continue
+            if key is _WARM:  # the kernels are compiled: the clustering tasks may go
+                for task in held:
+                    pool.put(*task)
+                held = None
                 continue
             if not isinstance(key, tuple):  # a chunk
                 if local:
@@ -456,18 +478,15 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
         return done
 
     try:
-        early = ([e for e in missing if e.search == "closed_loop"][:2 * pool.n]
-                 if warm is not None else [])
-        for e in early:
-            pool.start(e.path, _fill_one, e)
+        if warm is not None:
+            pool.start(_WARM, warm)
         for e in missing:
             if e.search == "cem":
                 put_iteration(runs.setdefault(e.path, _Stepping(e, e.cem_run())))
-            elif e not in early:
-                pool.put(e.path, int(min(e.cost, 2 ** 62)),
-                         _fill_one if local else _compute_remote, e)
-        if warm is not None:
-            warm()
+            else:
+                (pool.put if e.search == "closed_loop" else put)(
+                    e.path, int(min(e.cost, 2 ** 62)), _fill_one if local else _compute_remote,
+                    e)
         while pool.busy():
             if stop is not None and stop.is_set():
                 take(pool.wait(0, dispatch=False))  # what finished meanwhile is kept
@@ -582,9 +601,9 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # in this process; a lone entry still gets every worker
             done = ((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing)
         else:
-            # the loop kernels compiled (or loaded from numba's cache) here first: on a fresh
+            # the loop kernels compiled (or loaded from numba's cache) once, first: on a fresh
             # checkout, workers that each compiled them at once would spend a core-minute on
-            # copies of the same work; now they load what this process wrote (imported here:
+            # copies of the same work; now they load what one of them wrote (imported here:
             # a page that only reads results needs neither the kernels nor scikit-learn)
             from ..method import softdtw
             if isinstance(get_active_backend()[0], LokyBackend):
