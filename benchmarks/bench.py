@@ -372,7 +372,8 @@ def bench_where_time_goes(report, n_loops=20):
     prof.disable()
     stats = pstats.Stats(prof)
     total = stats.total_tt
-    names = {"_objgrad_lockstep": "barycentre updates: soft-DTW value + gradient",
+    names = {"_objgrad_serial": "barycentre updates: soft-DTW value + gradient",
+             "_objgrad_par": "barycentre updates: soft-DTW value + gradient",
              "_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
              "_sdtw_cross_lockstep": "assignment: soft-DTW to both centres",
              "_sdtw_cross_serial": "assignment: soft-DTW to both centres",

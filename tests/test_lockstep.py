@@ -274,3 +274,41 @@ def test_lockstep_dtw_matrix_equals_the_scalar_kernel_and_tslearn(shape):
         assert _same(lock, scal) and _same(lock2, scal)
         assert _same(lock, cdist_dtw(X))
         assert _same(fk.dtw_pdist(X), scal)
+
+
+def test_the_barycentre_workspace_is_per_thread_and_never_reused_dirty(monkeypatch):
+    """The barycentre kernel keeps its workspace (whole accumulated and gradient matrices,
+    zeroed once) from call to call, per thread. Calls of other shapes in between, threads
+    calling at once, and a call that fails half-way with its gradient matrix dirty all leave
+    the next call's answer the scalar kernel's, to the double."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from uavwind.method.softdtw import _lockstep
+
+    rng = np.random.default_rng(5)
+    cases = [(rng.standard_normal((9, 30, 3)).cumsum(1), rng.standard_normal((30, 3))),
+             (rng.standard_normal((11, 25, 3)).cumsum(1), rng.standard_normal((25, 3))),
+             (rng.standard_normal((4, 30, 2)).cumsum(1), rng.standard_normal((30, 2)))]
+    cases = [(np.ascontiguousarray(X), np.ascontiguousarray(Z)) for X, Z in cases]
+    refs = [_objgrad_batch_serial(Z, X, 0.5, True) for X, Z in cases]
+
+    def check(i):
+        v, G = _one_centre(cases[i][1], cases[i][0], 0.5)
+        return v == refs[i][0] and _same(G, refs[i][1])
+
+    assert all(check(i) for i in (0, 0, 1, 0, 2, 2, 0))  # reused, remade, reused
+    with ThreadPoolExecutor(3) as pool:  # nogil kernels: the threads really overlap
+        assert all(pool.map(check, [0, 1, 2] * 8))
+
+    X, Z = cases[0]
+    check(0)  # this thread's workspace is now cases[0]'s shape
+
+    def fail_half_way(Zs, cid, starts, Xs, gamma, *ws):
+        ws[5][:] = 1.0  # E dirty, as a kernel stopped half-way would leave it
+        raise MemoryError("stopped half-way")
+    real = _lockstep._objgrad_serial
+    monkeypatch.setattr(_lockstep, "_objgrad_serial", fail_half_way)
+    with pytest.raises(MemoryError):
+        _one_centre(Z, X, 0.5)
+    monkeypatch.setattr(_lockstep, "_objgrad_serial", real)
+    assert check(0)

@@ -34,6 +34,8 @@ min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
 :mod:`._kernels` stays the scalar reference.
 """
 
+import threading
+
 import numpy as np
 from numba import njit, prange
 
@@ -69,16 +71,16 @@ def _cellv(a, b, c, dv, ng, inv, pow2):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D, doff):
+def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D):
     """Squared Euclidean costs of rows i0 .. i0 + rb - 1 on every lane, into D's rows
-    doff .. doff + rb - 1: D[((doff + r) * n + j) * N + l] = sum_k (x[i0 + r, k] - y[j, k]) ** 2,
+    0 .. rb - 1: D[(r * n + j) * N + l] = sum_k (x[i0 + r, k] - y[j, k]) ** 2,
     accumulated from 0.0 in k order as the scalar kernel (and tslearn, and scipy's cdist) do;
     with ``sqrtsq``, ``sqrt(.) ** 2`` of it (the barycentre objective's ``cdist(Z, X) ** 2``).
     For d == 3 the row's x vectors are held in registers (LLVM cannot prove the stores to D
     leave x alone)."""
     if d == 3:
         for r in range(rb):
-            base = (doff + r) * n * N
+            base = r * n * N
             xb = (i0 + r) * 3 * N
             x0 = vload(x, xb)
             x1 = vload(x, xb + N)
@@ -97,7 +99,7 @@ def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D, doff):
                 vstore(D, base + j * N, dist)
         return
     for r in range(rb):
-        base = (doff + r) * n * N
+        base = r * n * N
         for j in range(n):
             dist = splat(0.0)
             for k in range(d):
@@ -109,17 +111,30 @@ def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D, doff):
             vstore(D, base + j * N, dist)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _cost_at(x, y, i, j, d):
+    """The barycentre objective's cost ``sqrt(.) ** 2`` of cell (i, j) on every lane: the
+    same operations, in the same order, as :func:`_cost_rows` with ``sqrtsq``, so the same
+    doubles."""
+    dist = splat(0.0)
+    for k in range(d):
+        diff = vsub(vload(x, (i * d + k) * N), vload(y, (j * d + k) * N))
+        dist = vadd(dist, vmul(diff, diff))
+    q = vsqrt(dist)
+    return vmul(q, q)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _mstep(S, D, Rf, W, n, doff, r, j, ng, inv, pow2, keep):
+def _mstep(S, D, Rf, W, n, roff, r, j, ng, inv, pow2, keep):
     """The exact cell (row r of the block, column j) through memory; returns its r vector
-    (and stores it in Rf, row doff + r, with ``keep``)."""
+    (and stores it in Rf at ``roff`` + the cell's place in the block, with ``keep``)."""
     ub = r * W + (j + 1) * N
     cb = (r + 1) * W + j * N
-    k = ((doff + r) * n + j) * N
+    k = (r * n + j) * N
     rv, sv = _cellv(vload(S, ub), vload(S, cb), vload(S, ub - N), vload(D, k), ng, inv, pow2)
     vstore(S, cb + N, sv)
     if keep:
-        vstore(Rf, k, rv)
+        vstore(Rf, roff + k, rv)
     return rv
 
 
@@ -128,10 +143,12 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
     features); returns the vector of R[m - 1, n - 1], the soft-DTW values.
 
-    ``keep=False`` (values): D holds :data:`R` rows of costs (R * n * N doubles), Rf is unused.
-    ``keep=True`` (for the gradient): the costs are ``sqrt(.) ** 2`` as in tslearn's
-    barycentre objective, and D and Rf receive the whole cost and accumulated matrices
-    (m * n * N doubles each). S: (R + 1) * (n + 1) * N doubles."""
+    D holds the :data:`R` rows of costs of a block (R * n * N doubles). ``keep=False``
+    (values): Rf is unused. ``keep=True`` (for the gradient): the costs are ``sqrt(.) ** 2``
+    as in tslearn's barycentre objective, and Rf receives the whole accumulated matrix
+    (m * n * N doubles); the backward pass computes again the few costs it needs
+    (:func:`_cost_at`), which is cheaper than writing the whole cost matrix to memory and
+    reading it back. S: (R + 1) * (n + 1) * N doubles."""
     ng = -gamma
     inv = 1.0 / ng
     pow2 = _is_pow2(gamma)
@@ -144,8 +161,8 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     i0 = 0
     while i0 < m:
         rb = min(R, m - i0)
-        doff = i0 if keep else 0
-        _cost_rows(x, y, i0, rb, n, d, keep, D, doff)
+        roff = i0 * n * N if keep else 0
+        _cost_rows(x, y, i0, rb, n, d, keep, D)
         for r in range(rb):
             for l in range(N):
                 S[(r + 1) * W + l] = -np.inf
@@ -154,11 +171,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                 for r in range(rb):
                     j = t - r
                     if j >= 0 and j < n:
-                        last = _mstep(S, D, Rf, W, n, doff, r, j, ng, inv, pow2, keep)
+                        last = _mstep(S, D, Rf, W, n, roff, r, j, ng, inv, pow2, keep)
         else:
             for t in range(R - 1):  # prologue triangle
                 for r in range(t + 1):
-                    _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+                    _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
             t = R - 1
             while t < n:
                 cs0 = vload(S, 1 * W + t * N)
@@ -188,10 +205,10 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                                 mor(mnot(vlt(vsub(q2, x2), _EXP_NEGLIGIBLE)),
                                     mnot(vlt(vsub(q3, x3), _EXP_NEGLIGIBLE))))):
                         break
-                    k0 = (doff * n + t) * N
-                    k1 = ((doff + 1) * n + t - 1) * N
-                    k2 = ((doff + 2) * n + t - 2) * N
-                    k3 = ((doff + 3) * n + t - 3) * N
+                    k0 = t * N
+                    k1 = (n + t - 1) * N
+                    k2 = (2 * n + t - 2) * N
+                    k3 = (3 * n + t - 3) * N
                     r0 = vadd(vload(D, k0), vmul(ng, vadd(0.0, x0)))
                     s0 = vmul(r0, inv) if pow2 else vdiv(r0, ng)
                     vstore(S, 1 * W + (t + 1) * N, s0)
@@ -205,10 +222,10 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     s3 = vmul(r3, inv) if pow2 else vdiv(r3, ng)
                     vstore(S, 4 * W + (t - 2) * N, s3)
                     if keep:
-                        vstore(Rf, k0, r0)
-                        vstore(Rf, k1, r1)
-                        vstore(Rf, k2, r2)
-                        vstore(Rf, k3, r3)
+                        vstore(Rf, roff + k0, r0)
+                        vstore(Rf, roff + k1, r1)
+                        vstore(Rf, roff + k2, r2)
+                        vstore(Rf, roff + k3, r3)
                     ps0 = cs0
                     ps1 = cs1
                     ps2 = cs2
@@ -219,11 +236,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     t += 1
                 if t < n:  # some lane needs the full sum: this step through memory
                     for r in range(R):
-                        _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+                        _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
                     t += 1
             for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
                 for r in range(t - n + 1, R):
-                    last = _mstep(S, D, Rf, W, n, doff, r, t - r, ng, inv, pow2, keep)
+                    last = _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
         for q in range(W):
             S[q] = S[rb * W + q]
         i0 += rb
@@ -300,9 +317,11 @@ def _factor(e, care, rn, r11, dn, gamma, inv_gamma, pow2):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _backward(Rf, D, m, n, gamma, E, clo, chi):
+def _backward(Rf, x, y, d, m, n, gamma, E, clo, chi):
     """tslearn's gradient matrix (``_njit_soft_dtw_grad``) of every lane into E (m * n * N,
-    all zero on entry), on the union over lanes of the band where E can be non-zero.
+    all zero on entry), on the union over lanes of the band where E can be non-zero, from
+    the accumulated matrix Rf and the lane-interleaved series x (m steps) and y (n steps),
+    whose costs are computed again where a factor needs one (:func:`_cost_at`).
 
     Same traversal as the scalar ``_sdtw_backward`` (columns right to left, rows bottom to
     top) and the same expression ``(p1 + p2) + p3`` per cell; a factor whose e is 0 on every
@@ -350,14 +369,14 @@ def _backward(Rf, D, m, n, gamma, E, clo, chi):
                 p2 = zero
                 p3 = zero
                 if many(n1):
-                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, vload(D, k + nN), gamma,
-                                 inv_gamma, pow2)
-                if many(n2):
-                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, vload(D, k + N), gamma,
-                                 inv_gamma, pow2)
-                if many(n3):
-                    p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11, vload(D, k + nN + N),
+                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, _cost_at(x, y, r + 1, c, d),
                                  gamma, inv_gamma, pow2)
+                if many(n2):
+                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, _cost_at(x, y, r, c + 1, d),
+                                 gamma, inv_gamma, pow2)
+                if many(n3):
+                    p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11,
+                                 _cost_at(x, y, r + 1, c + 1, d), gamma, inv_gamma, pow2)
                 v = vadd(vadd(p1, p2), p3)
             vstore(E, r * nN + c * N, v)
             comp_lo = r
@@ -442,34 +461,25 @@ def _pack_centres(Zs, cid, g, zl):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs):
+def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf, E, clo, chi,
+                    El, jlo, jhi):
     """vals[s], Gs[s] = tslearn's ``_softdtw_func(Zs[cid[s]], Xs[s], 1, gamma, ..)`` for the
-    series of lane groups g0, g0 + step, .. < g1, one private workspace. A lane's centre is
-    its series' own (``cid``), so one vector can serve series of several barycentres; a
-    lane's arithmetic does not depend on its neighbours."""
+    series of lane groups g0, g0 + step, .. < g1, on one worker's workspace (zl .. jhi, as
+    :func:`_objgrad_workspace` makes them; E and El all zero on entry, and again on return).
+    A lane's centre is its series' own (``cid``), so one vector can serve series of several
+    barycentres; a lane's arithmetic does not depend on its neighbours."""
     m, d = Zs.shape[1], Zs.shape[2]
     n = Xs.shape[1]
     ns = Xs.shape[0]
     one = Zs.shape[0] == 1
-    zl = np.empty(m * d * N)
     if one:  # one centre: packed once
         _pack_centres(Zs, cid, 0, zl)
-    x = np.empty(n * d * N)
-    S = np.empty((R + 1) * (n + 1) * N)
-    D = np.empty(m * n * N)
-    Rf = np.empty(m * n * N)
-    E = np.zeros(m * n * N)
-    clo = np.empty(n, dtype=np.int64)
-    chi = np.empty(n, dtype=np.int64)
-    El = np.zeros((m, n))
-    jlo = np.empty(m, dtype=np.int64)
-    jhi = np.empty(m, dtype=np.int64)
     for g in range(g0, g1, step):
         if not one:
             _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
         last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
-        _backward(Rf, D, m, n, gamma, E, clo, chi)
+        _backward(Rf, zl, x, d, m, n, gamma, E, clo, chi)
         for l in range(N):
             if g * N + l < ns:
                 vals[g * N + l] = lane(last, l)
@@ -491,35 +501,85 @@ def _reduce_many(vals, Gs, starts):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_lockstep(Zs, cid, starts, Xs, gamma):
-    """The barycentre objectives and gradients of ``K = len(Zs)`` centres at once, each =
-    the scalar ``_objgrad_batch_serial(Zs[j], Xs[starts[j]:starts[j + 1]], ..)``: N series
-    per vector (of any centres: k-means' clusters share the vectors), then each centre's
-    reduction in its series' order."""
+def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, clo, chi, El, jlo, jhi):
     ns = Xs.shape[0]
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_groups(Zs, cid, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs)
+    _objgrad_groups(Zs, cid, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs, zl[0], x[0], S[0],
+                    D[0], Rf[0], E[0], clo[0], chi[0], El[0], jlo[0], jhi[0])
     return _reduce_many(vals, Gs, starts)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _objgrad_lockstep_inner(Zs, cid, Xs, gamma, nw, vals, Gs):
+def _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, clo, chi, El,
+                       jlo, jhi):
     ngroups = (Xs.shape[0] + N - 1) // N
     for w in prange(nw):
-        _objgrad_groups(Zs, cid, Xs, gamma, w, ngroups, nw, vals, Gs)
+        _objgrad_groups(Zs, cid, Xs, gamma, w, ngroups, nw, vals, Gs, zl[w], x[w], S[w], D[w],
+                        Rf[w], E[w], clo[w], chi[w], El[w], jlo[w], jhi[w])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_lockstep_par(Zs, cid, starts, Xs, gamma, nw):
-    """:func:`_objgrad_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
+def _objgrad_par(Zs, cid, starts, Xs, gamma, nw, zl, x, S, D, Rf, E, clo, chi, El, jlo, jhi):
     ns = Xs.shape[0]
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_lockstep_inner(Zs, cid, Xs, gamma, nw, vals, Gs)
+    _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, clo, chi, El,
+                       jlo, jhi)
     return _reduce_many(vals, Gs, starts)
+
+
+#: Per thread, the last workspace of the barycentre kernel: ``((m, n, d, nw), arrays)``.
+_WORKSPACE = threading.local()
+
+
+def _objgrad_workspace(m, n, d, nw):
+    """The arrays :func:`_objgrad_groups` works in, one row per worker: packed centres and
+    series, the wavefront's S rows, a block's costs, the whole accumulated and gradient
+    matrices of N lanes (E all zero), the scalar gradient matrix of one lane (El, all zero)
+    and the band bounds; about ``2 * m * n * N`` doubles a worker (1.9 MB for 120 x 120 and
+    8 lanes).
+
+    Taken from this thread's cache when the last call had the same shape, else made (made
+    at every call, the pages of these megabytes can be faulted in and zeroed again each
+    time). The caller puts them back (:func:`_objgrad_lockstep`) only after the kernel
+    returned, so a call that failed half-way never leaves a dirty E to the next; each
+    thread has its own."""
+    key = (m, n, d, nw)
+    got = getattr(_WORKSPACE, "last", None)
+    _WORKSPACE.last = None
+    if got is not None and got[0] == key:
+        return got[1]
+    nN = m * n * N
+    return (np.empty((nw, m * d * N)), np.empty((nw, n * d * N)),
+            np.empty((nw, (R + 1) * (n + 1) * N)), np.empty((nw, R * n * N)),
+            np.empty((nw, nN)),
+            np.zeros((nw, nN)), np.empty((nw, n), dtype=np.int64),
+            np.empty((nw, n), dtype=np.int64), np.zeros((nw, m, n)),
+            np.empty((nw, m), dtype=np.int64), np.empty((nw, m), dtype=np.int64))
+
+
+def _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw=1):
+    """The barycentre objectives and gradients of ``K = len(Zs)`` centres at once, each =
+    the scalar ``_objgrad_batch_serial(Zs[j], Xs[starts[j]:starts[j + 1]], ..)``: N series
+    per vector (of any centres: k-means' clusters share the vectors), then each centre's
+    reduction in its series' order; with ``nw > 1`` the lane groups are dealt round-robin
+    to ``nw`` threads. The workspace is this thread's, reused from call to call."""
+    m, d = Zs.shape[1], Zs.shape[2]
+    n = Xs.shape[1]
+    nw = max(1, min(int(nw), (Xs.shape[0] + N - 1) // N))
+    ws = _objgrad_workspace(m, n, d, nw)
+    out = (_objgrad_par(Zs, cid, starts, Xs, gamma, nw, *ws) if nw > 1
+           else _objgrad_serial(Zs, cid, starts, Xs, gamma, *ws))
+    _WORKSPACE.last = ((m, n, d, nw), ws)  # E and El are all zero again
+    return out
+
+
+def _objgrad_lockstep_par(Zs, cid, starts, Xs, gamma, nw):
+    """:func:`_objgrad_lockstep` on ``nw`` threads."""
+    return _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw)
 
 
 # ---------------------------------- DTW ------------------------------------
