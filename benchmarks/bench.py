@@ -411,16 +411,39 @@ def bench_where_time_goes(report, n_loops=20):
                             both / (len(X) * cells) * 1e9)
     _consts.LOCKSTEP = True
     ns_value, ns_grad, ns_both = per_cell["lockstep"]
+    # where the gradient's extra goes: the costs alone, as the value needs them (squared
+    # distances) and as tslearn's barycentre objective has them (sqrt(.) ** 2, one vector
+    # square root a cell), every row of the same matrix
+    from numba import njit
+
+    from uavwind.method.softdtw._lockstep import R, _cost_rows, _pack_series
+
+    @njit
+    def all_costs(x, y, m, n, d, sqrtsq, D):
+        for i0 in range(0, m, R):
+            _cost_rows(x, y, i0, min(R, m - i0), n, d, sqrtsq, D)
+
+    m, n, d = centres.shape[1], X.shape[1], X.shape[2]
+    xs, ys, D = np.empty(m * d * N), np.empty(n * d * N), np.empty(R * n * N)
+    _pack_series(np.ascontiguousarray(np.repeat(centres[:1], N, axis=0)), 0, xs)
+    _pack_series(X, 0, ys)
+    costs = {}
+    for label, sq in (("squared distance", False), ("sqrt(.) ** 2", True)):
+        costs[label] = timeit(lambda: all_costs(xs, ys, m, n, d, sq, D), repeat=50) / (
+            N * m * n) * 1e9
     for kernel, (v, g, b) in per_cell.items():
         print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix, {kernel}"
               f"{f' ({N} lanes)' if kernel == 'lockstep' else ''}: soft-DTW value {v:.2f} ns, "
               f"value + gradient {g:.2f} ns (one cluster of 10), {b:.2f} ns (both clusters' "
               f"round, 10 + 10 series) (median of 20)")
+    print(f"  the costs alone, lockstep, per cell: squared distance {costs['squared distance']:.2f} "
+          f"ns, sqrt(.) ** 2 as the barycentre objective has them "
+          f"{costs['sqrt(.) ** 2']:.2f} ns (median of 50)")
     report["time_shares"] = {"loops": n_loops, "iterations": iters, "seconds": total,
                              "shares": shares, "ns_per_cell_value": ns_value,
                              "ns_per_cell_value_and_gradient": ns_grad,
                              "ns_per_cell_value_and_gradient_both_clusters": ns_both,
-                             "lanes": N,
+                             "lanes": N, "ns_per_cell_costs": costs,
                              "ns_per_cell_scalar": {"value": per_cell["scalar"][0],
                                                     "value_and_gradient": per_cell["scalar"][1],
                                                     "value_and_gradient_both_clusters":

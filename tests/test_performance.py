@@ -106,3 +106,18 @@ def test_the_cluster_sentence_gives_both_ways_their_medians_spread_and_ratio():
     line = summary_lines({**REPORT, "cluster": {**c, "same_rows": False}})["cluster"]
     assert "**the rows differed**" in line
     assert "cluster" not in summary_lines(REPORT)
+
+
+def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
+    shares = {"loops": 20, "iterations": 500, "seconds": 2.0, "shares": {}, "lanes": 4,
+              "ns_per_cell_value": 0.8, "ns_per_cell_value_and_gradient": 4.0,
+              "ns_per_cell_value_and_gradient_both_clusters": 2.9,
+              "ns_per_cell_scalar": {"value": 3.9, "value_and_gradient": 5.6,
+                                     "value_and_gradient_both_clusters": 5.4},
+              "ns_per_cell_costs": {"squared distance": 0.25, "sqrt(.) ** 2": 0.95}}
+    line = summary_lines({"time_shares": shares})["cells"]
+    assert "2.90 ns a cell" in line and "the gradient adds 2.10 ns" in line
+    assert "0.70 ns of it is one square root" in line
+    assert "leaves 2 of its 12 lanes idle" in line  # 10 series in 3 vectors of 4
+    del shares["ns_per_cell_costs"]  # a record from before the split: no such sentence
+    assert "square root" not in summary_lines({"time_shares": shares})["cells"]

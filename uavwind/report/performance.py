@@ -252,7 +252,22 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                 + (f" with the lockstep kernels ({t['ns_per_cell_scalar']['value']:.2f} and "
                    f"{t['ns_per_cell_scalar']['value_and_gradient']:.2f} ns with the scalar "
                    "ones)" if "ns_per_cell_scalar" in t else "")
-                + ". That, not Python, is where a clustering loop spends its time; the "
+                + ". "
+                + (f"In a k-means round (both clusters' series in one call, "
+                   f"{t['ns_per_cell_value_and_gradient_both_clusters']:.2f} ns a cell; one "
+                   f"cluster of 10 leaves {-(-10 // t['lanes']) * t['lanes'] - 10} of its "
+                   f"{-(-10 // t['lanes']) * t['lanes']} lanes idle) the gradient adds "
+                   f"{t['ns_per_cell_value_and_gradient_both_clusters'] - t['ns_per_cell_value']:.2f}"
+                   " ns a cell, and "
+                   f"{t['ns_per_cell_costs']['sqrt(.) ** 2'] - t['ns_per_cell_costs']['squared distance']:.2f}"
+                   " ns of it is one square root: tslearn's barycentre objective takes its costs "
+                   "as `cdist(Z, X) ** 2`, the square of the square root of each squared "
+                   "distance, which is not always the same double, so an exact engine pays for "
+                   "that root at every cell (the costs alone take "
+                   f"{t['ns_per_cell_costs']['sqrt(.) ** 2']:.2f} ns a cell with it and "
+                   f"{t['ns_per_cell_costs']['squared distance']:.2f} ns without). "
+                   if "ns_per_cell_costs" in t else "")
+                + "That, not Python, is where a clustering loop spends its time; the "
                 "multirotor's flights and Experiment 12's closed-loop episodes (no clustering) "
                 "add their own, experiment by experiment below.")
     if "closed_loop" in report:
