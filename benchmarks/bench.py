@@ -443,7 +443,7 @@ def bench_where_time_goes(report, n_loops=20):
                              "shares": shares, "ns_per_cell_value": ns_value,
                              "ns_per_cell_value_and_gradient": ns_grad,
                              "ns_per_cell_value_and_gradient_both_clusters": ns_both,
-                             "lanes": N, "ns_per_cell_costs": costs,
+                             "lanes": N, "ns_per_cell_costs": costs, "cluster_series": 10,
                              "ns_per_cell_scalar": {"value": per_cell["scalar"][0],
                                                     "value_and_gradient": per_cell["scalar"][1],
                                                     "value_and_gradient_both_clusters":

@@ -116,8 +116,11 @@ def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
                                      "value_and_gradient_both_clusters": 5.4},
               "ns_per_cell_costs": {"squared distance": 0.25, "sqrt(.) ** 2": 0.95}}
     line = summary_lines({"time_shares": shares})["cells"]
-    assert "2.90 ns a cell" in line and "the gradient adds 2.10 ns" in line
-    assert "0.70 ns of it is one square root" in line
-    assert "leaves 2 of its 12 lanes idle" in line  # 10 series in 3 vectors of 4
+    # 20 series in 5 vectors of 4 lanes: no lane idle, 2.9 ns a lane-cell, 2.1 over the value
+    assert "20 series in one call, 5 vectors of 4 lanes) takes 2.90 ns" in line
+    assert "2.10 ns more than a value; 0.70 ns of that (33%)" in line
+    shares["lanes"] = 8  # 3 vectors of 8: 4 of 24 lanes idle, 2.9 * 20 / 24 a lane-cell
+    line = summary_lines({"time_shares": shares})["cells"]
+    assert "3 vectors of 8 lanes) takes 2.42 ns" in line and "1.62 ns more" in line
     del shares["ns_per_cell_costs"]  # a record from before the split: no such sentence
     assert "square root" not in summary_lines({"time_shares": shares})["cells"]

@@ -253,20 +253,7 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                    f"{t['ns_per_cell_scalar']['value_and_gradient']:.2f} ns with the scalar "
                    "ones)" if "ns_per_cell_scalar" in t else "")
                 + ". "
-                + (f"In a k-means round (both clusters' series in one call, "
-                   f"{t['ns_per_cell_value_and_gradient_both_clusters']:.2f} ns a cell; one "
-                   f"cluster of 10 leaves {-(-10 // t['lanes']) * t['lanes'] - 10} of its "
-                   f"{-(-10 // t['lanes']) * t['lanes']} lanes idle) the gradient adds "
-                   f"{t['ns_per_cell_value_and_gradient_both_clusters'] - t['ns_per_cell_value']:.2f}"
-                   " ns a cell, and "
-                   f"{t['ns_per_cell_costs']['sqrt(.) ** 2'] - t['ns_per_cell_costs']['squared distance']:.2f}"
-                   " ns of it is one square root: tslearn's barycentre objective takes its costs "
-                   "as `cdist(Z, X) ** 2`, the square of the square root of each squared "
-                   "distance, which is not always the same double, so an exact engine pays for "
-                   "that root at every cell (the costs alone take "
-                   f"{t['ns_per_cell_costs']['sqrt(.) ** 2']:.2f} ns a cell with it and "
-                   f"{t['ns_per_cell_costs']['squared distance']:.2f} ns without). "
-                   if "ns_per_cell_costs" in t else "")
+                + (_gradient_split(t) if "ns_per_cell_costs" in t else "")
                 + "That, not Python, is where a clustering loop spends its time; the "
                 "multirotor's flights and Experiment 12's closed-loop episodes (no clustering) "
                 "add their own, experiment by experiment below.")
@@ -358,3 +345,24 @@ def _paper_verdicts(p, compile_=None):
         out.append(f"cold compile (import and the kernels a loop uses) {c:.1f} s, "
                    + (f"under {limit:g} s" if c < limit else f"{c - limit:.1f} s over {limit:g} s"))
     return out
+
+
+def _gradient_split(t: Mapping[str, Any]) -> str:
+    """The sentence saying how much of what the gradient adds per cell is the square root of
+    tslearn's barycentre costs, every figure per lane of a vector at one cell: a value call's
+    pairs fill their vectors, a k-means round's ``2 * cluster_series`` series leave lanes
+    idle in the last one, so its figure is scaled to the lanes used."""
+    lanes, k = t["lanes"], 2 * t.get("cluster_series", 10)
+    slots = -(-k // lanes) * lanes
+    both = t["ns_per_cell_value_and_gradient_both_clusters"] * k / slots
+    added = both - t["ns_per_cell_value"]
+    costs = t["ns_per_cell_costs"]
+    root = costs["sqrt(.) ** 2"] - costs["squared distance"]
+    return (f"Per lane of a vector at one cell, a k-means round (both clusters' {k} series in "
+            f"one call, {slots // lanes} vectors of {lanes} lanes) takes {both:.2f} ns for the value with its gradient, "
+            f"{added:.2f} ns more than a value; {root:.2f} ns of that ({100 * root / added:.0f}%) "
+            "is the square root the forward pass takes at every cell: tslearn's barycentre "
+            "objective has its costs as `cdist(Z, X) ** 2`, the square of the square root of "
+            "each squared distance, which is not always the same double, so an exact engine "
+            f"pays for that root (the costs alone take {costs['sqrt(.) ** 2']:.2f} ns a lane-cell "
+            f"with it and {costs['squared distance']:.2f} ns without). ")

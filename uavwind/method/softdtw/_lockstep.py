@@ -540,7 +540,7 @@ def _objgrad_workspace(m, n, d, nw):
     series, the wavefront's S rows, a block's costs, the whole accumulated and gradient
     matrices of N lanes (E all zero), the scalar gradient matrix of one lane (El, all zero)
     and the band bounds; about ``2 * m * n * N`` doubles a worker (1.9 MB for 120 x 120 and
-    8 lanes).
+    8 lanes), kept for the life of the thread.
 
     Taken from this thread's cache when the last call had the same shape, else made (made
     at every call, the pages of these megabytes can be faulted in and zeroed again each
@@ -569,7 +569,7 @@ def _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw=1):
     to ``nw`` threads. The workspace is this thread's, reused from call to call."""
     m, d = Zs.shape[1], Zs.shape[2]
     n = Xs.shape[1]
-    nw = max(1, min(int(nw), (Xs.shape[0] + N - 1) // N))
+    nw = max(1, int(nw))  # a worker beyond the lane groups has none (the dispatch caps it)
     ws = _objgrad_workspace(m, n, d, nw)
     out = (_objgrad_par(Zs, cid, starts, Xs, gamma, nw, *ws) if nw > 1
            else _objgrad_serial(Zs, cid, starts, Xs, gamma, *ws))
