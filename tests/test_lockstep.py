@@ -15,7 +15,7 @@ from uavwind.method.softdtw import _consts, _dispatch
 from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
                                              _sdtw_forward)
 from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
-from uavwind.method.softdtw._lockstep import (N, _objgrad_lockstep, _objgrad_lockstep_par,
+from uavwind.method.softdtw._lockstep import (N, _objgrad_lockstep,
                                               _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
 from uavwind.method.softdtw._simd import vload, vlt, vstore
 from uavwind.method.softdtw._vlibm import vexp, vexp_care, vlog, vlog_care
@@ -36,8 +36,7 @@ def _one_centre(Z, X, gamma, nw=1):
     Zs = np.ascontiguousarray(Z[None])
     cid = np.zeros(len(X), dtype=np.int64)
     starts = np.array([0, len(X)], dtype=np.int64)
-    objs, G = (_objgrad_lockstep_par(Zs, cid, starts, X, gamma, nw) if nw > 1
-               else _objgrad_lockstep(Zs, cid, starts, X, gamma))
+    objs, G = _objgrad_lockstep(Zs, cid, starts, X, gamma, nw)
     return objs[0], G[0]
 
 
@@ -68,8 +67,7 @@ def _check_kernels(X, centres, gamma, tslearn=True):
     Zs = np.ascontiguousarray(centres[:K])
     cid = np.repeat(np.arange(len(Zs), dtype=np.int64), np.diff(starts))
     for nw in (1, 2):
-        objs, G = (_objgrad_lockstep_par(Zs, cid, starts, X, gamma, nw) if nw > 1
-                   else _objgrad_lockstep(Zs, cid, starts, X, gamma))
+        objs, G = _objgrad_lockstep(Zs, cid, starts, X, gamma, nw)
         for j, Z in enumerate(Zs):
             rv, rG = _objgrad_batch_serial(Z, X[starts[j]:starts[j + 1]], gamma, True)
             assert objs[j] == rv and _same(G[j], rG)

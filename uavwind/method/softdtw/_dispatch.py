@@ -8,7 +8,7 @@ from . import _consts
 from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _n_workers, _objgrad_batch_par,
                        _objgrad_batch_serial, _sdtw_cross_par_inner, _sdtw_cross_serial)
 from ._lockstep import (N, _dtw_upper_lockstep, _dtw_upper_lockstep_par, _objgrad_lockstep,
-                        _objgrad_lockstep_par, _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
+                        _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
 
 
 def _use_lockstep(fx, lockstep=None):
@@ -50,11 +50,8 @@ def _objgrad_many(Zs, Xss, gamma, par, fx, lockstep=None):
         Xs = Xss[0] if len(Xss) == 1 else np.ascontiguousarray(np.concatenate(Xss))
         Zs = np.ascontiguousarray(np.stack(Zs))
         cid = np.repeat(np.arange(len(Xss), dtype=np.int64), sizes)
-        nw = _n_workers(par, (Xs.shape[0] + N - 1) // N)
-        if nw > 1:
-            objs, G = _objgrad_lockstep_par(Zs, cid, starts, Xs, gamma, nw)
-        else:
-            objs, G = _objgrad_lockstep(Zs, cid, starts, Xs, gamma)
+        objs, G = _objgrad_lockstep(Zs, cid, starts, Xs, gamma,
+                                    _n_workers(par, (Xs.shape[0] + N - 1) // N))
         return [(objs[j], G[j]) for j in range(len(Xss))]
     out = []
     for Z, Xs in zip(Zs, Xss):

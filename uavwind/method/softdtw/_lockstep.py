@@ -101,27 +101,23 @@ def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D):
     for r in range(rb):
         base = r * n * N
         for j in range(n):
-            dist = splat(0.0)
-            for k in range(d):
-                diff = vsub(vload(x, ((i0 + r) * d + k) * N), vload(y, (j * d + k) * N))
-                dist = vadd(dist, vmul(diff, diff))
-            if sqrtsq:
-                q = vsqrt(dist)
-                dist = vmul(q, q)
-            vstore(D, base + j * N, dist)
+            vstore(D, base + j * N, _cost_at(x, y, i0 + r, j, d, sqrtsq))
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _cost_at(x, y, i, j, d):
-    """The barycentre objective's cost ``sqrt(.) ** 2`` of cell (i, j) on every lane: the
-    same operations, in the same order, as :func:`_cost_rows` with ``sqrtsq``, so the same
-    doubles."""
+def _cost_at(x, y, i, j, d, sqrtsq):
+    """The cost of cell (i, j) on every lane, as :func:`_cost_rows` stores it (whose
+    d != 3 rows are made of it, and whose d == 3 rows do the same operations in the same
+    order): the squared distance accumulated from 0.0 in k order, with ``sqrtsq``
+    ``sqrt(.) ** 2`` of it; the backward pass computes again the few it needs."""
     dist = splat(0.0)
     for k in range(d):
         diff = vsub(vload(x, (i * d + k) * N), vload(y, (j * d + k) * N))
         dist = vadd(dist, vmul(diff, diff))
-    q = vsqrt(dist)
-    return vmul(q, q)
+    if sqrtsq:
+        q = vsqrt(dist)
+        dist = vmul(q, q)
+    return dist
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
@@ -369,14 +365,14 @@ def _backward(Rf, x, y, d, m, n, gamma, E, clo, chi):
                 p2 = zero
                 p3 = zero
                 if many(n1):
-                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, _cost_at(x, y, r + 1, c, d),
+                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, _cost_at(x, y, r + 1, c, d, True),
                                  gamma, inv_gamma, pow2)
                 if many(n2):
-                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, _cost_at(x, y, r, c + 1, d),
+                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, _cost_at(x, y, r, c + 1, d, True),
                                  gamma, inv_gamma, pow2)
                 if many(n3):
                     p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11,
-                                 _cost_at(x, y, r + 1, c + 1, d), gamma, inv_gamma, pow2)
+                                 _cost_at(x, y, r + 1, c + 1, d, True), gamma, inv_gamma, pow2)
                 v = vadd(vadd(p1, p2), p3)
             vstore(E, r * nN + c * N, v)
             comp_lo = r
@@ -575,11 +571,6 @@ def _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw=1):
            else _objgrad_serial(Zs, cid, starts, Xs, gamma, *ws))
     _WORKSPACE.last = ((m, n, d, nw), ws)  # E and El are all zero again
     return out
-
-
-def _objgrad_lockstep_par(Zs, cid, starts, Xs, gamma, nw):
-    """:func:`_objgrad_lockstep` on ``nw`` threads."""
-    return _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw)
 
 
 # ---------------------------------- DTW ------------------------------------
