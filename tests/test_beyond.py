@@ -71,3 +71,60 @@ def test_breaking_sentences_and_rows_at_a_noise_level():
         beyond.at_noise(table, sigma=3.0)
 
 
+
+
+# --------------------------------------------------------------------------- #
+# the paper's future work (Exp 11): the best channel, decided loop by loop
+# --------------------------------------------------------------------------- #
+
+
+def _future_rows(scores, n, noise="none", scenario="S"):
+    """Exp 11-like rows: ``scores`` maps (action, observation) to a function of the loop."""
+    return pd.DataFrame([{"scenario": scenario, "action": a, "observation": o, "noise": noise,
+                          "loop": i, "score": float(f(i)), "correct": True}
+                         for (a, o), f in scores.items() for i in range(n)])
+
+
+def test_best_future_decides_the_ranking_on_paired_loops():
+    rng = np.random.default_rng(3)
+    base = rng.normal(60, 30, size=40)  # what every channel shares on loop i
+    rows = _future_rows({("thrust", "position"): lambda i: base[i],
+                         # 1 point above position on every loop: its means' CIs overlap
+                         # by far, the paired difference is 1 exactly
+                         ("thrust", "velocity"): lambda i: base[i] + 1.0,
+                         ("attitude", "imu"): lambda i: base[i] - 20.0}, 40)
+    t = beyond.future_table(rows)
+    plain = beyond.best_future(t)
+    assert "verdict" not in plain and plain.loc["S", "observation"] == "velocity"
+    b = beyond.best_future(t, results=rows).loc["S"]
+    assert (b["observation"], b["runner_up"]) == ("velocity", "thrust actions, position")
+    assert b["ci_low"] < b["runner_up_mean"]  # unpaired, the two cannot be told apart
+    assert b["runner_up_diff"] == pytest.approx(1.0)
+    assert b["runner_up_low"] == pytest.approx(1.0) and b["runner_up_high"] == pytest.approx(1.0)
+    assert b["position_thrust_diff"] == pytest.approx(1.0)
+    assert b["verdict"] == "best" and b["n_loops"] == 40
+    # a lead that changes sign from loop to loop cannot decide
+    flip = _future_rows({("thrust", "position"): lambda i: base[i],
+                         ("thrust", "velocity"): lambda i: base[i] + (3 if i % 2 else -2.5)}, 40)
+    f = beyond.best_future(beyond.future_table(flip), results=flip).loc["S"]
+    assert f["runner_up_low"] < 0 < f["runner_up_high"] and f["verdict"] == "cannot decide"
+    # equal on every loop: tied; one loop: cannot decide, whatever its lead
+    same = _future_rows({("thrust", "position"): lambda i: 0.0,
+                         ("thrust", "imu"): lambda i: 0.0}, 5)
+    assert beyond.best_future(beyond.future_table(same), results=same).loc["S", "verdict"] == "tied"
+    one = rows[rows["loop"] == 0]
+    o = beyond.best_future(beyond.future_table(one), results=one).loc["S"]
+    assert o["verdict"] == "cannot decide" and o["n_loops"] == 1
+    # the noise level picks the rows
+    assert beyond.best_future(t, noise="none", results=rows).shape[0] == 1
+
+
+def test_best_future_refuses_bad_input():
+    rows = _future_rows({("thrust", "position"): lambda i: i, ("thrust", "imu"): lambda i: 0}, 3)
+    t = beyond.future_table(rows)
+    with pytest.raises(ValueError, match="noise must be one of \\['none'\\], got 'loud'"):
+        beyond.best_future(t, noise="loud")
+    with pytest.raises(ValueError, match="missing columns \\['loop'\\]"):
+        beyond.best_future(t, results=rows.drop(columns="loop"))
+    with pytest.raises(TypeError, match="results"):
+        beyond.best_future(t, results=rows.to_dict())

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from ..core.stats import bootstrap_ci, summarise
+from ..core.stats import bootstrap_ci, paired_difference, summarise
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
            "observation_table", "best_observation", "baseline_table", "vehicle_table",
@@ -128,19 +128,56 @@ def future_table(df: pd.DataFrame) -> pd.DataFrame:
     return _summary(df, ("scenario", "action", "observation", "noise"))
 
 
-def best_future(table: pd.DataFrame, noise: str = "none") -> pd.DataFrame:
+def best_future(table: pd.DataFrame, noise: str = "none",
+                results: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per scenario, the action and observation with the highest mean score under ``noise``
-    (from :func:`future_table`), and the best position-only score beside it."""
+    (from :func:`future_table`), and the best position-only score beside it.
+
+    With ``results`` (Exp 11's rows), each ranking is also decided on the loops: every case
+    of a scenario flies the same loops (common random numbers), so the best is set against
+    the runner-up and against the paper's choice (thrust actions, position) by the mean of
+    their loop-by-loop score differences with a 95% bootstrap CI (``*_diff``, ``*_low``,
+    ``*_high``, :func:`uavwind.core.stats.paired_difference`), and ``verdict`` says
+    ``"best"`` when the CI against the runner-up lies above 0, ``"tied"`` when the two
+    score the same on every loop, and ``"cannot decide"`` otherwise (or with fewer than two
+    loops)."""
+    from ..core.checks import check_instance
     t = table[table["noise"] == noise]
+    if t.empty:
+        raise ValueError(f"noise must be one of {sorted(table['noise'].unique())}, got {noise!r}")
+    if results is not None:
+        results = check_instance(results, "results", pd.DataFrame)
+        missing = {"scenario", "action", "observation", "noise", "loop", "score"} - set(results)
+        if missing:
+            raise ValueError(f"results must be Exp 11's rows; missing columns {sorted(missing)}")
+        results = results[results["noise"] == noise]
     rows = []
     for scen, sub in t.groupby("scenario", sort=False):
-        best = sub.loc[sub["mean"].idxmax()]
+        ranked = sub.sort_values("mean", ascending=False, kind="stable")
+        best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
         pos = sub[(sub["observation"] == "position") & (sub["action"] == "thrust")]
-        rows.append({"scenario": scen, "action": best["action"],
-                     "observation": best["observation"], "mean": best["mean"],
-                     "ci_low": best["ci_low"], "ci_high": best["ci_high"],
-                     "correct_rate": best["correct_rate"],
-                     "position_thrust_mean": float(pos["mean"].iloc[0]) if len(pos) else np.nan})
+        row = {"scenario": scen, "action": best["action"],
+               "observation": best["observation"], "mean": best["mean"],
+               "ci_low": best["ci_low"], "ci_high": best["ci_high"],
+               "correct_rate": best["correct_rate"],
+               "position_thrust_mean": float(pos["mean"].iloc[0]) if len(pos) else np.nan}
+        if results is not None and second is not None:
+            loops = results[results["scenario"] == scen].pivot_table(
+                index="loop", columns=["action", "observation"], values="score")
+            mine = loops[(best["action"], best["observation"])]
+            row.update({"runner_up": f"{second['action']} actions, "
+                                     f"{second['observation'].replace('_', ' ')}",
+                        "runner_up_mean": second["mean"]})
+            for name, other in (("runner_up", (second["action"], second["observation"])),
+                                ("position_thrust", ("thrust", "position"))):
+                d = (mine - loops[other]).dropna().to_numpy() if other in loops else np.array([])
+                est, lo, hi = paired_difference(d, np.zeros_like(d)) if d.size else (np.nan,) * 3
+                row.update({f"{name}_diff": est, f"{name}_low": lo, f"{name}_high": hi})
+            d = (mine - loops[(second["action"], second["observation"])]).dropna()
+            row["n_loops"] = int(d.size)
+            row["verdict"] = ("cannot decide" if d.size < 2 else "tied" if (d == 0).all() else
+                              "best" if row["runner_up_low"] > 0 else "cannot decide")
+        rows.append(row)
     return pd.DataFrame(rows).set_index("scenario")
 
 
