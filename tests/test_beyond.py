@@ -97,7 +97,7 @@ def test_best_future_decides_the_ranking_on_paired_loops():
     plain = beyond.best_future(t)
     assert "verdict" not in plain and plain.loc["S", "observation"] == "velocity"
     b = beyond.best_future(t, results=rows).loc["S"]
-    assert (b["observation"], b["runner_up"]) == ("velocity", "thrust actions, position")
+    assert (b["observation"], b["runner_up"]) == ("velocity", "thrust, position")
     assert b["ci_low"] < b["runner_up_mean"]  # unpaired, the two cannot be told apart
     assert b["runner_up_diff"] == pytest.approx(1.0)
     assert b["runner_up_low"] == pytest.approx(1.0) and b["runner_up_high"] == pytest.approx(1.0)
@@ -128,3 +128,20 @@ def test_best_future_refuses_bad_input():
         beyond.best_future(t, results=rows.drop(columns="loop"))
     with pytest.raises(TypeError, match="results"):
         beyond.best_future(t, results=rows.to_dict())
+
+
+def test_best_observation_is_decided_on_the_same_loops():
+    rng = np.random.default_rng(5)
+    base = rng.normal(50, 25, size=30)
+    rows = _future_rows({("-", "position"): lambda i: base[i],
+                         ("-", "velocity"): lambda i: base[i] + 2.0,
+                         ("-", "acceleration"): lambda i: 0.0}, 30)
+    rows = pd.concat([rows, rows.assign(noise="consumer", score=rows["score"] - 1.0)])
+    b = beyond.best_observation(rows, "none").loc["S"]
+    assert (b["observation"], b["runner_up"], b["verdict"]) == ("velocity", "position", "best")
+    assert b["runner_up_diff"] == pytest.approx(2.0) and b["runner_up_low"] == pytest.approx(2.0)
+    assert b["mean"] == pytest.approx(base.mean() + 2.0) and b["n_loops"] == 30
+    assert beyond.best_observation(rows, "consumer").loc["S", "mean"] == pytest.approx(
+        base.mean() + 1.0)
+    with pytest.raises(ValueError, match="noise must be one of \\['consumer', 'none'\\]"):
+        beyond.best_observation(rows, "loud")

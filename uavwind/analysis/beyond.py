@@ -7,14 +7,22 @@ This module owns the summaries the "Beyond the paper" pages and claim C9 read:
   grouping drops below one half (Exp 7);
 * :func:`observation_table` and :func:`best_observation` -- which channel separates
   which pair (Exp 8);
+* :func:`future_table` and :func:`best_future` -- which action and observation of the
+  multirotor separate which pair (Exp 11);
 * :func:`baseline_table` -- the model-based wind estimate beside causal curiosity on
   the same loops, with a mis-specified UAV too (Exp 9).
 
 Every summary row is :func:`uavwind.core.stats.summarise` (95% bootstrap intervals over
 loops), the one summary and confidence-interval function of the project.
+A "best" channel is set against its runner-up on the same loops (every case of a scenario
+flies the same loops): paired differences with a bootstrap CI, and a verdict that says
+"cannot decide" when that CI spans 0.
 """
 
 from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -99,13 +107,72 @@ def observation_table(df: pd.DataFrame) -> pd.DataFrame:
     return _summary(df, ("scenario", "observation", "noise"))
 
 
+def _against(loops: pd.DataFrame, mine, other) -> tuple[float, float, float]:
+    """Mean of the loop-by-loop differences ``mine - other`` (columns of ``loops``: one row
+    per loop) with its 95% bootstrap CI; NaN where ``other`` was not run."""
+    if other not in loops:
+        return (np.nan,) * 3
+    d = (loops[mine] - loops[other]).dropna().to_numpy()
+    return paired_difference(d, np.zeros_like(d)) if d.size else (np.nan,) * 3
+
+
+def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
+                 references: Mapping[str, Any] | None = None) -> dict:
+    """The case of ``sub`` (summary rows of one scenario and noise level, one per value of
+    ``keys``) with the highest mean, set against the runner-up (``runner_up_*``, and each
+    of ``references``: column prefix -> a value of ``keys``, ``<prefix>_*``) on the loops of
+    ``rows`` that both flew: every case of a scenario
+    flies the same loops (common random numbers), so the ranking is decided by paired
+    differences. ``verdict``: ``"best"`` when the CI against the runner-up lies above 0,
+    ``"tied"`` when the two score the same on every loop, ``"cannot decide"`` otherwise or
+    with fewer than two loops."""
+    ranked = sub.sort_values("mean", ascending=False, kind="stable")
+    best = ranked.iloc[0]
+    out = {k: best[k] for k in keys}
+    out.update({c: best[c] for c in ("mean", "ci_low", "ci_high", "correct_rate")})
+    if len(ranked) < 2:
+        return out
+    second = ranked.iloc[1]
+    cols = list(keys) if len(keys) > 1 else keys[0]
+    loops = rows.pivot_table(index="loop", columns=cols, values="score")
+    mine, other = (tuple(r[k] for k in keys) if len(keys) > 1 else r[keys[0]]
+                   for r in (best, second))
+    name = ", ".join(str(second[k]).replace("_", " ") for k in keys)
+    out.update({"runner_up": name, "runner_up_mean": second["mean"]})
+    for label, o in ({"runner_up": other} | dict(references or {})).items():
+        out.update(dict(zip((f"{label}_diff", f"{label}_low", f"{label}_high"),
+                            _against(loops, mine, o))))
+    d = (loops[mine] - loops[other]).dropna()
+    out["n_loops"] = int(d.size)
+    out["verdict"] = ("cannot decide" if d.size < 2 else "tied" if (d == 0).all() else
+                      "best" if out["runner_up_low"] > 0 else "cannot decide")
+    return out
+
+
+def _check_rows(results, columns) -> pd.DataFrame:
+    from ..core.checks import check_instance
+    results = check_instance(results, "results", pd.DataFrame)
+    missing = set(columns) - set(results)
+    if missing:
+        raise ValueError(f"results must hold one row per loop; missing columns {sorted(missing)}")
+    return results
+
+
 def best_observation(df: pd.DataFrame, noise: str = "none") -> pd.DataFrame:
-    """Per scenario, the observation with the highest mean score under ``noise``."""
+    """Per scenario, the observation with the highest mean score under ``noise``, set
+    against the runner-up on the same loops (``runner_up``, ``runner_up_diff`` with its 95%
+    CI ``runner_up_low``/``runner_up_high``, ``n_loops`` and ``verdict``: ``"best"``,
+    ``"tied"`` or ``"cannot decide"``, see :func:`best_future`)."""
+    df = _check_rows(df, ("scenario", "observation", "noise", "loop", "score"))
     t = observation_table(df)
     t = t[t["noise"] == noise]
-    idx = t.groupby("scenario", sort=False)["mean"].idxmax()
-    return t.loc[idx].set_index("scenario")[["observation", "mean", "ci_low", "ci_high",
-                                             "correct_rate"]]
+    if t.empty:
+        raise ValueError(f"noise must be one of {sorted(df['noise'].unique())}, got {noise!r}")
+    rows = df[df["noise"] == noise]
+    out = [{"scenario": scen, **_decide_best(sub, rows[rows["scenario"] == scen],
+                                             ("observation",))}
+           for scen, sub in t.groupby("scenario", sort=False)]
+    return pd.DataFrame(out).set_index("scenario")
 
 
 def vehicle_table(df: pd.DataFrame) -> pd.DataFrame:
@@ -131,54 +198,37 @@ def future_table(df: pd.DataFrame) -> pd.DataFrame:
 def best_future(table: pd.DataFrame, noise: str = "none",
                 results: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per scenario, the action and observation with the highest mean score under ``noise``
-    (from :func:`future_table`), and the best position-only score beside it.
+    (from :func:`future_table`), and the paper's choice (thrust actions, position) beside it.
 
     With ``results`` (Exp 11's rows), each ranking is also decided on the loops: every case
     of a scenario flies the same loops (common random numbers), so the best is set against
-    the runner-up and against the paper's choice (thrust actions, position) by the mean of
-    their loop-by-loop score differences with a 95% bootstrap CI (``*_diff``, ``*_low``,
-    ``*_high``, :func:`uavwind.core.stats.paired_difference`), and ``verdict`` says
-    ``"best"`` when the CI against the runner-up lies above 0, ``"tied"`` when the two
-    score the same on every loop, and ``"cannot decide"`` otherwise (or with fewer than two
-    loops)."""
-    from ..core.checks import check_instance
+    the runner-up and against the paper's choice by the mean of their loop-by-loop score
+    differences with a 95% bootstrap CI (``runner_up_*`` and ``position_thrust_*``:
+    ``_diff``, ``_low``, ``_high``; :func:`uavwind.core.stats.paired_difference`), and
+    ``verdict`` says ``"best"`` when the CI against the runner-up lies above 0, ``"tied"``
+    when the two score the same on every loop, and ``"cannot decide"`` otherwise (or with
+    fewer than two loops)."""
     t = table[table["noise"] == noise]
     if t.empty:
         raise ValueError(f"noise must be one of {sorted(table['noise'].unique())}, got {noise!r}")
     if results is not None:
-        results = check_instance(results, "results", pd.DataFrame)
-        missing = {"scenario", "action", "observation", "noise", "loop", "score"} - set(results)
-        if missing:
-            raise ValueError(f"results must be Exp 11's rows; missing columns {sorted(missing)}")
+        results = _check_rows(results, ("scenario", "action", "observation", "noise", "loop",
+                                        "score"))
         results = results[results["noise"] == noise]
-    rows = []
+    out = []
     for scen, sub in t.groupby("scenario", sort=False):
-        ranked = sub.sort_values("mean", ascending=False, kind="stable")
-        best, second = ranked.iloc[0], ranked.iloc[1] if len(ranked) > 1 else None
         pos = sub[(sub["observation"] == "position") & (sub["action"] == "thrust")]
-        row = {"scenario": scen, "action": best["action"],
-               "observation": best["observation"], "mean": best["mean"],
-               "ci_low": best["ci_low"], "ci_high": best["ci_high"],
-               "correct_rate": best["correct_rate"],
-               "position_thrust_mean": float(pos["mean"].iloc[0]) if len(pos) else np.nan}
-        if results is not None and second is not None:
-            loops = results[results["scenario"] == scen].pivot_table(
-                index="loop", columns=["action", "observation"], values="score")
-            mine = loops[(best["action"], best["observation"])]
-            row.update({"runner_up": f"{second['action']} actions, "
-                                     f"{second['observation'].replace('_', ' ')}",
-                        "runner_up_mean": second["mean"]})
-            for name, other in (("runner_up", (second["action"], second["observation"])),
-                                ("position_thrust", ("thrust", "position"))):
-                d = (mine - loops[other]).dropna().to_numpy() if other in loops else np.array([])
-                est, lo, hi = paired_difference(d, np.zeros_like(d)) if d.size else (np.nan,) * 3
-                row.update({f"{name}_diff": est, f"{name}_low": lo, f"{name}_high": hi})
-            d = (mine - loops[(second["action"], second["observation"])]).dropna()
-            row["n_loops"] = int(d.size)
-            row["verdict"] = ("cannot decide" if d.size < 2 else "tied" if (d == 0).all() else
-                              "best" if row["runner_up_low"] > 0 else "cannot decide")
-        rows.append(row)
-    return pd.DataFrame(rows).set_index("scenario")
+        if results is None:
+            top = sub.sort_values("mean", ascending=False, kind="stable").iloc[0]
+            row = {k: top[k] for k in ("action", "observation", "mean", "ci_low", "ci_high",
+                                       "correct_rate")}
+        else:
+            row = _decide_best(sub, results[results["scenario"] == scen],
+                               ("action", "observation"),
+                               references={"position_thrust": ("thrust", "position")})
+        row["position_thrust_mean"] = float(pos["mean"].iloc[0]) if len(pos) else np.nan
+        out.append({"scenario": scen, **row})
+    return pd.DataFrame(out).set_index("scenario")
 
 
 def baseline_table(df: pd.DataFrame) -> pd.DataFrame:
