@@ -9,6 +9,9 @@ Added since: exp14 and exp14_cem (issue 31's flyable manoeuvres; no earlier pin 
 Changed since: the paper profile's Exps 7 and 9 (128 loops a case) and Exp 11 with Exp 14's
 copies of its cases (82) run the counts their sizing chose (uavwind.study.sizing): more
 chunks (Exp 7's first 50 loops keep their entry; Exp 11's 0-20 entry becomes 0-50 and 50-82).
+Changed back since: Exp 11's verdicts are decided loop by loop, and sized so its sweep runs
+its floor of 20 loops per case: its and Exp 14's paper entry paths are again those before
+the sizing (the four digests as at 027ed6e's parent).
 """
 import hashlib
 import tempfile
@@ -84,10 +87,10 @@ ENTRY_PATHS = {
     "paper/inferred/exp8": "0df52e69bd1d0ff9",
     "paper/inferred/exp9": "2d5ecf50677fc920",
     "paper/inferred/exp10": "c273d1a915d5f450",
-    "paper/inferred/exp11": "834a4498d674efd1",
+    "paper/inferred/exp11": "b06d46f03fa28a4b",
     "paper/inferred/exp11_cem": "e3ebb8f3828df308",
     "paper/inferred/exp12": "4f5bf690e507a7b0",
-    "paper/inferred/exp14": "fbfc659420ff056a",
+    "paper/inferred/exp14": "8ca10af4ebcffbcb",
     "paper/inferred/exp14_cem": "9e4a6a018f38677b",
     "paper/inferred/fit_layout": "98d979c639533209",
     "paper/inferred/fit_mixed": "d0e7a315564174f2",
@@ -104,10 +107,10 @@ ENTRY_PATHS = {
     "paper/halves/exp8": "899b6fde6de46a3b",
     "paper/halves/exp9": "c1099abe99e5e23f",
     "paper/halves/exp10": "aa65a1e090669563",
-    "paper/halves/exp11": "81cc717e9251ba25",
+    "paper/halves/exp11": "1e3a3c3984d63763",
     "paper/halves/exp11_cem": "593149cfb21684b6",
     "paper/halves/exp12": "d5ef54547e0c443a",
-    "paper/halves/exp14": "a13629e6701a083f",
+    "paper/halves/exp14": "fde11e3981733f1f",
     "paper/halves/exp14_cem": "602a6e7470d94fc5",
     "paper/halves/fit_layout": "98d979c639533209",
     "paper/halves/fit_mixed": "d0e7a315564174f2",

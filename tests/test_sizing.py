@@ -50,9 +50,10 @@ def test_the_paper_profile_runs_the_sized_counts():
         counts = {_runs(paper, exp, c) for c in exp.cases()}
         assert counts == {s.count}, exp_id
     # what the sizing asked for, at the spreads measured (Exps 7 and 9 more than the
-    # paper's 50; Exp 11's sweep 82 instead of 20)
+    # paper's 50; Exp 11's sweep, decided loop by loop, its floor of 20: 82 when each case
+    # was sized on its own spread)
     assert SIZINGS["exp7"].count == SIZINGS["exp9"].count == 128
-    assert SIZINGS["exp11"].count == 82
+    assert SIZINGS["exp11"].count == SIZINGS["exp11"].floor == 20 > SIZINGS["exp11"].needed
     # the paper's own experiments keep the paper's 50 loops per case
     for exp_id in ("exp1", "exp2", "exp3", "exp4", "exp5"):
         exp = EXPERIMENTS[exp_id]
@@ -182,3 +183,45 @@ def test_profile_note_counts_loops_per_case_and_flags_a_quick_build():
     cem = pd.DataFrame({"case": [0] * 8})  # Exp 6's quick CEM: one case, 8 samples
     cem.attrs.update(experiment="exp6", profile="quick")
     assert "8 CEM samples per case over 1 case." in profile_note(cem)
+
+
+def _channels(n, spread):
+    """Exp 11-like rows of one scenario and noise level: position and velocity share each
+    loop's value, velocity 1 point above it plus ``spread`` times a +-1 alternation, and the
+    IMU 40 points below position; the reference (thrust, position) is the runner-up."""
+    rows = []
+    for i in range(n):
+        base = 50.0 + (i % 5)
+        for obs, v in (("position", base), ("velocity", base + 1 + spread * (-1) ** i),
+                       ("imu", base - 40)):
+            rows.append({"scenario": "S", "noise": "none", "action": "thrust",
+                         "observation": obs, "loop": i, "score": v})
+    df = pd.DataFrame(rows)
+    df.attrs["experiment"] = "exp11"
+    return df
+
+
+def test_a_loop_by_loop_question_is_sized_on_its_paired_differences():
+    from uavwind.analysis.tables import paired_spread
+    s = SIZINGS["exp11"]
+    assert s.compared == ("action", "observation") and s.reference == ("thrust", "position")
+    # velocity - position alternates 1 +- 10 over 40 loops: SD 10 * sqrt(40/39); the IMU's
+    # 40-point gap is no part of it (neither the runner-up nor the reference)
+    sd, n = paired_spread(_channels(40, 10.0), s)
+    assert n == 40 and sd == pytest.approx(10.0 * (40 / 39) ** 0.5)
+    text = sizing_note(_channels(40, 10.0))
+    need = loops_needed(sd, s.halfwidth)
+    assert "+-10 points on that difference" in text and f"takes {need}; it ran 40" in text
+    assert "paired difference (the best case against its runner-up" in text
+    assert f"at {s.measured_at} ({s.measured_with} loops per case)" in text
+    # the same loops with no spread between the channels: the difference's SD is 0 even
+    # though each channel varies from loop to loop
+    assert paired_spread(_channels(10, 0.0), s) == (0.0, 10)
+    assert sizing_note(_channels(1, 0.0)).endswith("This build ran 1 loop per case: too few "
+                                                   "to measure a spread.")
+    with pytest.raises(ValueError, match="compares no cases loop by loop"):
+        paired_spread(_channels(4, 1.0), SIZINGS["exp7"])
+    with pytest.raises(ValueError, match="one value per compared column"):
+        Sizing(experiment="x", question="q", halfwidth=1, unit="points", sd=1.0,
+               measured_with=10, floor=1, floor_reason="r", compared=("a", "b"),
+               reference=("only one",))

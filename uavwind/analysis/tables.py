@@ -24,12 +24,12 @@ from ..study.paper import load_paper_values
 from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
 from ..study.runner import case_loops
-from ..study.sizing import SIZED_AT, SIZINGS, Sizing
+from ..study.sizing import SIZINGS, Sizing
 from .beyond import baseline_table, future_table, vehicle_table
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
 
-__all__ = ["profile_note", "loops_needed", "sizing_note", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+__all__ = ["profile_note", "loops_needed", "sizing_note", "paired_spread", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
 
 
@@ -198,25 +198,64 @@ def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
         df = df[df["time"] == df["time"].max()]
     unit = ("episodes" if get_experiment(s.experiment).search == "closed_loop" else "loops")
     one = unit[:-1]
-    g = df.groupby(list(s.by))[s.value]
-    sd = float((g.std(ddof=1) * s.scale).max())
-    n_run = int(g.size().min())
+    if s.compared:
+        sd, n_run = paired_spread(df, s)
+        what = (f"one {one}'s paired difference (the best case against its runner-up and "
+                f"against the reference)")
+        ci = "95% CIs of about +-{h} {u} on that difference"
+    else:
+        g = df.groupby(list(s.by))[s.value]
+        sd = float((g.std(ddof=1) * s.scale).max())
+        n_run = int(g.size().min())
+        what = f"one {one}'s value"
+        ci = "95% CIs of about +-{h} {u}"
     need = loops_needed(sd, s.halfwidth) if np.isfinite(sd) else None
     got = ci_halfwidth(sd, n_run)
     chosen = (f"{s.needed}" if s.count == s.needed else
               f"{s.needed}, fewer than the {s.floor} it runs at the least ({s.floor_reason})")
-    text = (f"*Sizing.* {s.question} needs 95% CIs of about +-{s.halfwidth:g} {s.unit}. The "
-            f"paper profile runs **{s.count} {unit} per case**, chosen from that: one {one}'s "
-            f"value varied with a standard deviation of up to {s.sd:.1f} {s.unit} in the paper "
-            f"build at {SIZED_AT} ({s.measured_with} {unit} per case), which takes {chosen}.")
+    text = (f"*Sizing.* {s.question} needs {ci.format(h=f'{s.halfwidth:g}', u=s.unit)}. The "
+            f"paper profile runs **{s.count} {unit} per case**, chosen from that: {what} "
+            f"varied with a standard deviation of up to {s.sd:.1f} {s.unit} in the paper "
+            f"build at {s.measured_at} ({s.measured_with} {unit} per case), which takes "
+            f"{chosen}.")
     if need is None:
         return text + (f" This build ran {n_run} {one if n_run == 1 else unit} per case: too "
                        "few to measure a spread.")
     verdict = ("enough" if n_run >= need else
                "too few to decide differences of that size; a verdict whose CI spans both "
                "answers cannot decide")
-    return text + (f" In this build one {one}'s value varies by up to {sd:.1f} {s.unit}, "
+    return text + (f" In this build {what} varies by up to {sd:.1f} {s.unit}, "
                    f"which takes {need}; it ran {n_run} (+-{got:.1f} {s.unit}): {verdict}.")
+
+
+def paired_spread(df: pd.DataFrame, sizing: Sizing) -> tuple[float, int]:
+    """The spread a loop-by-loop question (``sizing.compared``) is sized on, measured on
+    ``df``: in every ``sizing.by`` group, the standard deviation over loops of the
+    difference between the case with the highest mean and its runner-up, and between it and
+    ``sizing.reference`` (where run); the largest of them [``sizing.unit``], and the fewest
+    loops any of those differences has (NaN and that count when below 2)."""
+    s = check_instance(sizing, "sizing", Sizing)
+    if not s.compared:
+        raise ValueError(f"sizing {s.experiment!r} compares no cases loop by loop "
+                         "(its compared is empty)")
+    cols = list(s.compared)
+    sds, ns = [], []
+    for _, g in df.groupby(list(s.by), sort=False):
+        loops = g.pivot_table(index="loop", columns=cols, values=s.value) * s.scale
+        order = loops.mean().sort_values(ascending=False, kind="stable").index
+        if len(order) < 2:
+            continue
+        others = [order[1]] + ([s.reference if len(cols) > 1 else s.reference[0]]
+                               if s.reference else [])
+        for other in others:
+            if other in loops and other != order[0]:
+                d = (loops[order[0]] - loops[other]).dropna()
+                sds.append(float(d.std(ddof=1)) if d.size > 1 else float("nan"))
+                ns.append(int(d.size))
+    if not ns:
+        raise ValueError(f"no two cases of {s.experiment!r} share a {s.by} group to compare")
+    n = min(ns)
+    return (max(sds) if n > 1 else float("nan")), n
 
 
 def source_commit(mark_changes: bool = False) -> str:

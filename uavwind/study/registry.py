@@ -321,8 +321,8 @@ def _exp11_cem(reading):
 
 
 #: Exp 14's channels: the paper's (position), the real flights' (attitude: Exp 13) and Exp
-#: 11's best under raw thrust (the IMU); three of Exp 11's five, to keep the cost modest
-#: (velocity and body rates cost 1.6 and 0.8 CPU-s a loop).
+#: 11's best without a satellite fix under raw thrust (the IMU); three of Exp 11's five, to
+#: keep the cost modest (velocity and body rates cost 1.6 and 0.8 CPU-s a loop).
 FLYABLE_CHANNELS = ("position", "attitude", "imu")
 #: CPU seconds one Exp 14 waypoint loop costs (10 environments, 12 s, flight and clustering),
 #: measured on the project's 2-core machine with ``random_search(..., n_jobs=1)`` on light

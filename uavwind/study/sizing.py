@@ -12,8 +12,11 @@ The rule: a question that compares means ``2 h`` apart needs 95% CIs of ``+- h``
 one loop's value with standard deviation ``sd`` (the most variable case) needs
 ``ceil((1.96 sd / h)^2)`` loops (:func:`uavwind.core.stats.loops_needed`); the count run is
 that, or the experiment's ``floor`` where that is more (the paper's own 50 loops for the
-experiments that extend its Tables). Exp 13's counts are the data's own (its flights and
-laps) and are not sized here.
+experiments that extend its Tables). A question decided loop by loop (``compared``: every
+case of a group flies the same loops, and the page sets the best against the runner-up and
+a reference by paired differences) takes ``sd`` from those differences instead, and
+``+- h`` is then the CI of the difference itself. Exp 13's counts are the data's own (its
+flights and laps) and are not sized here.
 """
 
 from __future__ import annotations
@@ -55,6 +58,15 @@ class Sizing:
         How a page re-measures the spread: the column, the grouping, the factor to ``unit``
         (100 for a 0/1 column in percentage points), and whether only the last report time
         of a closed-loop run counts.
+    compared : tuple of str
+        For a question decided loop by loop: the columns whose values a verdict ranks within
+        each ``by`` group (e.g. action and observation); ``sd`` is then the standard
+        deviation of the loop-by-loop difference between the group's highest mean and its
+        runner-up, and between it and ``reference``, the largest over the groups.
+    reference : tuple
+        The value of ``compared`` the best is also set against (the paper's choice).
+    measured_at : str
+        The commit of the paper build ``sd`` was measured in (default :data:`SIZED_AT`).
     """
 
     experiment: str
@@ -69,6 +81,9 @@ class Sizing:
     by: tuple[str, ...] = ("case",)
     scale: float = 1.0
     last_time: bool = False
+    compared: tuple[str, ...] = ()
+    reference: tuple = ()
+    measured_at: str = SIZED_AT
 
     def __post_init__(self):
         check_scalar(self.halfwidth, f"{self.experiment} sizing halfwidth", low=0.0,
@@ -77,6 +92,9 @@ class Sizing:
         check_scalar(self.floor, f"{self.experiment} sizing floor", low=1, integer=True)
         check_scalar(self.measured_with, f"{self.experiment} sizing measured_with", low=2,
                      integer=True)
+        if self.reference and len(self.reference) != len(self.compared):
+            raise ValueError(f"{self.experiment} sizing reference must give one value per "
+                             f"compared column {self.compared}, got {self.reference!r}")
 
     @property
     def needed(self) -> int:
@@ -105,9 +123,13 @@ SIZINGS: dict[str, Sizing] = {s.experiment: s for s in (
     Sizing(experiment="exp10", question="Telling a vehicle whose mean score is 10 points "
            "lower from one that matches the point mass", halfwidth=5, unit="points",
            sd=12.9, measured_with=50, floor=50, floor_reason=_PAPER_FLOOR),
-    Sizing(experiment="exp11", question="Ranking channels whose means differ by 20 points",
-           halfwidth=10, unit="points", sd=46.0, measured_with=20, floor=20,
-           floor_reason="the count of the other sweeps beyond the paper (the inference fits)"),
+    Sizing(experiment="exp11", question="Telling a scenario's best action and observation "
+           "from its runner-up, and from the paper's choice (thrust actions, position), when "
+           "they differ by 20 points", halfwidth=10, unit="points", sd=13.7, measured_with=82,
+           floor=20,
+           floor_reason="the count of the other sweeps beyond the paper, the inference fits",
+           by=("scenario", "noise"), compared=("action", "observation"),
+           reference=("thrust", "position"), measured_at="4363649"),
     Sizing(experiment="exp12", question="Telling policies whose accuracies differ by 20 "
            "percentage points", halfwidth=10, unit="percentage points", sd=38.1,
            measured_with=200, floor=200,
