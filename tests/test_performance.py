@@ -124,3 +124,15 @@ def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
     assert "3 vectors of 8 lanes) takes 2.42 ns" in line and "1.62 ns more" in line
     del shares["ns_per_cell_costs"]  # a record from before the split: no such sentence
     assert "square root" not in summary_lines({"time_shares": shares})["cells"]
+
+
+def test_the_one_loop_table_says_when_it_was_measured_and_whether_it_is_current():
+    loops = {"10env_120steps": {"tslearn": 2.0, "fast": 0.1, "speedup": 20.0}}
+    old = {**REPORT, "loop_seconds": loops,
+           "sections_measured_later": {"spread": "2026-11-24 02:59 UTC"}}
+    line = summary_lines(old)["loops"]
+    assert line.startswith("*One-loop timings measured 2026-11-22 12:00 UTC.*")
+    assert "measured later (2026-11-24 02:59 UTC), on a newer engine" in line
+    new = {**old, "sections_measured_later": {"spread": "2026-11-24 02:59 UTC",
+                                              "loops": "2026-11-27 15:00 UTC"}}
+    assert summary_lines(new)["loops"] == "*One-loop timings measured 2026-11-27 15:00 UTC.*"
