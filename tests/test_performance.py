@@ -126,13 +126,15 @@ def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
     assert "square root" not in summary_lines({"time_shares": shares})["cells"]
 
 
-def test_the_one_loop_table_says_when_it_was_measured_and_whether_it_is_current():
+def test_the_one_loop_table_says_when_it_was_measured_and_on_which_footing():
     loops = {"10env_120steps": {"tslearn": 2.0, "fast": 0.1, "speedup": 20.0}}
     old = {**REPORT, "loop_seconds": loops,
            "sections_measured_later": {"spread": "2026-11-24 02:59 UTC"}}
     line = summary_lines(old)["loops"]
-    assert line.startswith("*One-loop timings measured 2026-11-22 12:00 UTC.*")
-    assert "measured later (2026-11-24 02:59 UTC), on a newer engine" in line
-    new = {**old, "sections_measured_later": {"spread": "2026-11-24 02:59 UTC",
-                                              "loops": "2026-11-27 15:00 UTC"}}
-    assert summary_lines(new)["loops"] == "*One-loop timings measured 2026-11-27 15:00 UTC.*"
+    assert line.startswith("*One-loop timings measured 2026-11-22 12:00 UTC*, each engine "
+                           "with the process's default numba threads")
+    assert "times each engine on one thread" in line and "(measured 2026-11-24 02:59 UTC)." in line
+    new = {**old, "sections_measured_later": {"loops": "2026-11-27 15:00 UTC"}}
+    assert "measured 2026-11-27 15:00 UTC*" in summary_lines(new)["loops"]
+    alone = {k: v for k, v in new.items() if k != "spread"}
+    assert "one thread" not in summary_lines(alone)["loops"]
