@@ -121,9 +121,9 @@ def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
     """The case of ``sub`` (summary rows of one scenario and noise level, one per value of
     ``keys``) with the highest mean, set against the runner-up (``runner_up_*``, and each
     of ``references``: column prefix -> a value of ``keys``, ``<prefix>_*``) on the loops of
-    ``rows`` that both flew: every case of a scenario
-    flies the same loops (common random numbers), so the ranking is decided by paired
-    differences. ``verdict``: ``"best"`` when the CI against the runner-up lies above 0,
+    ``rows`` that both flew: every case of a scenario flies the same loops (common random
+    numbers), so the ranking is decided by paired differences. ``verdict``: ``"best"``
+    when the CI against the runner-up lies above 0,
     ``"tied"`` when the two score the same on every loop, ``"cannot decide"`` otherwise or
     with fewer than two loops."""
     ranked = sub.sort_values("mean", ascending=False, kind="stable")
