@@ -22,16 +22,16 @@ flies the same loops): paired differences with a bootstrap CI, and a verdict tha
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from ..core.checks import check_instance
 from ..core.stats import bootstrap_ci, paired_difference, summarise
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
            "observation_table", "best_observation", "baseline_table", "vehicle_table",
-           "future_table", "best_future"]
+           "future_table", "best_future", "loop_differences"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -107,42 +107,56 @@ def observation_table(df: pd.DataFrame) -> pd.DataFrame:
     return _summary(df, ("scenario", "observation", "noise"))
 
 
-def _against(loops: pd.DataFrame, mine, other) -> tuple[float, float, float]:
-    """Mean of the loop-by-loop differences ``mine - other`` (columns of ``loops``: one row
-    per loop) with its 95% bootstrap CI; NaN where ``other`` was not run."""
-    if other not in loops:
-        return (np.nan,) * 3
-    d = (loops[mine] - loops[other]).dropna().to_numpy()
-    return paired_difference(d, np.zeros_like(d)) if d.size else (np.nan,) * 3
+def loop_differences(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
+                     references: Mapping[str, tuple] | None = None, value: str = "score"):
+    """The case of ``sub`` (one row per value of ``keys`` with its ``mean``: the cases of one
+    scenario and noise level) with the highest mean, the runner-up, and the loop-by-loop
+    differences of ``value`` in ``rows`` between the best and each of them: every case of a
+    scenario flies the same loops (common random numbers), so they are compared by paired
+    differences.
+
+    Returns ``(best, runner_up, differences)``: the two rows of ``sub`` (``runner_up`` None
+    when ``sub`` has one case) and a dict from ``"runner_up"`` and each label of
+    ``references`` (label -> the reference's values of ``keys``, a tuple) to the differences
+    over the loops both ran; a reference that was not run has no entry. Ties keep the order
+    of ``sub``. Exps 8 and 11 decide their best channel on it
+    (:func:`best_observation`, :func:`best_future`) and Exp 11 is sized on it
+    (:func:`uavwind.analysis.tables.paired_spread`)."""
+    ranked = sub.sort_values("mean", ascending=False, kind="stable")
+    best = ranked.iloc[0]
+    if len(ranked) < 2:
+        return best, None, {}
+    second = ranked.iloc[1]
+    several = len(keys) > 1
+    loops = rows.pivot_table(index="loop", columns=list(keys) if several else keys[0],
+                             values=value)
+    mine, other = (tuple(r[k] for k in keys) if several else r[keys[0]] for r in (best, second))
+    others = {"runner_up": other} | {label: ref if several else ref[0]
+                                     for label, ref in (references or {}).items()}
+    return best, second, {label: (loops[mine] - loops[o]).dropna()
+                          for label, o in others.items() if o in loops}
 
 
 def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
-                 references: Mapping[str, Any] | None = None) -> dict:
-    """The case of ``sub`` (summary rows of one scenario and noise level, one per value of
-    ``keys``) with the highest mean, set against the runner-up (``runner_up_*``, and each
-    of ``references``: column prefix -> a value of ``keys``, ``<prefix>_*``) on the loops of
-    ``rows`` that both flew: every case of a scenario flies the same loops (common random
-    numbers), so the ranking is decided by paired differences. ``verdict``: ``"best"``
-    when the CI against the runner-up lies above 0,
-    ``"tied"`` when the two score the same on every loop, ``"cannot decide"`` otherwise or
-    with fewer than two loops."""
-    ranked = sub.sort_values("mean", ascending=False, kind="stable")
-    best = ranked.iloc[0]
+                 references: Mapping[str, tuple] | None = None) -> dict:
+    """The case of ``sub`` with the highest mean, set against the runner-up (``runner_up_*``)
+    and each of ``references`` (``<label>_*``) by the mean of their loop-by-loop differences
+    with a 95% bootstrap CI (:func:`loop_differences`; NaN for a reference not run).
+    ``verdict``: ``"best"`` when the CI against the runner-up lies above 0, ``"tied"`` when
+    the two score the same on every loop, ``"cannot decide"`` otherwise or with fewer than
+    two loops."""
+    best, second, diffs = loop_differences(sub, rows, keys, references)
     out = {k: best[k] for k in keys}
     out.update({c: best[c] for c in ("mean", "ci_low", "ci_high", "correct_rate")})
-    if len(ranked) < 2:
+    if second is None:
         return out
-    second = ranked.iloc[1]
-    cols = list(keys) if len(keys) > 1 else keys[0]
-    loops = rows.pivot_table(index="loop", columns=cols, values="score")
-    mine, other = (tuple(r[k] for k in keys) if len(keys) > 1 else r[keys[0]]
-                   for r in (best, second))
-    name = ", ".join(str(second[k]).replace("_", " ") for k in keys)
-    out.update({"runner_up": name, "runner_up_mean": second["mean"]})
-    for label, o in ({"runner_up": other} | dict(references or {})).items():
-        out.update(dict(zip((f"{label}_diff", f"{label}_low", f"{label}_high"),
-                            _against(loops, mine, o))))
-    d = (loops[mine] - loops[other]).dropna()
+    out.update({"runner_up": ", ".join(str(second[k]).replace("_", " ") for k in keys),
+                "runner_up_mean": second["mean"]})
+    for label in ("runner_up", *(references or {})):
+        d = diffs.get(label, pd.Series(dtype=float)).to_numpy()
+        est = paired_difference(d, np.zeros_like(d)) if d.size else (np.nan,) * 3
+        out.update(dict(zip((f"{label}_diff", f"{label}_low", f"{label}_high"), est)))
+    d = diffs["runner_up"]
     out["n_loops"] = int(d.size)
     out["verdict"] = ("cannot decide" if d.size < 2 else "tied" if (d == 0).all() else
                       "best" if out["runner_up_low"] > 0 else "cannot decide")
@@ -150,7 +164,6 @@ def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
 
 
 def _check_rows(results, columns) -> pd.DataFrame:
-    from ..core.checks import check_instance
     results = check_instance(results, "results", pd.DataFrame)
     missing = set(columns) - set(results)
     if missing:

@@ -25,7 +25,7 @@ from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
 from ..study.runner import case_loops
 from ..study.sizing import SIZINGS, Sizing
-from .beyond import baseline_table, future_table, vehicle_table
+from .beyond import baseline_table, future_table, loop_differences, vehicle_table
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
 
@@ -202,18 +202,17 @@ def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
         sd, n_run = paired_spread(df, s)
         what = (f"one {one}'s paired difference (the best case against its runner-up and "
                 f"against the reference)")
-        ci = "95% CIs of about +-{h} {u} on that difference"
     else:
         g = df.groupby(list(s.by))[s.value]
         sd = float((g.std(ddof=1) * s.scale).max())
         n_run = int(g.size().min())
         what = f"one {one}'s value"
-        ci = "95% CIs of about +-{h} {u}"
     need = loops_needed(sd, s.halfwidth) if np.isfinite(sd) else None
     got = ci_halfwidth(sd, n_run)
     chosen = (f"{s.needed}" if s.count == s.needed else
               f"{s.needed}, fewer than the {s.floor} it runs at the least ({s.floor_reason})")
-    text = (f"*Sizing.* {s.question} needs {ci.format(h=f'{s.halfwidth:g}', u=s.unit)}. The "
+    text = (f"*Sizing.* {s.question} needs 95% CIs of about +-{s.halfwidth:g} {s.unit}"
+            f"{' on that difference' if s.compared else ''}. The "
             f"paper profile runs **{s.count} {unit} per case**, chosen from that: {what} "
             f"varied with a standard deviation of up to {s.sd:.1f} {s.unit} in the paper "
             f"build at {s.measured_at} ({s.measured_with} {unit} per case), which takes "
@@ -239,19 +238,16 @@ def paired_spread(df: pd.DataFrame, sizing: Sizing) -> tuple[float, int]:
         raise ValueError(f"sizing {s.experiment!r} compares no cases loop by loop "
                          "(its compared is empty)")
     cols = list(s.compared)
+    refs = {"reference": tuple(s.reference)} if s.reference else None
     sds, ns = [], []
     for _, g in df.groupby(list(s.by), sort=False):
-        loops = g.pivot_table(index="loop", columns=cols, values=s.value) * s.scale
-        order = loops.mean().sort_values(ascending=False, kind="stable").index
-        if len(order) < 2:
-            continue
-        others = [order[1]] + ([s.reference if len(cols) > 1 else s.reference[0]]
-                               if s.reference else [])
-        for other in others:
-            if other in loops and other != order[0]:
-                d = (loops[order[0]] - loops[other]).dropna()
-                sds.append(float(d.std(ddof=1)) if d.size > 1 else float("nan"))
-                ns.append(int(d.size))
+        sub = g.groupby(cols, sort=False)[s.value].mean().rename("mean").reset_index()
+        best, _, diffs = loop_differences(sub, g, s.compared, refs, value=s.value)
+        for label, d in diffs.items():
+            if label == "reference" and tuple(best[c] for c in cols) == tuple(s.reference):
+                continue  # the best is the reference itself
+            sds.append(float(d.std(ddof=1)) * s.scale if d.size > 1 else float("nan"))
+            ns.append(int(d.size))
     if not ns:
         raise ValueError(f"no two cases of {s.experiment!r} share a {s.by} group to compare")
     n = min(ns)

@@ -206,18 +206,18 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     """The sentences the performance page prints around its tables, by section (each
     built from the report's numbers, so none is typed)."""
     out = {}
+    # `make bench ONLY=<section>` re-measures one section and dates it here
+    later = report.get("sections_measured_later", {})
     if report:
         out["header"] = (f"Measured {report.get('measured', '(date not recorded)')} on "
                          f"{report.get('cores', '?')} cores ({report.get('machine', '?')}), "
                          f"Python {report.get('python', '?')}, numpy {report.get('numpy', '?')}.")
-        later = report.get("sections_measured_later", {})
-        if later:  # `make bench ONLY=<section>` re-measures one section and dates it
+        if later:
             out["header"] += " Sections measured again since: " + "; ".join(
                 f"{name} {when}" for name, when in sorted(later.items(),
                                                           key=lambda kv: kv[1])) + "."
     if "loop_seconds" in report:  # dated, and set beside the varied loops' speed-up, which
         # is timed on another footing: a reader must see why the two differ
-        later = report.get("sections_measured_later", {})
         when = later.get("loops", report.get("measured", "(date not recorded)"))
         out["loops"] = (f"*One-loop timings measured {when}*, each engine with the process's "
                         "default numba threads, on one scenario.")
@@ -252,7 +252,6 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
         t = report["time_shares"]
         line = (f"{t['loops']} loops, {t['iterations']} k-means iterations, "
                 f"{t['seconds']:.2f} s under cProfile")
-        later = report.get("sections_measured_later", {})
         out["time"] = line + (f" (measured {later['profile']})" if "profile" in later else "") + "."
         if "ns_per_cell_value" in t:
             out["cells"] = (
