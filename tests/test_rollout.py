@@ -7,7 +7,7 @@ import uavwind as uw
 from uavwind.sim.dryden import CitedDryden
 from uavwind.sim.rollout import Rollout, WindTable, state_size
 from uavwind.sim.setting import EnvironmentGroup, Setting
-from uavwind.sim.wind import CombinedWind, ConstantWind, ShearWind
+from uavwind.sim.wind import WindGroups, ConstantWind, ShearWind
 
 GROUPS = {
     "constant": EnvironmentGroup("constant", ((0.5, 0.5, 0.0), (1.2, -0.3, 0.0)), "c"),
@@ -56,7 +56,7 @@ def test_rows_hold_their_own_thrust_and_share_an_environment():
 
 
 def test_the_wind_table_is_the_wind_models_velocity():
-    wind = CombinedWind(_wind("constant", "shear"), _wind("mil", "cited", seed=9))
+    wind = WindGroups(_wind("constant", "shear"), _wind("mil", "cited", seed=9))
     times = np.arange(50) * 0.1
     table = WindTable(wind, times)
     rng = np.random.default_rng(0)

@@ -15,9 +15,11 @@ def _models():
         "constant": uw.ConstantWind([[1.0, 1.0, 0.0], [2.0, -1.0, 0.5]]),
         "shear": uw.ShearWind([[2.1, 10.1, 0.0], [1.0, 1.0, 0.0]]),
         "dryden": uw.DrydenWind([11.5, 13.0], seed=3),
-        "combined": uw.CombinedWind(uw.ConstantWind([[1.0, 0, 0]]),
-                                    uw.ShearWind([[0, 2.0, 0]] * 2),
-                                    uw.DrydenWind([12.0], seed=1)),
+        "combined": uw.WindGroups(uw.ConstantWind([[1.0, 0, 0]]),
+                                  uw.ShearWind([[0, 2.0, 0]] * 2),
+                                  uw.DrydenWind([12.0], seed=1)),
+        "sum": uw.ConstantWind([[-8.5, 0, 0]] * 2) + uw.DrydenWind([8.5, 8.5], seed=2),
+        "ramped": uw.RampedWind(uw.ShearWind([[3.0, 0, 0]] * 2), ramp=2.0),
     }
 
 
@@ -103,15 +105,59 @@ def test_constant_validation(bad, err, match):
 
 def test_combined_validation_and_groups():
     with pytest.raises(ValueError, match="models"):
-        uw.CombinedWind()
+        uw.WindGroups()
     with pytest.raises(TypeError, match="models\\[1\\]"):
-        uw.CombinedWind(uw.ConstantWind([[1, 0, 0]]), "shear")
-    w = uw.CombinedWind([uw.ConstantWind([[1, 0, 0]] * 2), uw.ShearWind([[0, 1, 0]] * 3)])
+        uw.WindGroups(uw.ConstantWind([[1, 0, 0]]), "shear")
+    w = uw.WindGroups([uw.ConstantWind([[1, 0, 0]] * 2), uw.ShearWind([[0, 1, 0]] * 3)])
     assert w.groups.tolist() == [0, 0, 1, 1, 1]
     pos = np.array([[0, 0, 10.0]] * 2 + [[0, 0, 20.0]] * 3)
     v = w.velocity(0.0, pos)
     assert np.array_equal(v[:2], [[1, 0, 0]] * 2)
     assert np.allclose(v[2:, 1], 2 ** 0.143)
+
+
+def test_groups_keep_the_old_name():
+    assert uw.CombinedWind is uw.WindGroups
+
+
+def test_sum_adds_winds_over_the_same_environments():
+    mean = uw.ConstantWind([[-8.5, 0.0, 0.0]])
+    gusts = uw.DrydenWind([8.5], altitude=2.15, dt=0.02, seed=4)
+    w = mean + gusts
+    assert isinstance(w, uw.SumWind) and w.n_env == 1
+    pos = np.array([[0.0, 0.0, 2.15]])
+    v = np.array([w.velocity(t, pos)[0] for t in np.arange(0, 20, 0.02)])
+    g = np.array([gusts.velocity(t, pos)[0] for t in np.arange(0, 20, 0.02)])
+    assert np.array_equal(v, g + [-8.5, 0.0, 0.0])
+    assert v[:, 0].std() > 0.1  # the gusts are there: a sum, not groups side by side
+    # a grouping of the same two models is two environments, the first without gusts
+    groups = uw.WindGroups(mean, gusts)
+    assert groups.n_env == 2
+    assert np.array_equal(groups.velocity(3.0, np.repeat(pos, 2, 0))[0], [-8.5, 0.0, 0.0])
+
+
+def test_sum_validation():
+    with pytest.raises(ValueError, match="same environments"):
+        uw.SumWind(uw.ConstantWind([[1, 0, 0]]), uw.ConstantWind([[1, 0, 0]] * 2))
+    with pytest.raises(ValueError, match="at least one"):
+        uw.SumWind()
+    with pytest.raises(TypeError, match="models\\[1\\]"):
+        uw.SumWind(uw.ConstantWind([[1, 0, 0]]), 3.0)
+    assert uw.ConstantWind([[1, 0, 0]]).__add__(1.0) is NotImplemented
+
+
+def test_ramp_fades_the_wind_in():
+    base = uw.ConstantWind([[4.0, -2.0, 0.0]])
+    w = uw.RampedWind(base, ramp=3.0)
+    pos = np.zeros((1, 3))
+    speeds = [w.velocity(t, pos)[0, 0] for t in np.linspace(0, 3, 31)]
+    assert speeds[0] == 0.0 and speeds[-1] == 4.0
+    assert np.all(np.diff(speeds) > 0)
+    assert np.array_equal(w.velocity(7.0, pos), base.velocity(7.0, pos))
+    with pytest.raises(ValueError, match="ramp"):
+        uw.RampedWind(base, ramp=0.0)
+    with pytest.raises(TypeError, match="model"):
+        uw.RampedWind("wind", ramp=1.0)
 
 
 # --------------------------------------------------------------------------- #

@@ -46,7 +46,8 @@ from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
 from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402
-from .sim.wind import CombinedWind, ConstantWind, ShearWind, SinusoidalWind, WindModel  # noqa: E402
+from .sim.wind import (CombinedWind, ConstantWind, RampedWind, ShearWind,  # noqa: E402
+                       SinusoidalWind, SumWind, WindGroups, WindModel)
 from .study.builders import (direction_settings, environment_count_settings,  # noqa: E402
                              make_group, make_setting, range_similarity_settings)
 from .study.conditions import (PAPER_SCENARIOS, SPEED_RANGES, WindCondition,  # noqa: E402
@@ -57,13 +58,14 @@ from .study.readings import READINGS, Reading, get_reading  # noqa: E402
 __all__ = [
     # sim
     "UAV", "PAPER_UAV", "ThrustSequence", "sample_paper", "sample_continuous", "SAMPLERS",
-    "MAX_THRUST", "PAPER_EXAMPLE", "WindModel", "ConstantWind", "ShearWind", "CombinedWind",
-    "SinusoidalWind",
+    "MAX_THRUST", "PAPER_EXAMPLE", "WindModel", "ConstantWind", "ShearWind", "WindGroups",
+    "CombinedWind", "SumWind", "RampedWind", "SinusoidalWind",
     "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
     "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
-    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude", "Reference", "Hover",
-    "Lemniscate", "WaypointSpline", "FlyableLimits", "FLYABLE", "sample_waypoints",
+    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude",
+    "Reference", "Hover", "Lemniscate", "WaypointSpline", "FlyableLimits", "FLYABLE",
+    "sample_waypoints",
     "check_flyable",
     # data
     "load_neuralfly", "RealFlight",

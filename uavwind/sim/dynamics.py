@@ -216,7 +216,7 @@ def simulate(thrust: ThrustSequence | AttitudeSequence | Reference, wind: WindMo
         unused and ``start_position`` refused); a reference flight that would go below the
         ground (z = 0) is refused with a ``ValueError``.
     wind : WindModel
-        ``n_env`` environments (e.g. a :class:`~uavwind.sim.wind.CombinedWind`).
+        ``n_env`` environments (e.g. a :class:`~uavwind.sim.wind.WindGroups`).
     uav : UAV or Multirotor, optional
         The vehicle; default ``UAV()`` (paper Table 4a). A
         :class:`~uavwind.sim.multirotor.Multirotor` flies the same commands with RotorPy's

@@ -28,7 +28,7 @@ import numpy as np
 from ..core.checks import check_array, check_instance, check_scalar
 from .multirotor import Multirotor, force_command
 from .vehicle import UAV, n_steps as _n_steps
-from .wind import CombinedWind, ConstantWind, ShearWind, WindModel, libm_pow
+from .wind import WindGroups, ConstantWind, ShearWind, WindModel, libm_pow
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -40,7 +40,7 @@ _CONSTANT, _SHEAR, _TABLE = 0, 1, 2
 
 def _leaves(wind):
     """The (model, first environment) of each non-combined model inside ``wind``."""
-    if isinstance(wind, CombinedWind):
+    if isinstance(wind, WindGroups):
         out = []
         for model, start in zip(wind.models, wind._bounds[:-1]):
             out += [(m, int(start) + s) for m, s in _leaves(model)]
@@ -54,7 +54,7 @@ class WindTable:
     Parameters
     ----------
     wind : WindModel
-        The environments (a :class:`~uavwind.sim.wind.CombinedWind` of constant, shear and
+        The environments (a :class:`~uavwind.sim.wind.WindGroups` of constant, shear and
         Dryden groups, or any model whose velocity does not depend on the position).
     times : array_like, shape (n_times,)
         Every time [s] the wind will be asked for (the step starts of the whole flight); a

@@ -9,8 +9,14 @@ This module owns every wind field the UAV can fly through (paper section
   (``variant="mil-f-8785c"``) or as the implementation the paper cites computes it
   (``variant="cited"``, every quirk a field of :class:`CitedDryden`); defined in
   :mod:`uavwind.sim.dryden` (and exported as ``uavwind.DrydenWind``);
-* :class:`CombinedWind` -- several models side by side, one group of
-  environments each, so one :func:`uavwind.simulate` call flies a whole loop.
+* :class:`WindGroups` (old name :class:`CombinedWind`) -- several models *side by side*,
+  one group of environments each, so one :func:`uavwind.simulate` call flies a whole loop.
+  It never adds winds: ``WindGroups(mean, gusts)`` is two groups of environments, the mean
+  wind in one and the gusts alone in the other;
+* :class:`SumWind` (also ``a + b``) -- the superposition of models over the *same*
+  environments, e.g. gusts on a mean wind;
+* :class:`RampedWind` -- a model faded in from still air over a ramp (a flight that starts
+  hovering in still air, then meets the wind).
 
 A wind model describes ``n_env`` *environments* at once. ``velocity(t,
 positions)`` takes the time ``t`` [s] and the UAV positions ``(n_env, 3)`` [m]
@@ -34,8 +40,8 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 
-__all__ = ["WindModel", "ConstantWind", "ShearWind", "CombinedWind", "SinusoidalWind",
-           "MAX_WIND", "libm_pow"]
+__all__ = ["WindModel", "ConstantWind", "ShearWind", "WindGroups", "CombinedWind", "SumWind",
+           "RampedWind", "SinusoidalWind", "MAX_WIND", "libm_pow"]
 
 
 def libm_pow(base: ArrayLike, exponent: ArrayLike) -> np.ndarray:
@@ -95,6 +101,12 @@ class WindModel(ABC):
 
     def __len__(self):
         return self.n_env
+
+    def __add__(self, other):
+        """``a + b``: the :class:`SumWind` of both (the same environments, winds added)."""
+        if not isinstance(other, WindModel):
+            return NotImplemented
+        return SumWind(self, other)
 
 
 #: Largest wind speed component accepted [m/s] (far beyond any wind; keeps float64 finite).
@@ -224,13 +236,100 @@ class ShearWind(WindModel):
 
 
 # --------------------------------------------------------------------------- #
+# models added over the same environments, and faded in
+# --------------------------------------------------------------------------- #
+def _check_models(models, name):
+    if len(models) == 1 and isinstance(models[0], (list, tuple)):
+        models = tuple(models[0])
+    if not models:
+        raise ValueError(f"{name} must hold at least one WindModel, got none")
+    for i, m in enumerate(models):
+        if not isinstance(m, WindModel):
+            raise TypeError(f"{name}[{i}] must be a WindModel, got {type(m).__name__}")
+    return tuple(models)
+
+
+class SumWind(WindModel):
+    """The superposition of wind models over the same environments: ``v_wind(t, r) =
+    sum_i models[i].velocity(t, r)`` [m/s] (``a + b`` builds one).
+
+    Every model describes the same ``n_env`` environments (a mean wind and its gusts, say);
+    to put models side by side as groups of environments, use :class:`WindGroups`.
+
+    Parameters
+    ----------
+    *models : WindModel
+        At least one, each with the same ``n_env``.
+
+    Examples
+    --------
+    >>> w = ConstantWind([[5.0, 0, 0]]) + ConstantWind([[0.5, 1.0, 0]])
+    >>> w.n_env, w.velocity(0.0, [[0, 0, 10]])[0].tolist()
+    (1, [5.5, 1.0, 0.0])
+    """
+
+    def __init__(self, *models):
+        self.models = _check_models(models, "models")
+        sizes = {m.n_env for m in self.models}
+        if len(sizes) != 1:
+            raise ValueError(f"models must describe the same environments (one n_env), got "
+                             f"n_env {[m.n_env for m in self.models]}; WindGroups puts models "
+                             f"side by side")
+        self.n_env = self.models[0].n_env
+
+    def _velocity(self, t, positions):
+        out = np.array(self.models[0]._velocity(t, positions), dtype=float)
+        for m in self.models[1:]:
+            out = out + m._velocity(t, positions)
+        return out
+
+    def __repr__(self):
+        return "SumWind(" + ", ".join(map(repr, self.models)) + ")"
+
+
+class RampedWind(WindModel):
+    """``model``'s wind times a smooth ramp from 0 at t = 0 to 1 at ``ramp`` [s] (the
+    smoothstep ``3 u^2 - 2 u^3``, ``u = t / ramp``): a vehicle that starts hovering in still
+    air meets the wind gradually instead of as a step.
+
+    Parameters
+    ----------
+    model : WindModel
+    ramp : float
+        [s], in (0, 1e6].
+
+    Examples
+    --------
+    >>> w = RampedWind(ConstantWind([[4.0, 0, 0]]), ramp=2.0)
+    >>> [float(w.velocity(t, [[0, 0, 1]])[0, 0]) for t in (0.0, 1.0, 2.0, 5.0)]
+    [0.0, 2.0, 4.0, 4.0]
+    """
+
+    def __init__(self, model, ramp):
+        if not isinstance(model, WindModel):
+            raise TypeError(f"model must be a WindModel, got {type(model).__name__}")
+        self.model = model
+        self.ramp = check_scalar(ramp, "ramp", low=0.0, low_inclusive=False, high=1e6)
+        self.n_env = model.n_env
+
+    def _velocity(self, t, positions):
+        u = min(t / self.ramp, 1.0)
+        return self.model._velocity(t, positions) * (u * u * (3.0 - 2.0 * u))
+
+    def __repr__(self):
+        return f"RampedWind({self.model!r}, ramp={self.ramp:g})"
+
+
+# --------------------------------------------------------------------------- #
 # several models side by side
 # --------------------------------------------------------------------------- #
-class CombinedWind(WindModel):
-    """Several wind models side by side, one group of environments each.
+class WindGroups(WindModel):
+    """Several wind models side by side, one group of environments each (old name
+    :class:`CombinedWind`, kept working).
 
     Environments are numbered model by model: the first ``models[0].n_env``
-    belong to group 0, the next to group 1, and so on.
+    belong to group 0, the next to group 1, and so on. This never adds winds: gusts on a
+    mean wind are a :class:`SumWind` (``mean + gusts``).
 
     Parameters
     ----------
@@ -239,20 +338,14 @@ class CombinedWind(WindModel):
 
     Examples
     --------
-    >>> w = CombinedWind(ConstantWind([[1, 1, 0]] * 2), ShearWind([[10, 10, 0]] * 3))
+    >>> w = WindGroups(ConstantWind([[1, 1, 0]] * 2), ShearWind([[10, 10, 0]] * 3))
     >>> w.n_env, w.groups.tolist()
     (5, [0, 0, 1, 1, 1])
     """
 
     def __init__(self, *models):
-        if len(models) == 1 and isinstance(models[0], (list, tuple)):
-            models = tuple(models[0])
-        if not models:
-            raise ValueError("models must hold at least one WindModel, got none")
-        for i, m in enumerate(models):
-            if not isinstance(m, WindModel):
-                raise TypeError(f"models[{i}] must be a WindModel, got {type(m).__name__}")
-        self.models = tuple(models)
+        models = _check_models(models, "models")
+        self.models = models
         sizes = [m.n_env for m in models]
         self.n_env = int(sum(sizes))
         self._bounds = np.concatenate([[0], np.cumsum(sizes)])
@@ -266,4 +359,8 @@ class CombinedWind(WindModel):
         return out
 
     def __repr__(self):
-        return "CombinedWind(" + ", ".join(map(repr, self.models)) + ")"
+        return "WindGroups(" + ", ".join(map(repr, self.models)) + ")"
+
+
+#: The old name of :class:`WindGroups` (groups side by side, never a sum).
+CombinedWind = WindGroups

@@ -29,7 +29,7 @@ from ...core.io import refuse_to_compute
 from ...core.parallel import check_jobs, pin_threads, stop_workers
 from ...core.seeding import child_rng, child_seed, root_seed
 from ...sim.rollout import Rollout
-from ...sim.wind import CombinedWind
+from ...sim.wind import WindGroups
 from .belief import Evidence
 from .policies import Policy, Situation, get_policy
 from .problem import SEED_NOISE, SEED_POLICY, SEED_TEST, ClosedLoop
@@ -72,7 +72,7 @@ def fly_episode(problem: ClosedLoop, policy: str | Policy, episode: int,
     s = problem.setting
     group, env, test_wind = _test or _test_environment(problem, episode, root)
     known = _known_wind(problem, root)
-    world = Rollout.for_flight(s.uav, CombinedWind(known, test_wind), s.dt, s.duration)
+    world = Rollout.for_flight(s.uav, WindGroups(known, test_wind), s.dt, s.duration)
     n_known = known.n_env
     rows_env = np.arange(n_known + 1)  # the known environments, then the world
     states = world.start(rows_env, np.array([0.0, 0.0, s.start_altitude]))

@@ -30,7 +30,7 @@ from ...core.seeding import child_rng, child_seed
 from ...sim.actions import MAX_THRUST
 from ...sim.multirotor import Multirotor
 from ...sim.setting import EnvironmentGroup, Setting
-from ...sim.wind import CombinedWind
+from ...sim.wind import WindGroups
 
 __all__ = ["ClosedLoop", "held_out", "segment_actions", "SEED_KNOWN", "SEED_TEST", "SEED_NOISE",
            "SEED_POLICY", "SEED_PLAN"]
@@ -240,7 +240,7 @@ class ClosedLoop:
         return self.setting.groups
 
     # -- the environments ---------------------------------------------------- #
-    def known_wind(self, seed) -> CombinedWind:
+    def known_wind(self, seed) -> WindGroups:
         """The known environments' wind (turbulence from spawn key ``(0,)`` of ``seed``)."""
         return self.setting.wind(child_seed(seed, SEED_KNOWN))
 
