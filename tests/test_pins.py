@@ -12,6 +12,9 @@ chunks (Exp 7's first 50 loops keep their entry; Exp 11's 0-20 entry becomes 0-5
 Changed back since: Exp 11's verdicts are decided loop by loop, and sized so its sweep runs
 its floor of 20 loops per case: its and Exp 14's paper entry paths are again those before
 the sizing (the four digests as at 027ed6e's parent).
+Changed since: Exp 14's waypoint cases fly the Neural-Fly vehicle with its fitted drag, SE3
+with an integral term and a thrust cone, the wind ramped in and a budget in the wind (issue
+43): every exp14 and exp14_cem key is new (its eight digests); no other pin changed.
 """
 import hashlib
 import tempfile
@@ -50,8 +53,8 @@ ENTRY_PATHS = {
     "quick/inferred/exp11": "a707dc5ec512b5ce",
     "quick/inferred/exp11_cem": "76f0b3edf060c978",
     "quick/inferred/exp12": "4a1fa0b690c9ccfc",
-    "quick/inferred/exp14": "b3dc2323ed20f651",
-    "quick/inferred/exp14_cem": "e193d9963247083d",
+    "quick/inferred/exp14": "b7e7a0fe5163a2aa",
+    "quick/inferred/exp14_cem": "0b45dab5b9e8d381",
     "quick/inferred/fit_layout": "f3801fbc86dfb8b7",
     "quick/inferred/fit_mixed": "112d11a98a089764",
     "quick/inferred/fit_turbulence": "98462edb38442c3b",
@@ -70,8 +73,8 @@ ENTRY_PATHS = {
     "quick/halves/exp11": "8fb1eafabe9b0414",
     "quick/halves/exp11_cem": "645cf322efe9c749",
     "quick/halves/exp12": "80e6458646f8e881",
-    "quick/halves/exp14": "bb2474a7d49b7507",
-    "quick/halves/exp14_cem": "27a101353f9a3fe2",
+    "quick/halves/exp14": "9e97d357e1243c0f",
+    "quick/halves/exp14_cem": "1af2d5493a1ce940",
     "quick/halves/fit_layout": "f3801fbc86dfb8b7",
     "quick/halves/fit_mixed": "112d11a98a089764",
     "quick/halves/fit_turbulence": "98462edb38442c3b",
@@ -90,8 +93,8 @@ ENTRY_PATHS = {
     "paper/inferred/exp11": "b06d46f03fa28a4b",
     "paper/inferred/exp11_cem": "e3ebb8f3828df308",
     "paper/inferred/exp12": "4f5bf690e507a7b0",
-    "paper/inferred/exp14": "8ca10af4ebcffbcb",
-    "paper/inferred/exp14_cem": "9e4a6a018f38677b",
+    "paper/inferred/exp14": "c1ece1101c088d68",
+    "paper/inferred/exp14_cem": "17a27373af0895c9",
     "paper/inferred/fit_layout": "98d979c639533209",
     "paper/inferred/fit_mixed": "d0e7a315564174f2",
     "paper/inferred/fit_turbulence": "9f34c77cc0c7cc0a",
@@ -110,8 +113,8 @@ ENTRY_PATHS = {
     "paper/halves/exp11": "1e3a3c3984d63763",
     "paper/halves/exp11_cem": "593149cfb21684b6",
     "paper/halves/exp12": "d5ef54547e0c443a",
-    "paper/halves/exp14": "fde11e3981733f1f",
-    "paper/halves/exp14_cem": "602a6e7470d94fc5",
+    "paper/halves/exp14": "ddcd5187e8c2520e",
+    "paper/halves/exp14_cem": "f0c97551584733b7",
     "paper/halves/fit_layout": "98d979c639533209",
     "paper/halves/fit_mixed": "d0e7a315564174f2",
     "paper/halves/fit_turbulence": "9f34c77cc0c7cc0a",

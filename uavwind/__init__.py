@@ -40,8 +40,9 @@ from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # no
                          cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
 from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
-from .sim.manoeuvres import FLYABLE, FlyableLimits, check_flyable, sample_waypoints  # noqa: E402
-from .sim.multirotor import Multirotor  # noqa: E402
+from .sim.manoeuvres import (FLYABLE, FLYABLE_IN_WIND, FlyableLimits, check_flyable,  # noqa: E402
+                             sample_waypoints)
+from .sim.multirotor import Multirotor, PositionControl  # noqa: E402
 from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
@@ -63,9 +64,9 @@ __all__ = [
     "DrydenWind", "CitedDryden", "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
     "cited_dryden_parameters", "cited_gusts", "simulate", "simulate_flight", "Flight",
     "Noise", "CONSUMER_NOISE", "CONSUMER_SENSORS", "OBSERVATIONS", "EnvironmentGroup",
-    "Setting", "Multirotor", "AttitudeSequence", "sample_attitude",
+    "Setting", "Multirotor", "PositionControl", "AttitudeSequence", "sample_attitude",
     "Reference", "Hover", "Lemniscate", "WaypointSpline", "FlyableLimits", "FLYABLE",
-    "sample_waypoints",
+    "FLYABLE_IN_WIND", "sample_waypoints",
     "check_flyable",
     # data
     "load_neuralfly", "RealFlight",

@@ -58,16 +58,22 @@ def flyable_table(df: pd.DataFrame) -> pd.DataFrame:
     (:func:`~uavwind.core.stats.summarise`), and what the flights asked of the vehicle: the
     largest tilt flown [deg] and tracking error [m], the lowest height [m] and commanded
     collective thrust [N] (waypoint references; NaN for raw thrust), the mean share of
-    motor-limited control steps, and ``crashed``: the loops the vehicle could not fly (it
-    would have gone below the ground; scored 0)."""
+    motor-limited control steps, ``crashed``: the loops the vehicle could not fly (it would
+    have gone below the ground), counted apart: the scores, shares and ``n_loops`` are of the
+    loops it flew, so a crash never reads as "does not separate"; and ``flipped``: flown
+    loops in which it turned past 90 degrees."""
     keys = [k for k in _KEYS if k in df.columns]
     rows = []
     for key, sub in df.groupby(keys, sort=False):
         key = key if isinstance(key, tuple) else (key,)
-        s = summarise(sub)
+        crashed = (sub["crashed"].fillna(0).to_numpy() > 0 if "crashed" in sub.columns
+                   else np.zeros(len(sub), bool))
+        flown = sub[~crashed]
+        s = summarise(flown) if len(flown) else {k: np.nan for k in (
+            "mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high")}
         row = {**dict(zip(keys, key)), **{k: s[k] for k in (
-            "mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
-            "n_loops")}}
+            "mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high")},
+               "n_loops": len(flown)}
         for col in _FLIGHT:
             if col not in sub.columns or not sub[col].notna().any():
                 row[col] = np.nan
@@ -77,16 +83,18 @@ def flyable_table(df: pd.DataFrame) -> pd.DataFrame:
                 row[col] = float(sub[col].min())
             else:
                 row[col] = float(sub[col].max())
-        # reference loops the vehicle could not fly (it would have gone below the ground):
-        # scored 0 and counted here
-        row["crashed"] = (int(sub["crashed"].fillna(0).sum()) if "crashed" in sub.columns
+        # loops the vehicle could not fly (it would have gone below the ground): counted
+        # here, apart from the loops it flew (which alone are scored); flipped: flown, but
+        # upside down at some point
+        row["crashed"] = int(crashed.sum())
+        row["flipped"] = (int((sub["flipped"].fillna(0) > 0).sum()) if "flipped" in sub.columns
                           else 0)
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def _verdict(row):
-    if row["n_loops"] < MIN_VERDICT_LOOPS:
+    if not row["n_loops"] >= MIN_VERDICT_LOOPS:
         return "cannot decide"
     if row["correct_low"] > 0.5:
         return "separates"

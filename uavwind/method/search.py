@@ -85,16 +85,19 @@ def _crashed(setting, exc):
                       n_iter=0, groups=setting.groups,
                       metrics={"tilt_limited": 0.0, "motor_limited": nan, "max_tilt": nan,
                                "max_tracking_error": nan, "min_altitude": 0.0,
-                               "min_thrust": nan, "crashed": 1.0, "crash_time": exc.time})
+                               "min_thrust": nan, "flipped": nan, "crashed": 1.0,
+                               "crash_time": exc.time})
 
 
 def _reference_metrics(flight):
-    """The largest tilt flown [deg] and tracking error [m], the lowest height [m] and the
-    lowest commanded collective thrust [N], over the environments of a reference flight."""
+    """The largest tilt flown [deg] (and ``flipped``: 1 when it passed 90, upside down) and
+    tracking error [m], the lowest height [m] and the lowest commanded collective thrust [N],
+    over the environments of a reference flight."""
     q = flight.attitudes / np.linalg.norm(flight.attitudes, axis=-1, keepdims=True)
     cos_tilt = 1 - 2 * (q[..., 0] ** 2 + q[..., 1] ** 2)
     err = np.linalg.norm(flight.positions - flight.references, axis=-1)
-    return {"max_tilt": float(np.degrees(np.arccos(np.clip(cos_tilt, -1, 1))).max()),
+    tilt = np.degrees(np.arccos(np.clip(cos_tilt, -1, 1)))
+    return {"max_tilt": float(tilt.max()), "flipped": float(tilt.max() > 90.0),
             "max_tracking_error": float(err.max()),
             "min_altitude": float(flight.positions[..., 2].min()),
             "min_thrust": float(flight.thrust_commands.min())}
@@ -318,7 +321,8 @@ class CEMRun:
             sigma = np.tile(action.CEM_STD, k).astype(float)
         if action is WaypointSpline:
             start = first.waypoints[0]
-            self._decode = lambda x: waypoints_from_vector(x, times, start)
+            limits = setting.waypoint_limits()
+            self._decode = lambda x: waypoints_from_vector(x, times, start, limits)
         else:
             self._decode = lambda x: action.from_vector(x, times, max_magnitude)
         self.mu, self.sigma = mu, sigma

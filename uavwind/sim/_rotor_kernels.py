@@ -17,7 +17,12 @@ Parameter vector ``P`` (:func:`uavwind.sim.multirotor.Multirotor.packed`)::
     23 k_eta, 24 k_m, 25 k_d, 26 k_z, 27 k_h, 28 k_flap, 29 tau_m, 30 rotor speed min,
     31 rotor speed max, 32:44 rotor positions (4 x 3, body frame), 44:48 rotor directions,
     48:64 thrust-and-moments to rotor forces (4 x 4), 64 k_w, 65 kp_att, 66 kd_att, 67 aero,
-    68:71 SE3 kp_pos, 71:74 SE3 kd_pos, 74 SE3 kp_att, 75 SE3 kd_att (``SE3Control``'s gains)
+    68:71 SE3 kp_pos, 71:74 SE3 kd_pos, 74 SE3 kp_att, 75 SE3 kd_att (``SE3Control``'s gains),
+    76:79 ki_pos [1/s^3], 79 tan(max tilt), 80 least collective thrust [N], 81 most thrust [N],
+    82 largest integral acceleration |ki I| [m/s^2] (mode 3 only:
+    :class:`~uavwind.sim.multirotor.PositionControl`)
+
+Mode 3 adds three state columns: ``s[20:23]`` the integral of the position error [m s].
 
 Flat-output row (mode 2, ``SE3Control``), 11 numbers: ``x`` (3) [m], ``x_dot`` (3) [m/s],
 ``x_ddot`` (3) [m/s^2], ``yaw`` [rad], ``yaw_dot`` [rad/s] (the jerk and snap RotorPy's flat
@@ -28,7 +33,9 @@ mapped to motor speeds from the state at the start of the step and clipped, then
 the wind) for ``n_sub`` classical RK4 substeps, and the quaternion is renormalised. The
 command is RotorPy's ``cmd_ctatt`` (mode 0), ``cmd_ctbr`` (mode 1), or the motor speeds of
 ``rotorpy.controllers.quadrotor_control.SE3Control.update`` flying a flat output (mode 2,
-position control; :func:`se3_commands` gives all its outputs).
+position control; :func:`se3_commands` gives all its outputs), or the same law with an
+integral term and a thrust cone with vertical priority (mode 3, :func:`_se3i`: PX4's position
+controller's structure, PX4 ``MPC_TILTMAX_AIR`` / ``MPC_THR_MIN`` / ``MPC_THR_MAX``).
 """
 
 import math
@@ -266,6 +273,90 @@ def _se3(P, s, f, u, R, Rd, aux):
     F0 = m * ((-(P[68] * (s[0] - f[0])) - P[71] * (s[3] - f[3])) + f[6])
     F1 = m * ((-(P[69] * (s[1] - f[1])) - P[72] * (s[4] - f[4])) + f[7])
     F2 = m * (((-(P[70] * (s[2] - f[2])) - P[73] * (s[5] - f[5])) + f[8]) + g)
+    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, False)
+
+
+@njit(**_NB)
+def _yaw_share(P, T, M0, M1, M2):
+    """The largest share ``c`` in [0, 1] of the yaw moment ``M2`` [N m] with which every
+    rotor's force for ``(T, M0, M1, c M2)`` lies within the rotors' range (``k_eta`` times
+    the square of the speed range); 0 when none does (then the clipping takes its course).
+    A multirotor makes yaw moments weakly (through its rotors' drag torque), and a large
+    frame's yaw inertia grows with the square of its arms: a flight controller gives up yaw
+    before roll, pitch and thrust (PX4's mixer does)."""
+    lo = P[23] * P[30] * P[30]
+    hi = P[23] * P[31] * P[31]
+    c_lo = 0.0
+    c_hi = 1.0
+    for k in range(4):
+        base = P[48 + 4 * k] * T + P[49 + 4 * k] * M0 + P[50 + 4 * k] * M1
+        slope = P[51 + 4 * k] * M2
+        if slope == 0.0:
+            if base < lo or base > hi:
+                return 0.0
+            continue
+        a = (lo - base) / slope
+        b = (hi - base) / slope
+        if a > b:
+            a, b = b, a
+        c_lo = max(c_lo, a)
+        c_hi = min(c_hi, b)
+    if c_hi < c_lo or c_hi < 0.0:
+        return 0.0
+    return c_hi
+
+
+@njit(**_NB)
+def _se3i(P, s, f, h, u, R, Rd, aux):
+    """SE3 with an integral term and a thrust cone (mode 3), for one environment.
+
+    The desired force is SE3's plus ``-m ki I``, ``I = s[20:23]`` the integral of the
+    position error [m s]; then, as PX4's position controller limits its thrust set-point
+    with vertical priority, its vertical part is held within [least, most] collective
+    thrust and its horizontal part shortened to stay within the tilt cone
+    ``|F_h| <= F_z tan(max tilt)`` and within the most thrust. The integral advances by
+    ``h`` [s] of position error unless the force was limited (conditional integration, the
+    anti-windup), each axis clipped so that ``|ki I|`` stays within its bound."""
+    m = P[0]
+    g = P[1]
+    e0 = s[0] - f[0]
+    e1 = s[1] - f[1]
+    e2 = s[2] - f[2]
+    F0 = m * (-P[68] * e0 - P[71] * (s[3] - f[3]) - P[76] * s[20] + f[6])
+    F1 = m * (-P[69] * e1 - P[72] * (s[4] - f[4]) - P[77] * s[21] + f[7])
+    F2 = m * (-P[70] * e2 - P[73] * (s[5] - f[5]) - P[78] * s[22] + f[8] + g)
+    limited = False
+    lo, hi = P[80], P[81]
+    if F2 < lo:
+        F2 = lo
+        limited = True
+    elif F2 > hi:
+        F2 = hi
+        limited = True
+    fh = math.sqrt(F0 * F0 + F1 * F1)
+    fh_max = min(F2 * P[79], math.sqrt(max(hi * hi - F2 * F2, 0.0)))
+    if fh > fh_max:
+        c = fh_max / fh
+        F0 = F0 * c
+        F1 = F1 * c
+        limited = True
+    if not limited:
+        for k in range(3):
+            ki = P[76 + k]
+            if ki > 0.0:
+                lim = P[82] / ki
+                v = s[20 + k] + h * (s[k] - f[k])
+                s[20 + k] = min(max(v, -lim), lim)
+    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, True)
+
+
+@njit(**_NB)
+def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
+    """The rest of ``SE3Control.update`` from the desired force ``F`` [N] (world frame): the
+    desired attitude (body z along ``F``, yaw ``f[9]``), the collective thrust ``F . b3``,
+    the attitude law and the motor speeds u; aux as :func:`_se3`. With ``yaw_last`` the yaw
+    moment is shortened first when the rotors cannot make all four (:func:`_yaw_share`)."""
+    m = P[0]
     _rotmat(s[6:10], R)
     u1 = F0 * R[0, 2] + F1 * R[1, 2] + F2 * R[2, 2]          # F_des . b3
     nF = math.sqrt(F0 * F0 + F1 * F1 + F2 * F2)
@@ -291,6 +382,8 @@ def _se3(P, s, f, u, R, Rd, aux):
     Rd[1, 2] = b31
     Rd[2, 2] = b32
     M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[74], P[75], f[10])
+    if yaw_last:
+        M2 = M2 * _yaw_share(P, u1, M0, M1, M2)
     _speeds(P, u1, M0, M1, M2, u)
     aux[0] = u1
     aux[1] = M0
@@ -312,7 +405,9 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
     ``S`` (n, 20) states, wind columns already set for this step; ``T`` (n,) collective
     thrust [N]; ``C`` (n, 4) attitude quaternions (``mode`` 0, ``cmd_ctatt``), (n, 3) body
     rates (``mode`` 1, ``cmd_ctbr``) or (n, 11) flat-output rows (``mode`` 2, ``SE3Control``:
-    then ``T`` is an output, the commanded collective thrust ``cmd_thrust`` of the step);
+    then ``T`` is an output, the commanded collective thrust ``cmd_thrust`` of the step;
+    ``mode`` 3, the same law with an integral term and a thrust cone, :func:`_se3i`: then
+    ``S`` is (n, 23), its last three columns the integral of the position error);
     ``clipped`` (n,) counts the steps in which a motor command was clipped to the motors'
     range.
     """
@@ -332,8 +427,11 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
             _cmd_ctatt(P, s, T[i], C[i], u, R, Rd)
         elif mode == 1:
             _cmd_ctbr(P, s, T[i], C[i], u)
-        else:
+        elif mode == 2:
             _se3(P, s, C[i], u, R, Rd, aux)
+            T[i] = aux[0]
+        else:
+            _se3i(P, s, C[i], n_sub * h, u, R, Rd, aux)
             T[i] = aux[0]
         hit = False
         for k in range(4):                                   # np.clip(cmd, min, max)
@@ -384,6 +482,22 @@ def motor_commands(P, S, T, C, mode):
         else:
             _cmd_ctbr(P, S[i], T[i], C[i], out[i])
     return out
+
+
+@njit(**_NB)
+def se3i_commands(P, S, F):
+    """The motor speeds (n, 4) [rad/s] (unclipped) and collective thrusts (n,) [N] of mode 3
+    (:func:`_se3i`) at the states S (n, 23), without advancing the integral."""
+    n = S.shape[0]
+    u = np.empty((n, 4))
+    aux = np.empty((n, 14))
+    R = np.empty((3, 3))
+    Rd = np.empty((3, 3))
+    s = np.empty(S.shape[1])
+    for i in range(n):
+        s[:] = S[i]
+        _se3i(P, s, F[i], 0.0, u[i], R, Rd, aux[i])
+    return u, aux[:, 0].copy()
 
 
 @njit(**_NB)

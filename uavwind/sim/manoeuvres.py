@@ -14,7 +14,10 @@ within :class:`FlyableLimits`:
 * the reference speed at most ``max_speed`` [m/s];
 * the tilt the reference asks for at most ``max_tilt`` [deg]: a reference acceleration ``a``
   needs the thrust along ``g e_z + a``, a tilt of ``atan(|a_h| / (g + a_z))``
-  (:func:`required_tilt`).
+  (:func:`required_tilt`); with a ``thrust_margin`` (:data:`FLYABLE_IN_WIND`) the strongest
+  wind's force is added in the direction that tilts the thrust most, and the thrust must stay
+  within that share of the vehicle's full thrust: a vehicle that leans 40 degrees into a
+  strong wind has that much less room to manoeuvre (:meth:`FlyableLimits.in_wind`).
 
 :func:`sample_waypoints` is the setting sampler ``"waypoints"`` (beside ``"paper"``,
 ``"continuous"`` and ``"attitude"`` of :data:`~uavwind.sim.actions.SAMPLERS`): change times
@@ -37,7 +40,7 @@ then each step shortened to the reach), so every CEM sample is flyable too.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -49,7 +52,7 @@ from .references import Reference, WaypointSpline
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-__all__ = ["FlyableLimits", "FLYABLE", "required_tilt", "check_flyable", "sample_waypoints",
+__all__ = ["FlyableLimits", "FLYABLE", "FLYABLE_IN_WIND", "required_tilt", "check_flyable", "sample_waypoints",
            "waypoints_to_vector", "waypoints_from_vector", "WAYPOINT_CEM_STD", "MAX_REDRAWS",
            "GRAVITY"]
 
@@ -84,6 +87,24 @@ class FlyableLimits:
         Largest reference speed [m/s], in (0, 100].
     max_tilt : float
         Largest tilt of the thrust the reference asks for [deg], in (0, 60].
+    thrust_margin : float, optional
+        None (default): the still-air budget, the reference's acceleration alone. A share of
+        the vehicle's full thrust in (0, 1]: the budget of a vehicle holding against the
+        wind too (:meth:`in_wind`): the thrust the reference and the strongest wind ask for
+        together also stays within ``max_total_tilt`` of up and within this share of the
+        full thrust.
+    max_total_tilt : float
+        With a ``thrust_margin``: the largest tilt of the thrust, the wind's lean included
+        [deg], in (0, 89]; default 55.
+    wind_lean : float
+        The tilt [deg] that holds the vehicle still in the strongest wind, in [0, 89] (set by
+        :meth:`in_wind`).
+    hold_acceleration : float
+        The thrust per mass [m/s^2] that holds it still there, in [0, 1e4] (set by
+        :meth:`in_wind`; 0 with the still-air budget).
+    thrust_acceleration : float
+        ``thrust_margin`` x the full thrust per mass [m/s^2] (set by :meth:`in_wind`; 0 with
+        the still-air budget).
 
     >>> FlyableLimits().box((0.0, 0.0, 10.0)).tolist()
     [[-3.0, 3.0], [-3.0, 3.0], [8.0, 12.0]]
@@ -94,14 +115,54 @@ class FlyableLimits:
     floor: float = 2.0
     max_speed: float = 3.0
     max_tilt: float = 30.0
+    thrust_margin: float | None = None
+    max_total_tilt: float = 55.0
+    wind_lean: float = 0.0
+    hold_acceleration: float = 0.0
+    thrust_acceleration: float = 0.0
 
     def __post_init__(self):
         for name, low, high, incl in (("half_width", 0.0, 1e3, False),
                                       ("half_height", 0.0, 1e3, False),
                                       ("floor", 0.0, 1e3, True), ("max_speed", 0.0, 1e2, False),
-                                      ("max_tilt", 0.0, 60.0, False)):
+                                      ("max_tilt", 0.0, 60.0, False),
+                                      ("max_total_tilt", 0.0, 89.0, False),
+                                      ("wind_lean", 0.0, 89.0, True),
+                                      ("hold_acceleration", 0.0, 1e4, True),
+                                      ("thrust_acceleration", 0.0, 1e4, True)):
             object.__setattr__(self, name, float(check_scalar(
                 getattr(self, name), name, low=low, low_inclusive=incl, high=high)))
+        if self.thrust_margin is not None:
+            object.__setattr__(self, "thrust_margin", float(check_scalar(
+                self.thrust_margin, "thrust_margin", low=0.0, low_inclusive=False, high=1.0)))
+        if self.thrust_margin is not None and self.hold_acceleration > 0 \
+                and self.max_acceleration <= 0:
+            raise ValueError(
+                f"the strongest wind leaves no budget: holding still in it takes a tilt of "
+                f"{self.wind_lean:.1f} degrees (max_total_tilt {self.max_total_tilt:g}) and a "
+                f"thrust of {self.hold_acceleration:.3g} m/s^2 per mass (thrust_margin "
+                f"{self.thrust_margin:g} allows {self.thrust_acceleration:.3g}): the vehicle "
+                f"cannot hold this wind with room to manoeuvre")
+
+    def in_wind(self, vehicle, wind_speed: float) -> FlyableLimits:
+        """These limits for ``vehicle`` (a :class:`~uavwind.sim.multirotor.Multirotor`)
+        holding against a horizontal wind of up to ``wind_speed`` [m/s]: the horizontal
+        thrust per mass that holds it still there
+        (:meth:`~uavwind.sim.multirotor.Multirotor.hover_trim`: its lean and thrust, so the
+        extra drag of a tilted frame and the translational lift are counted) and
+        ``thrust_margin`` of its full thrust per mass. The
+        still-air budget (``thrust_margin`` None) comes back unchanged. ``ValueError`` when
+        the wind alone exceeds the budget."""
+        if self.thrust_margin is None:
+            return self
+        wind_speed = check_scalar(wind_speed, "wind_speed", low=0.0, high=1e3)
+        control = getattr(vehicle, "position_control", None)
+        if control is not None and self.max_total_tilt > control.max_tilt:
+            raise ValueError(f"max_total_tilt = {self.max_total_tilt:g} degrees exceeds the "
+                             f"vehicle's thrust cone ({control.max_tilt:g} degrees)")
+        tilt, thrust = vehicle.hover_trim(wind_speed)
+        return replace(self, wind_lean=tilt, hold_acceleration=thrust / vehicle.mass,
+                       thrust_acceleration=self.thrust_margin * vehicle.max_thrust / vehicle.mass)
 
     def box(self, start: ArrayLike) -> np.ndarray:
         """``[[x_lo, x_hi], [y_lo, y_hi], [z_lo, z_hi]]`` [m] around ``start`` (3,) [m];
@@ -117,9 +178,20 @@ class FlyableLimits:
 
     @property
     def max_acceleration(self) -> float:
-        """``g sin(max_tilt)`` [m/s^2]: a reference acceleration of at most this magnitude asks
-        for at most ``max_tilt``, in any direction."""
-        return GRAVITY * math.sin(math.radians(self.max_tilt))
+        """The largest reference acceleration [m/s^2] that keeps the thrust within the limits
+        in any direction. Still air: ``g sin(max_tilt)``. In wind (:meth:`in_wind`), the thrust
+        per mass ``c + a``, with ``c`` the thrust per mass that holds the vehicle still in the
+        wind (tilted by the wind's lean), lies in a ball of radius ``|a|`` about ``c``, whose
+        largest tilt is ``lean + asin(|a| / |c|)`` and largest norm ``|c| + |a|``: so
+        ``min(|c| sin(max_total_tilt - lean), T - |c|)`` with ``T`` the thrust allowed, never
+        above the still-air ``g sin(max_tilt)``; at most 0 when the wind alone exceeds the
+        budget."""
+        still = GRAVITY * math.sin(math.radians(self.max_tilt))
+        if self.thrust_margin is None or self.hold_acceleration == 0:
+            return still
+        c = self.hold_acceleration
+        return min(still, c * math.sin(math.radians(self.max_total_tilt - self.wind_lean)),
+                   self.thrust_acceleration - c)
 
     def reach(self, segment_time: float) -> float:
         """Longest segment [m] a minimum-jerk step of ``segment_time`` [s] may take within the
@@ -128,13 +200,24 @@ class FlyableLimits:
         return min(self.max_speed * T / _PEAK_SPEED, self.max_acceleration * T * T / _PEAK_ACC)
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        """The fields; the wind budget's only where it is used (the still-air limits keep
+        the dict, and so the cache keys, they had before it)."""
+        d = asdict(self)
+        if self.thrust_margin is None:
+            for k in ("thrust_margin", "max_total_tilt", "wind_lean", "hold_acceleration",
+                      "thrust_acceleration"):
+                d.pop(k)
+        return d
 
 
 #: The limits of the ``"waypoints"`` sampler: +-3 m horizontally and +-2 m vertically around
 #: the start, at least 2 m above the ground, 3 m/s, 30 degrees (the attitude actions' tilt,
 #: :data:`~uavwind.sim.actions.MAX_TILT`).
 FLYABLE = FlyableLimits()
+#: The same for a vehicle holding against the wind (Exp 14): also the reference and the
+#: strongest wind together within 55 degrees of up (5 below the 60 degree thrust cone of
+#: :data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`) and 80% of the full thrust.
+FLYABLE_IN_WIND = FlyableLimits(thrust_margin=0.8)
 
 
 def required_tilt(reference: Reference, times: ArrayLike, gravity: float = GRAVITY
@@ -182,6 +265,22 @@ def check_flyable(reference: WaypointSpline, limits: FlyableLimits = FLYABLE,
         raise ValueError(f"reference: it asks for a tilt of {tilt.max():.4g} degrees at t = "
                          f"{t[np.argmax(tilt)]:.3f} s, above max_tilt = {limits.max_tilt:g} "
                          f"degrees")
+    if limits.thrust_margin is not None and limits.hold_acceleration > 0:
+        # the thrust that holds it still, turned by the reference's acceleration in the
+        # direction that tilts it most: the lean plus the angle the acceleration adds
+        acc = np.linalg.norm(reference.flat_output(t)["x_ddot"], axis=1)
+        c = limits.hold_acceleration
+        tilt = limits.wind_lean + np.degrees(np.arcsin(np.clip(acc / c, 0.0, 1.0)))
+        thrust = c + acc
+        if thrust.max() > limits.thrust_acceleration * (1 + 1e-9):
+            raise ValueError(f"reference: with the strongest wind it may ask for a thrust of "
+                             f"{thrust.max():.4g} m/s^2 at t = {t[np.argmax(thrust)]:.3f} s, "
+                             f"above {limits.thrust_acceleration:.4g} (thrust_margin "
+                             f"{limits.thrust_margin:g} of the full thrust)")
+        if tilt.max() > limits.max_total_tilt * (1 + 1e-9):
+            raise ValueError(f"reference: with the strongest wind it may ask for a tilt of "
+                             f"{tilt.max():.4g} degrees at t = {t[np.argmax(tilt)]:.3f} s, "
+                             f"above max_total_tilt = {limits.max_total_tilt:g} degrees")
     return reference
 
 

@@ -66,8 +66,9 @@ if TYPE_CHECKING:
     from .references import Reference
     from .wind import WindModel
 
-__all__ = ["Multirotor", "GroundContact", "PRESETS", "STARTS", "EXTRA", "rotorpy_params", "force_command", "DRAG_KEYS",
-           "NEURAL_FLY"]
+__all__ = ["Multirotor", "GroundContact", "PRESETS", "STARTS", "EXTRA", "rotorpy_params",
+           "force_command", "DRAG_KEYS", "NEURAL_FLY", "PositionControl", "PX4_LIKE",
+           "NEURAL_FLY_CONTROL"]
 
 #: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
 #: quadrotor with RotorPy's aerodynamics.
@@ -91,6 +92,73 @@ NEURAL_FLY = {"mass": 2.6, "thrust_to_weight": 2.2, "width": 0.85, "length": 0.7
 #: ``SE3Control``'s position gains (``kp_pos`` [1/s^2], ``kd_pos`` [1/s]; RotorPy 3.0.0 fixes them).
 SE3_KP_POS = (6.5, 6.5, 15.0)
 SE3_KD_POS = (4.0, 4.0, 9.0)
+#: Slots of the parameter vector (``uavwind.sim._rotor_kernels``' layout) read here.
+_K_ETA, _SPEED_MIN, _SPEED_MAX = 23, 30, 31
+_KI, _TAN_TILT, _THRUST_LOW, _THRUST_HIGH, _INTEGRAL_ACC = slice(76, 79), 79, 80, 81, 82
+#: Length of the parameter vector.
+_N_PARAMS = 83
+#: State columns of a flight under :class:`PositionControl`: RotorPy's 20, then the integral
+#: of the position error (3) [m s].
+_N_STATE, _N_STATE_PI = 20, 23
+
+
+@dataclass(frozen=True)
+class PositionControl:
+    """SE3's position law with an integral term and a thrust cone, as PX4's multicopter
+    position controller has them (``MPC_TILTMAX_AIR``, ``MPC_THR_MIN``, ``MPC_THR_MAX``, and an
+    integral that removes the steady error a steady wind leaves under a PD law).
+
+    The desired force is RotorPy's ``SE3Control``'s, ``m (-kp e - kd e_v + a_ref + g e_z)``
+    (its gains), plus ``-m ki I`` with ``I`` the integral of the position error; it is then
+    limited with vertical priority: its vertical part within ``[min_thrust, max_thrust]`` of
+    the rotors' full thrust, its horizontal part within the tilt cone and the rest of the
+    full thrust. The integral stops while the force is limited (anti-windup).
+
+    Parameters
+    ----------
+    ki : tuple of 3 float
+        Integral gains on x, y, z [1/s^3], each in [0, 100]; default (2, 2, 4): per axis the
+        loop ``s^3 + kd s^2 + kp s + ki`` with SE3's gains (kp 6.5, kd 4 on x, y; 15 and 9 on
+        z) has every root's real part below -0.35 1/s.
+    max_tilt : float
+        Largest tilt of the desired force from up [deg], in (0, 89]; PX4's default 45.
+    min_thrust, max_thrust : float
+        Least and most collective thrust as a share of the rotors' full thrust [-]; PX4's
+        defaults 0.12 and 1.
+    max_integral_acceleration : float
+        Bound on ``|ki I|`` per axis [m/s^2], in (0, 100]; default 10 (about g).
+    """
+
+    ki: tuple = (2.0, 2.0, 4.0)
+    max_tilt: float = 45.0
+    min_thrust: float = 0.12
+    max_thrust: float = 1.0
+    max_integral_acceleration: float = 10.0
+
+    def __post_init__(self):
+        ki = check_array(self.ki, "ki", shape=(3,))
+        if np.any(ki < 0) or np.any(ki > 100):
+            raise ValueError(f"ki must have every gain in [0, 100] [1/s^3], got {ki.tolist()}")
+        object.__setattr__(self, "ki", tuple(float(k) for k in ki))
+        object.__setattr__(self, "max_tilt", check_scalar(self.max_tilt, "max_tilt", low=0.0,
+                                                          low_inclusive=False, high=89.0))
+        object.__setattr__(self, "min_thrust", check_scalar(self.min_thrust, "min_thrust",
+                                                            low=0.0, high=1.0))
+        object.__setattr__(self, "max_thrust", check_scalar(self.max_thrust, "max_thrust",
+                                                            low=self.min_thrust, high=1.0,
+                                                            low_inclusive=False))
+        object.__setattr__(self, "max_integral_acceleration", check_scalar(
+            self.max_integral_acceleration, "max_integral_acceleration", low=0.0,
+            low_inclusive=False, high=100.0))
+
+
+#: PX4's defaults on RotorPy's SE3 gains.
+PX4_LIKE = PositionControl()
+#: The same with a 60 degree tilt cone, for the Neural-Fly quadrotor (Exps 13 and 14): its
+#: thrust-to-weight 2.2 allows acos(1 / 2.2) = 63 degrees in level flight, and PX4's default
+#: 45 would clip the lean that 12-14 m/s winds ask of it on top of a manoeuvre.
+NEURAL_FLY_CONTROL = PositionControl(max_tilt=60.0)
+
 #: Coefficients scaled by mass / BASE_MASS (mass similarity).
 _SCALED = ("mass", "Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Ixz", "k_eta", "k_m", "c_Dx", "c_Dy",
            "c_Dz", "k_d", "k_z", "k_h", "k_flap")
@@ -155,11 +223,13 @@ DRAG_KEYS = ("c_Dx", "c_Dy", "c_Dz", "k_d", "k_z")
 
 
 @lru_cache(maxsize=32)
-def _packed(preset, mass, drag_scale=1.0):  # mass resolved (a float)
+def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None):  # mass resolved
     """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
     qp = rotorpy_params(preset, mass)
     if drag_scale != 1.0:
         qp.update({k: qp.get(k, 0.0) * drag_scale for k in DRAG_KEYS})
+    if lift_scale != 1.0:
+        qp["k_h"] = qp.get("k_h", 0.0) * lift_scale
     inertia = np.array([[qp["Ixx"], qp["Ixy"], qp["Ixz"]],
                         [qp["Ixy"], qp["Iyy"], qp["Iyz"]],
                         [qp["Ixz"], qp["Iyz"], qp["Izz"]]])
@@ -170,7 +240,7 @@ def _packed(preset, mass, drag_scale=1.0):  # mass resolved (a float)
                          np.hstack([np.cross(qp["rotor_pos"][key], np.array([0, 0, 1]))
                                     .reshape(-1, 1)[0:2] for key in qp["rotor_pos"]]),
                          (k * direction).reshape(1, -1)))
-    P = np.zeros(76)
+    P = np.zeros(_N_PARAMS)
     P[0], P[1] = qp["mass"], GRAVITY
     P[2:11] = inertia.ravel()
     P[11:20] = np.linalg.inv(inertia).ravel()
@@ -186,6 +256,13 @@ def _packed(preset, mass, drag_scale=1.0):  # mass resolved (a float)
     P[68:71] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
     P[71:74] = SE3_KD_POS  # with its own defaults)
     P[74:76] = [qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)]
+    if control is not None:
+        full = 4 * P[_K_ETA] * P[_SPEED_MAX] ** 2
+        P[_KI] = control.ki
+        P[_TAN_TILT] = math.tan(math.radians(control.max_tilt))
+        P[_THRUST_LOW] = control.min_thrust * full
+        P[_THRUST_HIGH] = control.max_thrust * full
+        P[_INTEGRAL_ACC] = control.max_integral_acceleration
     P.setflags(write=False)
     return P
 
@@ -267,7 +344,13 @@ class Multirotor:
         RK4 steps per command update, in [1, 100]; default 4 (2.5 ms at 100 Hz).
     drag_scale : float
         Factor on the drag coefficients :data:`DRAG_KEYS` [-], in (0, 100]; default 1 (the
-        preset's). Experiment 13 fits it to real flights at one wind speed.
+        preset's). Experiment 13 fits it to real flights.
+    lift_scale : float
+        Factor on the translational lift ``k_h`` [-], in [0, 100]; default 1 (the preset's).
+        Experiment 13 fits it to the real flights' vertical force.
+    position_control : PositionControl, optional
+        How reference flights are flown: None (default) RotorPy's ``SE3Control`` as it is;
+        a :class:`PositionControl` adds an integral term and a thrust cone (:data:`PX4_LIKE`).
 
     Examples
     --------
@@ -283,6 +366,8 @@ class Multirotor:
     control_rate: float = 100.0
     substeps: int = 4
     drag_scale: float = 1.0
+    lift_scale: float = 1.0
+    position_control: PositionControl | None = None
 
     def __post_init__(self):
         check_choice(self.preset, "preset", PRESETS)
@@ -298,6 +383,10 @@ class Multirotor:
                                                           high=100, integer=True))
         object.__setattr__(self, "drag_scale", float(check_scalar(
             self.drag_scale, "drag_scale", low=0.0, low_inclusive=False, high=100.0)))
+        object.__setattr__(self, "lift_scale", float(check_scalar(
+            self.lift_scale, "lift_scale", low=0.0, high=100.0)))
+        if self.position_control is not None:
+            check_instance(self.position_control, "position_control", PositionControl)
         self.packed  # needs RotorPy: fail here, with the extra named, not mid-flight
 
     @classmethod
@@ -331,7 +420,8 @@ class Multirotor:
     @property
     def packed(self) -> np.ndarray:
         """The kernels' parameter vector (read-only)."""
-        return _packed(self.preset, self.mass, self.drag_scale)
+        return _packed(self.preset, self.mass, self.drag_scale, self.lift_scale,
+                       self.position_control)
 
     @property
     def gravity(self) -> float:
@@ -347,7 +437,7 @@ class Multirotor:
     def max_thrust(self) -> float:
         """Collective thrust at full rotor speed [N] (no translational lift)."""
         P = self.packed
-        return float(4 * P[23] * P[31] ** 2)
+        return float(4 * P[_K_ETA] * P[_SPEED_MAX] ** 2)
 
     @property
     def hover_speed(self) -> float:
@@ -366,11 +456,51 @@ class Multirotor:
         U = np.full((1, 4), self.hover_speed)
         return float(state_derivative(self.packed, S, U)[0, 3] * self.mass)
 
+    def hover_trim(self, airspeed: float) -> tuple[float, float]:
+        """``(tilt [deg], collective thrust [N])`` that hold the vehicle still in a steady
+        horizontal wind of ``airspeed`` [m/s], in [0, 100]: every rotor at one speed, the body
+        pitched into the wind until the rotors' thrust, gravity and the aerodynamic forces
+        (frame and rotor drag, induced inflow, translational lift) balance (Newton steps on
+        the tilt and the rotor speed, to 1e-9 m/s^2). Tilting into the wind shows it more
+        frame to drag, so the lean exceeds ``atan(drag_force / weight)``. ``ValueError`` if
+        no speed within the rotors' range holds it."""
+        from ._rotor_kernels import state_derivative  # a lazy kernel: start-up stays cheap
+
+        airspeed = check_scalar(airspeed, "airspeed", low=0.0, high=100.0)
+        P = self.packed
+
+        def residual(x):
+            th, om = x
+            S = self.initial_states(np.zeros(3), np.zeros((1, 3)))
+            S[0, 6:10] = [0.0, math.sin(th / 2), 0.0, math.cos(th / 2)]  # pitch about y
+            S[0, 13] = airspeed
+            S[0, 16:20] = om
+            d = state_derivative(P, S, np.full((1, 4), om))[0]
+            return np.array([d[3], d[5]])
+
+        x = np.array([-math.atan2(self.drag_force(airspeed), self.weight), self.hover_speed])
+        for _ in range(50):
+            r = residual(x)
+            if np.abs(r).max() < 1e-9:
+                break
+            J = np.empty((2, 2))
+            for j, h in enumerate((1e-6, 1e-3)):
+                dx = np.zeros(2)
+                dx[j] = h
+                J[:, j] = (residual(x + dx) - r) / h
+            x = x - np.linalg.solve(J, r)
+        if np.abs(residual(x)).max() > 1e-6 or not P[_SPEED_MIN] <= x[1] <= P[_SPEED_MAX]:
+            raise ValueError(f"airspeed = {airspeed:g} m/s: no rotor speed within the rotors' "
+                             f"range holds this vehicle still in it")
+        return abs(math.degrees(x[0])), float(4 * P[_K_ETA] * x[1] ** 2)
+
     def quad_params(self) -> dict:
         """This vehicle as RotorPy's ``quad_params`` (for ``rotorpy``'s own ``Multirotor``)."""
         qp = rotorpy_params(self.preset, self.mass)
         if self.drag_scale != 1.0:
             qp.update({k: qp.get(k, 0.0) * self.drag_scale for k in DRAG_KEYS})
+        if self.lift_scale != 1.0:
+            qp["k_h"] = qp.get("k_h", 0.0) * self.lift_scale
         return qp
 
     # -- flying -------------------------------------------------------------- #
@@ -531,6 +661,10 @@ class Multirotor:
                              f"at t = {min(low, n_ctrl) * h_ctrl:.4g} s); keep it above z = 0")
         start = F[0, 0:3].copy()
         S = self.initial_states(start, np.zeros((n_env, 3)))
+        mode = 2
+        if self.position_control is not None:  # the integral of the position error, from 0
+            S = np.hstack([S, np.zeros((n_env, _N_STATE_PI - _N_STATE))])
+            mode = 3
         T = np.empty(n_env)
         clipped = np.zeros(n_env, dtype=np.int64)
         positions = np.empty((n_env, n, 3))
@@ -545,8 +679,8 @@ class Multirotor:
             last = (k + 1) % per == 0
             if record_all and last:  # the command held over the step, for the sensors
                 b3 = _body_z_batch(S[:, 6:10])
-                u_held = _clipped_se3(P, S, C)
-            control_step(P, S, T, C, 2, self.substeps, h, clipped)
+                u_held = _clipped_se3(P, S, C, mode)
+            control_step(P, S, T, C, mode, self.substeps, h, clipped)
             finite = np.isfinite(S).all(axis=1)
             if not finite.all():
                 i = int(np.argmin(finite))
@@ -628,9 +762,10 @@ def _body_z_batch(Q) -> np.ndarray:
     return np.stack([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)], axis=1)
 
 
-def _clipped_se3(P, S, C):
-    from ._rotor_kernels import se3_commands
-    return np.clip(se3_commands(P, S, C)[0], P[30], P[31])
+def _clipped_se3(P, S, C, mode=2):
+    from ._rotor_kernels import se3_commands, se3i_commands
+    u = se3_commands(P, S, C)[0] if mode == 2 else se3i_commands(P, S, C)[0]
+    return np.clip(u, P[_SPEED_MIN], P[_SPEED_MAX])
 
 
 def _aero_force(P, S, U):

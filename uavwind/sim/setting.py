@@ -24,13 +24,13 @@ import pandas as pd
 
 from ..core.checks import check_scalar
 from .actions import SAMPLERS
-from .manoeuvres import FLYABLE  # registers the "waypoints" sampler
-from .dryden import VARIANTS, CitedDryden, DrydenWind
+from .manoeuvres import FLYABLE, FlyableLimits  # registers the "waypoints" sampler
+from .dryden import VARIANTS, CitedDryden, DrydenWind, dryden_parameters
 from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
 from .multirotor import Multirotor
 from .vehicle import UAV
-from .wind import CombinedWind, ConstantWind, ShearWind
+from .wind import ConstantWind, RampedWind, ShearWind, WindGroups
 
 if TYPE_CHECKING:
     from .actions import ThrustSequence
@@ -118,6 +118,20 @@ class EnvironmentGroup:
         return DrydenWind(self.values, altitude=self.altitude, seed=seed, variant=self.variant,
                           cited=self.cited)
 
+    def max_speed(self, height: float) -> float:
+        """The strongest horizontal wind [m/s] a vehicle of this group meets up to ``height``
+        [m]: the largest horizontal speed (a shear profile's at ``height``, where it is
+        strongest), or for turbulence three standard deviations of the horizontal gusts
+        (``3 sqrt(sigma_u^2 + sigma_v^2)`` at ``altitude``, MIL-F-8785C)."""
+        height = check_scalar(height, "height", low=0.0, high=1e5)
+        if self.kind == "turbulence":
+            p = dryden_parameters(np.array(self.values), self.altitude)
+            return float(3.0 * np.hypot(p["sigma_u"], p["sigma_v"]).max())
+        v = np.linalg.norm(np.array(self.values)[:, :2], axis=1).max()
+        if self.kind == "shear":
+            v = v * max(1.0, (max(height, self.floor) / self.reference_height) ** self.alpha)
+        return float(v)
+
     def subset(self, keep: Iterable[int]) -> EnvironmentGroup:
         """Group with only the environments at indices ``keep`` (order kept)."""
         keep = sorted(int(i) for i in keep)
@@ -171,6 +185,14 @@ class Setting:
     baseline : bool
         Also run the physics baseline (:func:`uavwind.method.baseline.baseline_metrics`) on
         the observed positions of every loop (Exp 9).
+    wind_ramp : float
+        The wind fades in from still air over this many seconds
+        (:class:`~uavwind.sim.wind.RampedWind`), in [0, duration]; 0 (default): it is there
+        from t = 0, a step on a vehicle that starts at rest.
+    flyable : FlyableLimits
+        The budget of the ``"waypoints"`` sampler (default
+        :data:`~uavwind.sim.manoeuvres.FLYABLE`, still air); one with a ``thrust_margin``
+        makes room for the strongest wind of both groups (:meth:`waypoint_limits`).
     """
 
     group_a: EnvironmentGroup
@@ -185,6 +207,8 @@ class Setting:
     observation: str = "position"
     noise: Noise | None = None
     baseline: bool = False
+    wind_ramp: float = 0.0
+    flyable: FlyableLimits = FLYABLE
 
     def __post_init__(self):
         check_observation(self.observation)
@@ -205,9 +229,15 @@ class Setting:
                                                 and self.uav.start == "hover"):
             raise ValueError(f"sampler 'waypoints' flies references with a position controller: "
                              f"it needs uav=Multirotor(start='hover'), got {self.uav!r}")
-        if self.sampler == "waypoints" and self.start_altitude < FLYABLE.floor:
-            raise ValueError(f"start_altitude must be >= {FLYABLE.floor:g} m (the floor of the "
+        if not isinstance(self.flyable, FlyableLimits):
+            raise TypeError(f"flyable must be a FlyableLimits, got {type(self.flyable).__name__}")
+        if self.sampler == "waypoints" and self.start_altitude < self.flyable.floor:
+            raise ValueError(f"start_altitude must be >= {self.flyable.floor:g} m (the floor of the "
                              f"'waypoints' sampler) [m], got {self.start_altitude!r}")
+        object.__setattr__(self, "wind_ramp", check_scalar(self.wind_ramp, "wind_ramp",
+                                                           low=0.0, high=self.duration))
+        if self.sampler == "waypoints":
+            self.waypoint_limits()  # a wind the vehicle cannot hold: say so now, not mid-search
         if self.n_env < 3:
             raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
                              f"with two members, for a silhouette), got {self.group_a.n_env} + "
@@ -231,22 +261,38 @@ class Setting:
     def has_turbulence(self) -> bool:
         return "turbulence" in (self.group_a.kind, self.group_b.kind)
 
-    def wind(self, seed: int | np.random.SeedSequence | None = None) -> CombinedWind:
-        """A :class:`~uavwind.sim.wind.CombinedWind` of both groups.
+    def wind(self, seed: int | np.random.SeedSequence | None = None
+             ) -> WindGroups | RampedWind:
+        """A :class:`~uavwind.sim.wind.WindGroups` of both groups (ramped in over
+        :attr:`wind_ramp` seconds, if set).
 
         ``seed`` (int or SeedSequence) seeds the turbulence; each group draws
         from its own child, so the groups' gusts are independent.
         """
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         sa, sb = ss.spawn(2)
-        return CombinedWind(self.group_a.wind(sa), self.group_b.wind(sb))
+        groups = WindGroups(self.group_a.wind(sa), self.group_b.wind(sb))
+        return RampedWind(groups, self.wind_ramp) if self.wind_ramp > 0 else groups
+
+    def max_wind_speed(self) -> float:
+        """The strongest horizontal wind [m/s] of either group up to the top of the
+        waypoints' box (:meth:`EnvironmentGroup.max_speed`)."""
+        top = self.start_altitude + self.flyable.half_height
+        return max(self.group_a.max_speed(top), self.group_b.max_speed(top))
+
+    def waypoint_limits(self) -> FlyableLimits:
+        """What the ``"waypoints"`` sampler keeps to: :attr:`flyable`, in the strongest wind
+        of the setting (:meth:`~uavwind.sim.manoeuvres.FlyableLimits.in_wind`) when it has
+        a ``thrust_margin``."""
+        return self.flyable.in_wind(self.uav, self.max_wind_speed())
 
     def sample_thrust(self, rng: np.random.Generator) -> ThrustSequence:
         """Draw one action with this setting's sampler (a waypoint reference starts at
         ``(0, 0, start_altitude)``)."""
         if self.sampler == "waypoints":
             return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration,
-                                          start_altitude=self.start_altitude)
+                                          start_altitude=self.start_altitude,
+                                          limits=self.waypoint_limits())
         return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration)
 
     def simulate(self, thrust: ThrustSequence,
@@ -280,19 +326,23 @@ class Setting:
         for g in ("group_a", "group_b"):  # the standard variant keeps its earlier keys
             if fields[g]["variant"] == "mil-f-8785c" and fields[g]["cited"] is None:
                 del fields[g]["variant"], fields[g]["cited"]
-        for k, default in (("observation", "position"), ("noise", None), ("baseline", False)):
+        for k, default in (("observation", "position"), ("noise", None), ("baseline", False),
+                           ("wind_ramp", 0.0)):
             if fields[k] == default:  # the paper's loop keeps its earlier keys
                 del fields[k]
+        del fields["flyable"]  # a waypoint setting's limits: below, as they were
         if fields.get("noise"):  # noise fields added later keep earlier keys while zero
             for k in ("attitude", "rate"):
                 if fields["noise"].get(k) == 0.0:
                     del fields["noise"][k]
         if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
-            if fields["uav"].get("drag_scale") == 1.0:  # added later: earlier keys kept
-                del fields["uav"]["drag_scale"]
+            for k, default in (("drag_scale", 1.0), ("lift_scale", 1.0),
+                               ("position_control", None)):
+                if fields["uav"].get(k, default) == default:  # added later: earlier keys kept
+                    fields["uav"].pop(k, None)
         if self.sampler == "waypoints":  # the sampler's limits are part of what it flies
-            fields["waypoint_limits"] = FLYABLE.to_dict()
+            fields["waypoint_limits"] = self.waypoint_limits().to_dict()
         blob = json.dumps(fields, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
