@@ -127,11 +127,15 @@ CALLS = {
         closed_loop.accuracy_over_time(_episodes())),
     "reliability_diagram": lambda f: plotting.reliability_diagram(
         closed_loop.reliability(_episodes(), by=("vehicle", "policy"))),
-    "real_vs_simulated": lambda f: plotting.real_vs_simulated(pd.DataFrame({
-        "condition": ["nowind", "35wind", "70p20sint"], "wind_speed": [0.0, 4.2, 8.5],
-        "fitted": [False, True, False],
-        **{f"{c}_{k}": [1.0, 2.0, 3.0] for c in ("tilt_deg", "force", "tracking_rms")
-           for k in ("sim", "real", "real_min", "real_max")}})),
+    "twin_validation": lambda f: plotting.twin_validation(pd.DataFrame({
+        "condition": ["nowind", "35wind", "70p20sint"] * 2, "wind_speed": [0.0, 4.2, 8.5] * 2,
+        "quantity": ["force along x"] * 3 + ["lean"] * 3, "unit": ["N"] * 3 + ["deg"] * 3,
+        "fitted": [False, True, False] * 2,
+        **{c: [1.0, 2.0, 3.0] * 2 for c in ("sim", "held_out", "real_min", "real_max")}})),
+    "wind_estimates": lambda f: plotting.wind_estimates(pd.DataFrame({
+        "kind": ["estimate"] * 4, "method": ["drag", "drag", "ekf", "ekf"],
+        "controller": ["a", "b", "a", "b"], "condition": ["35wind", "70p20sint"] * 2,
+        "wind_speed": [4.2, 8.5] * 2, "estimate": [4.0, 8.1, 4.4, 8.9]})),
     "channel_pair_heatmap": lambda f: plotting.channel_pair_heatmap(pd.DataFrame({
         "condition_a": ["nowind"] * 2, "condition_b": ["35wind"] * 2,
         "channel": ["position", "attitude"], "mean": [40.0, 90.0]})),

@@ -48,6 +48,41 @@ def test_every_pair_channel_and_controller_has_its_row(rows):
     assert cl["score"].between(0, 100).all()
     assert (cl["n_windows"] == np.where(cl["controller"] == "pooled", 18, 6)).all()
     assert rows.loc[rows.kind == "loco", "accuracy"].between(0, 1).all()
+    ctl = rows[rows.kind == "control"]  # each controller against the next, at each wind
+    assert len(ctl) == 3 * 6 * 3 and (ctl["condition_a"] == ctl["condition_b"]).all()
+    assert set(zip(ctl["controller"], ctl["other"])) == {("A", "B"), ("B", "C"), ("C", "A")}
+    assert len(rows[rows.kind == "estimate"]) == 3 * 9  # every method, every flight
+
+
+def _controlled(winds, same):
+    """Cluster and control rows of one channel: per controller its scores on two pairs of
+    winds and on two same-wind controls."""
+    rows = []
+    for k, (w, c) in enumerate(zip(winds, same)):
+        for pair in (("nowind", "35wind"), ("35wind", "100wind")):
+            rows.append({"kind": "cluster", "controller": f"c{k}", "channel": "x",
+                         "condition_a": pair[0], "condition_b": pair[1], "score": w,
+                         "correct": w > 0})
+        for cond in ("nowind", "100wind"):
+            rows.append({"kind": "control", "controller": f"c{k}", "channel": "x",
+                         "condition_a": cond, "condition_b": cond, "score": c, "correct": c > 0})
+    return pd.DataFrame(rows)
+
+
+@pytest.mark.parametrize("winds, same, verdict", [
+    ([80, 85, 90, 88, 83], [10, 0, 20, 5, 0], "separates the winds"),
+    ([60, 50, 70, 65, 55], [70, 66, 80, 75, 68], "no better than its control"),
+    ([60, 20, 70, 15, 55], [40, 50, 30, 60, 35], "cannot decide"),
+    ([90], [0], "cannot decide"),  # one controller: no interval
+])
+def test_a_channel_separates_the_winds_only_where_it_beats_its_control(winds, same, verdict):
+    t = rf.controlled_table(_controlled(winds, same)).iloc[0]
+    assert t["verdict"] == verdict
+    assert t["difference"] == pytest.approx(np.mean(winds) - np.mean(same))
+    if len(winds) > 1:  # a t interval over controllers, about the mean difference
+        d = np.array(winds) - np.array(same)
+        half = 2.776 * d.std(ddof=1) / np.sqrt(len(d))  # t_{0.975, 4}
+        assert t["ci_high"] - t["difference"] == pytest.approx(half, rel=1e-3)
 
 
 def test_the_channels_that_carry_the_wind_separate_it(rows):
@@ -200,25 +235,6 @@ def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
     assert len(full["starts"]) > len(cut["starts"]) >= quick.max_laps
     for ch in chans + ("starts", "tilt"):
         assert np.array_equal(full[ch][keep], cut[ch][keep]), ch
-
-
-def test_the_drag_fit_hits_its_target(monkeypatch):
-    study = rf.RealFlightStudy(max_laps=1)
-    flown, real = {}, figure8._mean_force_x
-
-    def remembered(vehicle, condition, s):  # the fit's last step flies the flights checked below
-        key = (vehicle, condition, s)
-        if key not in flown:
-            flown[key] = real(vehicle, condition, s)
-        return flown[key]
-    monkeypatch.setattr(figure8, "_mean_force_x", remembered)
-    target = -3.0
-    scale = figure8.fit_drag_scale(target, study=study)
-    v = Multirotor.neural_fly(drag_scale=scale)
-    got = figure8._mean_force_x(v, "35wind", study) - figure8._mean_force_x(v, "nowind", study)
-    assert got == pytest.approx(target, rel=1e-3)
-    with pytest.raises(ValueError, match="target must be negative"):
-        figure8.fit_drag_scale(2.0)
 
 
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):

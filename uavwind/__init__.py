@@ -30,6 +30,7 @@ _compat.install()  # the flat module paths of 0.1 keep working for one release
 
 from .data.neuralfly import RealFlight, load_neuralfly  # noqa: E402
 from .method.baseline import estimate_wind  # noqa: E402
+from .method.wind_estimator import WindEstimator  # noqa: E402
 from .method.closed_loop import ClosedLoop, run_episodes  # noqa: E402
 from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
 from .method.search import CEMResult, cem, random_search  # noqa: E402
@@ -72,7 +73,7 @@ __all__ = [
     "load_neuralfly", "RealFlight",
     # method
     "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
-    "estimate_wind", "ClosedLoop", "run_episodes",
+    "estimate_wind", "WindEstimator", "ClosedLoop", "run_episodes",
     # study
     "SPEED_RANGES", "WindCondition", "PAPER_SCENARIOS", "scenario_table", "table3_setting",
     "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds", "Reading",

@@ -196,7 +196,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _exp13(args) -> int:
     """``run exp13``: Experiment 13's rows into the cache (the flights from
     ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's predictions."""
-    from .analysis.figure8 import prediction_table, ranking_verdict, sim_rows
+    from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
     from .analysis.real_flights import channel_table, real_flight_rows
     from .data.neuralfly import ENV_VAR
     if not os.environ.get(ENV_VAR):
@@ -215,8 +215,11 @@ def _exp13(args) -> int:
     print(f"exp13 ({args.profile} profile): real flights, mean score over controllers "
           f"(95% CI over controllers)")
     print(real_ch.round(2).to_string(), "\n")
-    print(f"simulated twin (SE3, drag x {sim.attrs['drag_scale']:.3f} fitted at 4.2 m/s):")
-    print(prediction_table(real, sim).round(2).to_string(), "\n")
+    cal = calibration_of(sim)
+    print(f"simulated twin (drag x {cal.drag_scale:.3f}, lift x {cal.lift_scale:.3f}, gusts "
+          f"W20 = {cal.gust_scale:.3f} x the mean speed; fitted on "
+          f"{', '.join(cal.controllers)}, checked on {sim.attrs['held_out']}):")
+    print(validation_table(real, sim).round(2).to_string(), "\n")
     v = ranking_verdict(real_ch, sim_ch)
     print(f"does the simulation rank the channels as the real flights do? {v['verdict']} "
           f"(agree {len(v['agree'])}, disagree {len(v['disagree'])}, tied in the simulation "
@@ -258,7 +261,8 @@ def _analyses(args) -> int:
         print(f"python -m uavwind analyses: error: {exc}", file=sys.stderr)
         return 2
     print(f"analyses: Exp 13, {len(real)} real rows in {t1 - t0:.1f} s, {len(sim)} simulated "
-          f"rows in {time.perf_counter() - t1:.1f} s (drag scale {sim.attrs['drag_scale']:.3f})")
+          f"rows in {time.perf_counter() - t1:.1f} s (the twin's drag scale "
+          f"{json.loads(sim.attrs['calibration'])['drag_scale']:.3f})")
     return 0
 
 

@@ -1,119 +1,221 @@
-"""Experiment 13, simulated: Neural-Fly's figure-8 flown by RotorPy's SE3 position
-controller on the Neural-Fly quadrotor, at the wind-tunnel's winds, side by side with the
-real flights.
+"""Experiment 13, simulated: Neural-Fly's figure-8 flown by a twin of the Neural-Fly
+quadrotor, calibrated on the real flights, side by side with them.
 
-This module owns :func:`simulated_flight` (one simulated flight in the real flights' format,
-a :class:`~uavwind.data.RealFlight`, so the real flights' analysis runs on it unchanged),
-:func:`fit_drag_scale` (the vehicle's drag fitted on ONE real condition),
-:func:`simulated_flights` (as long as a study's laps need: :func:`flight_duration`), :func:`sim_rows` (cached, as the real rows are) and
-:func:`prediction_table` / :func:`ranking_verdict` (what the page compares).
+This module owns :class:`TwinCalibration` (what the twin takes from the real flights),
+:func:`calibrate_twin` (fitting it on the training controllers' flights),
+:func:`simulated_flight` (one twin flight in the real flights' format, a
+:class:`~uavwind.data.RealFlight`, so the real flights' analysis runs on it unchanged),
+:func:`simulated_flights`, :func:`sim_rows` (cached, as the real rows are),
+:func:`validation_table` (the twin against a held-out controller's flights) and
+:func:`ranking_verdict` (does it order the channels as the real flights do?).
 
-Decisions (each stated on the page):
+The twin (each choice stated on the page):
 
-* *Wind.* Along -x (the real flights' aerodynamic force points to -x), uniform: constant, or
-  8.5 + 2.4 sin t m/s for ``70p20sint``; plus MIL-F-8785C Dryden gusts at the flight's
-  altitude with ``W20`` = the mean speed (at least 1 m/s): the fan array's turbulence is not
-  given by the data, so this is an assumption, and it is what makes one flight's laps differ.
-  The wind ramps in over the first lap (from a hover in still air; the real flights start on
-  a ramped reference), and the first two laps are dropped as the real flights' first is.
-* *Replicates.* The real flights have five controllers; the simulation has one controller
-  (SE3) and five gust seeds per condition, labelled ``seed 0`` ... ``seed 4``.
-* *Drag.* The Neural-Fly preset's drag scaled by one factor, fitted so that the mean
-  aerodynamic force along the wind at 4.2 m/s equals the real flights' (each controller's
-  force at 0 m/s subtracted: the authors' ``fa`` holds a residual of about 1 N in still
-  air); 8.5 and 12.1 m/s are then predictions.
+* *Vehicle.* :meth:`~uavwind.sim.multirotor.Multirotor.neural_fly` (2.6 kg, thrust-to-weight
+  2.2), its drag (frame, rotor drag, induced inflow) and its translational lift each scaled
+  by one factor (``drag_scale``, ``lift_scale``) fitted on the training controllers' mean
+  force along x and along z at :data:`FIT_CONDITION` (each controller's still-air force
+  subtracted: the authors' ``fa`` holds about a newton in still air); the other winds are
+  predictions.
+* *Controller.* RotorPy's SE3 law with an integral term and a thrust cone with vertical
+  priority (:data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`): the real controllers hold
+  the path in steady wind, which a PD law cannot (it leaves a steady error of ``F / (m kp)``).
+* *Wind.* Along -x, uniform, constant or 8.5 + 2.4 sin t m/s (``70p20sint``), ramped in over
+  the first lap from a hover in still air, PLUS (:class:`~uavwind.sim.wind.SumWind`)
+  MIL-F-8785C Dryden gusts at the flight's altitude with ``W20`` = ``gust_scale`` x the mean
+  speed; ``gust_scale`` is fitted so that the twin's lap-to-lap spread of the slow part of
+  the force along x matches the training controllers' at :data:`SPREAD_CONDITION`.
+* *Sensors.* The real vehicle's attitude is measured about a body axis ``axis_offset``
+  degrees from its thrust axis (in still air every controller pitches -2.4 to -3.5 deg while
+  ``fa`` reads +1.0 to +1.4 N along x, ``T sin(offset)``); the twin records its attitude
+  about the same offset axis and its ``fa`` as the authors compute it from that attitude.
+  Every recorded channel gets white noise whose content above 2 Hz matches the training
+  controllers' at the same wind.
+* *Replicates.* Five gust seeds per condition (each its own gusts and noise), labelled
+  ``seed 0`` ... ``seed 4``, as the real flights have five controllers.
+* *Held out.* The twin is fitted on every controller but one (:func:`held_out_controller`)
+  and checked on that one (:func:`validation_table`).
 """
 
 from __future__ import annotations
 
-from dataclasses import asdict
+import hashlib
+import json
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
-from ..core.seeding import child_seed, root_seed
-from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
+from ..core.seeding import child_rng, child_seed, root_seed
+from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight, flight_laps, split_noise
 from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
-from ..sim.multirotor import Multirotor
+from ..sim.multirotor import NEURAL_FLY_CONTROL, Multirotor
 from ..sim.references import Lemniscate
-from ..sim.wind import CombinedWind, ConstantWind, SinusoidalWind, WindModel
+from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
-from .real_flights import STUDIES, compute_rows
+from .real_flights import STUDIES, compute_rows, flight_summaries, noise_columns
 
-__all__ = ["FIGURE8", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "simulated_flight",
-           "simulated_flights", "flight_duration", "fit_drag_scale", "sim_rows", "prediction_table",
-           "ranking_verdict", "real_drag_target"]
+__all__ = ["FIGURE8", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREAD_CONDITION",
+           "TwinCalibration", "calibrate_twin", "held_out_controller",
+           "simulated_flight", "simulated_flights", "flight_duration", "sim_rows",
+           "validation_table", "ranking_verdict", "real_force_targets", "calibration_of",
+           "VALIDATION"]
 
 #: Neural-Fly's reference: (1.25 sin t, 0, 0.75 sin 2t) about the real flights' centre [m].
 FIGURE8 = Lemniscate(center=(0.25, 0.0, 2.15), amplitude=(1.25, 0.0, 0.75), period=2 * np.pi)
-#: The root seed of the simulated gusts.
+#: The root seed of the simulated gusts and sensor noise.
 SIM_SEED = 13
 #: Bump when a change alters the simulated rows. 2: a study that keeps some laps flies only
-#: as long as they need (:func:`flight_duration`) and its drag fit averages them alone.
-SIM_VERSION = "2"
-#: The one condition the drag is fitted on.
-FIT_CONDITION = "35wind"
+#: as long as they need (:func:`flight_duration`). 3: the calibrated twin (gusts that reach
+#: it, lift, controller with an integral and a thrust cone, sensor offset and noise).
+SIM_VERSION = "3"
+#: The one wind the forces (drag and lift) are fitted on: 8.5 m/s, where both are well above
+#: the still-air residual; 4.2 and 12.1 m/s are predictions.
+FIT_CONDITION = "70wind"
+#: The one wind the gust intensity is fitted on (the largest spread, the most signal).
+SPREAD_CONDITION = "100wind"
 #: Replicates (gust seeds) per condition: as many as the real flights' controllers.
 N_SEEDS = 5
 #: Flight length [s] and recording step [s] (the real flights': about 50 s at 50 Hz).
 DURATION, DT = 50.0, 0.02
 #: The wind ramps in over the first lap [s] (dropped from every analysis).
 RAMP = 2 * np.pi
+#: Laps a calibration flight keeps (the twin's laps differ only by its gusts: three give
+#: its means and its lap-to-lap spread; the real targets average every lap they keep).
+_FIT_LAPS = 3
+#: Most rounds of the drag and lift fits (each fitted in turn until both hold).
+_ROUNDS = 6
+#: Share of a white noise's variance above the noise cutoff at the recording step.
+_ABOVE_CUTOFF = 1.0 - 2.0 * NOISE_CUTOFF * DT
 
 
-class _RampedWind(WindModel):
-    """``model``'s wind times a smooth ramp from 0 at t = 0 to 1 at ``ramp`` [s] (the
-    smoothstep ``3u^2 - 2u^3``): the flight starts from a hover in still air, as the real
-    flights start on a ramped reference; the lap it ramps over is dropped."""
+@dataclass(frozen=True, kw_only=True)
+class TwinCalibration:
+    """What the twin takes from the real flights (:func:`calibrate_twin` fits it).
 
-    def __init__(self, model, ramp):
-        self.model, self.ramp, self.n_env = model, float(ramp), model.n_env
+    Attributes
+    ----------
+    drag_scale, lift_scale : float
+        Factors on the Neural-Fly preset's drag and translational lift [-].
+    gust_scale : float
+        Dryden ``W20`` as a share of the mean wind speed [-] (0: no gusts).
+    axis_offset : float
+        Lean of the measured body z axis from the thrust axis towards +x [deg].
+    noise : tuple of (condition, column, std)
+        The standard deviation above the noise cutoff of each recorded channel and axis
+        (:func:`uavwind.analysis.real_flights.noise_columns`) at each wind.
+    controllers : tuple of str
+        The controllers it was fitted on.
 
-    def _velocity(self, t, positions):
-        u = min(t / self.ramp, 1.0)
-        return self.model._velocity(t, positions) * (u * u * (3.0 - 2.0 * u))
+    The default is the bare twin: the preset's drag and lift, no gusts, no offset, no noise.
+    """
+
+    drag_scale: float = 1.0
+    lift_scale: float = 1.0
+    gust_scale: float = 0.0
+    axis_offset: float = 0.0
+    noise: tuple = ()
+    controllers: tuple = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "drag_scale", check_scalar(self.drag_scale, "drag_scale", low=0.0,
+                                                            low_inclusive=False, high=100.0))
+        object.__setattr__(self, "lift_scale", check_scalar(self.lift_scale, "lift_scale",
+                                                            low=0.0, high=100.0))
+        object.__setattr__(self, "gust_scale", check_scalar(self.gust_scale, "gust_scale",
+                                                            low=0.0, high=10.0))
+        object.__setattr__(self, "axis_offset", check_scalar(self.axis_offset, "axis_offset",
+                                                             low=-45.0, high=45.0))
+        known = set(noise_columns())
+        for c, col, std in self.noise:
+            if c not in CONDITIONS or col not in known:
+                raise ValueError(f"noise must hold (condition, column, std) with a condition of "
+                                 f"{list(CONDITIONS)} and a column of {sorted(known)}, got "
+                                 f"{(c, col)!r}")
+            check_scalar(std, "noise std", low=0.0, high=1e3)
+        object.__setattr__(self, "noise", tuple((c, col, float(v)) for c, col, v in self.noise))
+        object.__setattr__(self, "controllers", tuple(self.controllers))
+
+    def vehicle(self) -> Multirotor:
+        """The twin's vehicle: the Neural-Fly preset with these factors and
+        :data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`."""
+        return Multirotor.neural_fly(drag_scale=self.drag_scale, lift_scale=self.lift_scale,
+                                     position_control=NEURAL_FLY_CONTROL)
+
+    def noise_at(self, condition: str) -> dict[str, float]:
+        """{column: std} at ``condition`` (empty without noise)."""
+        return {col: v for c, col, v in self.noise if c == condition}
+
+    def to_dict(self) -> dict:
+        return asdict(self)
 
 
-def _wind(condition, seed):
+def held_out_controller(controllers) -> str:
+    """The controller the twin is checked on: the last in name order (``"indi"`` among
+    Neural-Fly's five); the others are the training controllers."""
+    controllers = sorted(controllers)
+    if len(controllers) < 2:
+        raise ValueError(f"controllers must hold at least two (one to fit on, one to check), "
+                         f"got {controllers}")
+    return controllers[-1]
+
+
+def _wind(condition, seed, gust_scale):
     speed = CONDITIONS[condition]
     if condition == "70p20sint":
         mean = SinusoidalWind([[-speed, 0.0, 0.0]], [[-2.4, 0.0, 0.0]], period=2 * np.pi)
     else:
         mean = ConstantWind([[-speed, 0.0, 0.0]])
-    gusts = DrydenWind([max(speed, 1.0)], altitude=FIGURE8.center[2], dt=DT, seed=seed)
-    return _RampedWind(CombinedWind(mean, gusts), RAMP)
+    if gust_scale > 0 and speed > 0:  # gusts ADDED to the mean wind, one environment
+        mean = mean + DrydenWind([gust_scale * speed], altitude=FIGURE8.center[2], dt=DT,
+                                 airspeed=speed, seed=seed)
+    return RampedWind(mean, RAMP)
+
+
+def _offset_attitude(q, offset_deg):
+    """The attitude (quaternions, rotations) of a body axis leaning ``offset_deg`` towards
+    +x (about body y) from the thrust axis."""
+    rot = Rotation.from_quat(q) * Rotation.from_euler("y", offset_deg, degrees=True)
+    return rot.as_quat(), rot.as_matrix()
 
 
 def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
-                     duration: float = DURATION) -> RealFlight:
-    """The figure-8 flown by ``vehicle`` under SE3 control in ``condition``'s wind with gust
-    seed ``seed``, as a :class:`~uavwind.data.RealFlight` (``controller`` ``"seed k"``):
-    ``T_sp`` is the commanded thrust over the full-speed thrust (the real set-point is
-    normalised the same way), ``fa`` the simulated aerodynamic force, ``pwm`` the rotor
-    speeds [rad/s]."""
+                     duration: float = DURATION,
+                     calibration: TwinCalibration | None = None) -> RealFlight:
+    """The figure-8 flown by ``vehicle`` in ``condition``'s wind with gust and noise seed
+    ``seed``, as a :class:`~uavwind.data.RealFlight` (``controller`` ``"seed k"``), recorded
+    as ``calibration`` says (default: the bare twin, no gusts, offset or noise): ``T_sp`` is
+    the commanded thrust over the full-speed thrust (the real set-point is normalised the
+    same way), ``hover_throttle`` the weight over it, ``fa`` the aerodynamic force as the
+    authors compute it from the recorded attitude, ``pwm`` the rotor speeds [rad/s]."""
     check_instance(vehicle, "vehicle", Multirotor)
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
     seed = check_scalar(seed, "seed", low=0, high=2 ** 32 - 1, integer=True)
     duration = check_scalar(duration, "duration", low=4 * np.pi, high=3600.0)
-    wind = _wind(condition, child_seed(root_seed(SIM_SEED), seed, list(CONDITIONS).index(condition)))
+    cal = TwinCalibration() if calibration is None else calibration
+    check_instance(cal, "calibration", TwinCalibration)
+    k = list(CONDITIONS).index(condition)
+    wind = _wind(condition, child_seed(root_seed(SIM_SEED), seed, k), cal.gust_scale)
     f = simulate_flight(FIGURE8, wind, uav=vehicle, dt=DT, duration=duration)
     t = f.times
-    q = f.attitudes[0]
-    x, y, z, w = q.T
-    R = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-                  np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-                  np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)],
-                 axis=1)
+    q, R = _offset_attitude(f.attitudes[0], cal.axis_offset)
+    true_b3 = Rotation.from_quat(f.attitudes[0]).as_matrix()[:, :, 2]
+    thrust = vehicle.packed[23] * np.sum(f.rotor_speeds[0] ** 2, axis=1)  # the rotors' nominal
+    fa = f.aero_forces[0] + thrust[:, None] * (true_b3 - R[:, :, 2])
     ref = FIGURE8.flat_output(t)
-    arrays = {"t": t, "p": f.positions[0], "p_d": f.references[0], "v": f.ground_velocities[0],
+    hover = vehicle.weight / vehicle.max_thrust
+    arrays = {"t": t, "p": f.positions[0].copy(), "p_d": f.references[0], "v": f.ground_velocities[0].copy(),
               "v_d": ref["x_dot"], "q": q, "R": R, "w": f.body_rates[0],
               "T_sp": f.thrust_commands[0] / vehicle.max_thrust, "q_sp": np.zeros_like(q),
-              "hover_throttle": np.full(len(t), vehicle.weight / vehicle.max_thrust),
-              "fa": f.aero_forces[0], "pwm": f.rotor_speeds[0]}
+              "hover_throttle": np.full(len(t), hover), "fa": fa, "pwm": f.rotor_speeds[0]}
+    noise = cal.noise_at(condition)
+    if noise:
+        _add_noise(arrays, noise, child_rng(root_seed(SIM_SEED), seed, k, 1), hover)
     for a in arrays.values():
         a.setflags(write=False)
     return RealFlight(controller=f"seed {seed}", condition=condition,
@@ -121,14 +223,22 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
                       vehicle="simulated", trajectory="figure8", arrays=arrays)
 
 
-def real_drag_target(real_rows: pd.DataFrame, condition: str = FIT_CONDITION) -> tuple[float, np.ndarray]:
-    """The real flights' mean aerodynamic force along x at ``condition`` minus each
-    controller's at 0 m/s [N], and the per-controller values."""
-    fl = real_rows[real_rows["kind"] == "flight"].set_index(["controller", "condition"])
-    ctl = sorted({c for c, _ in fl.index})
-    per = np.array([fl.loc[(c, condition), "aero_force_x"] - fl.loc[(c, "nowind"), "aero_force_x"]
-                    for c in ctl])
-    return float(per.mean()), per
+def _add_noise(arrays, noise, rng, hover):
+    """White noise on the recorded channels, in place, each axis with the standard deviation
+    whose part above the noise cutoff is ``noise``'s (``{column: std}``)."""
+    n = len(arrays["t"])
+
+    def draw(column):
+        return rng.standard_normal(n) * noise.get(column, 0.0) / np.sqrt(_ABOVE_CUTOFF)
+
+    for ch, key in (("position", "p"), ("velocity", "v"), ("aero_force", "fa")):
+        arrays[key] = arrays[key] + np.column_stack([draw(f"noise_{ch}_{ax}") for ax in "xyz"])
+    arrays["T_sp"] = arrays["T_sp"] + draw("noise_thrust_t") * hover
+    # the attitude channel is the body z axis: a small world-frame tilt about y moves its x,
+    # about x its y
+    tilt = np.column_stack([draw("noise_attitude_y"), draw("noise_attitude_x"), np.zeros(n)])
+    rot = Rotation.from_rotvec(tilt) * Rotation.from_quat(arrays["q"])
+    arrays["q"], arrays["R"] = rot.as_quat(), rot.as_matrix()
 
 
 def flight_duration(study=STUDIES["paper"]) -> float:
@@ -143,97 +253,214 @@ def flight_duration(study=STUDIES["paper"]) -> float:
                                        * FIGURE8.period + 1.0)))
 
 
-def _mean_force_x(vehicle, condition, study):
-    """Mean aerodynamic force along x [N] over the laps ``study`` keeps (as the real rows'
-    ``aero_force_x``, the fit's target, averages them), gust seed 0."""
-    w = flight_laps(simulated_flight(vehicle, condition, 0, duration=flight_duration(study)),
-                    ("aero_force",), study.n_samples, study.drop_first)
-    keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
-    return float(w["aero_force"][keep, :, 0].mean())
+# --------------------------------------------------------------------------- #
+# calibration
+# --------------------------------------------------------------------------- #
+def real_force_targets(real_rows: pd.DataFrame, controllers, condition: str = FIT_CONDITION
+                       ) -> dict[str, float]:
+    """The training ``controllers``' mean force along x and along z at ``condition`` minus
+    each one's at 0 m/s [N], their mean lean at 0 m/s [deg] and their mean lap-to-lap spread
+    of the force along x at :data:`SPREAD_CONDITION` [N]."""
+    fl = real_rows[real_rows["kind"] == "flight"].set_index(["controller", "condition"])
+    ctl = sorted(controllers)
+
+    def mean(col, cond, minus=None):
+        return float(np.mean([fl.loc[(c, cond), col] - (fl.loc[(c, minus), col] if minus else 0.0)
+                              for c in ctl]))
+
+    return {"force_x": mean("aero_force_x", condition, "nowind"),
+            "force_z": mean("aero_force_z", condition, "nowind"),
+            "offset": mean("pitch_deg", "nowind"),
+            "spread": mean("fa_x_spread", SPREAD_CONDITION)}
 
 
-def fit_drag_scale(target: float, condition: str = FIT_CONDITION, study=STUDIES["paper"],
-                   tol: float = 1e-3) -> float:
-    """The factor on the Neural-Fly preset's drag whose simulated mean force along x at
-    ``condition`` (gust seed 0, minus the same at 0 m/s) equals ``target`` [N] (secant steps
-    on the factor, to ``tol`` relative)."""
-    target = check_scalar(target, "target", low=-1e4, high=1e4)
-    if target >= 0:
-        raise ValueError(f"target must be negative (a force along the wind, -x), got {target:g}")
-
-    def force(s):
-        v = Multirotor.neural_fly(drag_scale=s)
-        return _mean_force_x(v, condition, study) - _mean_force_x(v, "nowind", study)
-
-    s0, f0 = 1.0, force(1.0)
-    s1 = s0 * target / f0
-    for _ in range(8):
-        f1 = force(s1)
-        if abs(f1 - target) <= tol * abs(target):
-            return float(s1)
-        s0, f0, s1 = s1, f1, s1 + (target - f1) * (s1 - s0) / (f1 - f0)
-        s1 = min(max(s1, 1e-3), 100.0)
-    raise ValueError(f"the drag fit did not converge (last factor {s1:g}, force {f1:g} N, "
-                     f"target {target:g} N)")
+def _twin_row(cal, condition, study, seed=0):
+    """One twin flight's flight row (:func:`uavwind.analysis.real_flights.compute_rows`' kind
+    ``"flight"``) over the laps ``study`` keeps."""
+    f = simulated_flight(cal.vehicle(), condition, seed, flight_duration(study), cal)
+    return flight_summaries([f], study)[0]
 
 
-def simulated_flights(vehicle: Multirotor, n_seeds: int = N_SEEDS,
+def _secant(measure, target, x0, x1, low, high, tol, what):
+    """``x`` in [low, high] with ``measure(x) = target`` to ``tol`` (absolute), by secant
+    steps from ``x0`` and ``x1``."""
+    f0 = measure(x0)
+    for _ in range(10):
+        f1 = measure(x1)
+        if abs(f1 - target) <= tol:
+            return float(x1)
+        if f1 == f0:
+            break
+        x0, f0, x1 = x1, f1, min(max(x1 + (target - f1) * (x1 - x0) / (f1 - f0), low), high)
+    raise ValueError(f"the twin's {what} fit did not converge (last {x1:g}, measured {f1:g}, "
+                     f"target {target:g})")
+
+
+def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
+                   controllers=None) -> TwinCalibration:
+    """Fit the twin on ``controllers``' flights (default: all but
+    :func:`held_out_controller`), from their flight rows in ``real_rows``
+    (:func:`uavwind.analysis.real_flights.compute_rows`).
+
+    In order: the sensor axis offset (their mean lean at 0 m/s) and the noise (their mean
+    per wind and channel), read off the rows; then by secant steps on twin flights of gust
+    seed 0 (over at most three of the laps ``study`` keeps for the forces, over all of them
+    for the spread): the drag scale (force along x at
+    :data:`FIT_CONDITION` minus at 0 m/s, to 0.5%) and the lift scale (the same along z, to
+    0.02 N), in turn until both hold, then the gust scale (lap-to-lap spread at
+    :data:`SPREAD_CONDITION`, to 2%)."""
+    if study.max_laps == 1:
+        raise ValueError("study must keep at least two laps a flight (max_laps 0 or >= 2): the "
+                         "gust fit matches a lap-to-lap spread")
+    fl = real_rows[real_rows["kind"] == "flight"]
+    if controllers is None:
+        everyone = sorted(set(fl["controller"]))
+        controllers = [c for c in everyone if c != held_out_controller(everyone)]
+    controllers = tuple(sorted(controllers))
+    target = real_force_targets(real_rows, controllers)
+    train = fl[fl["controller"].isin(controllers)]
+    noise = tuple((c, col, float(g[col].mean())) for c, g in train.groupby("condition", sort=False)
+                  for col in noise_columns())
+    cal = TwinCalibration(axis_offset=target["offset"], noise=noise, controllers=controllers)
+    quiet = replace(cal, noise=())  # the forces and the spread are fitted without noise
+    # the forces are means: the twin's laps repeat, a few give them; the spread about the mean
+    # lap depends on how many laps it is taken over, so the gusts fly the study's own laps
+    few = (replace(study, max_laps=_FIT_LAPS) if study.max_laps == 0
+           or study.max_laps > _FIT_LAPS else study)
+
+    def force(axis):
+        def measure(x):
+            c = replace(quiet, **{f"{'drag' if axis == 'x' else 'lift'}_scale": x})
+            return (_twin_row(c, FIT_CONDITION, few)[f"aero_force_{axis}"]
+                    - _twin_row(c, "nowind", few)[f"aero_force_{axis}"])
+        return measure
+
+    # the drag moves the vertical force too (induced inflow, the tilted frame), and the lift
+    # the lean: fitted in turn until both hold together
+    tol_x, tol_z = 0.005 * abs(target["force_x"]), 0.02
+    drag, lift = 1.0, 1.0
+    for _ in range(_ROUNDS):
+        drag = _secant(force("x"), target["force_x"], drag, drag * 0.9, 1e-3, 100.0, tol_x,
+                       "drag")
+        quiet = replace(quiet, drag_scale=drag)
+        lift = _secant(force("z"), target["force_z"], lift, lift * 0.7 + 0.05, 0.0, 100.0,
+                       tol_z, "lift")
+        quiet = replace(quiet, lift_scale=lift)
+        if abs(force("x")(drag) - target["force_x"]) <= tol_x:
+            break
+    else:
+        raise ValueError(f"the twin's drag and lift fits did not settle in {_ROUNDS} rounds")
+
+    def spread(g):
+        return _twin_row(replace(quiet, gust_scale=g), SPREAD_CONDITION, study)["fa_x_spread"]
+
+    gust = _secant(spread, target["spread"], 0.1, 0.3, 0.0, 10.0, 0.02 * target["spread"],
+                   "gust")
+    return replace(cal, drag_scale=drag, lift_scale=lift, gust_scale=gust)
+
+
+def simulated_flights(calibration: TwinCalibration, n_seeds: int = N_SEEDS,
                       conditions=tuple(CONDITIONS), duration: float = DURATION) -> list[RealFlight]:
-    """Every condition x gust seed, flown for ``duration`` [s] (the order of
-    :func:`uavwind.load_neuralfly`)."""
-    return [simulated_flight(vehicle, c, s, duration=duration) for s in range(n_seeds)
-            for c in conditions]
+    """Every condition x seed flown by the calibrated twin for ``duration`` [s] (the order
+    of :func:`uavwind.load_neuralfly`)."""
+    v = calibration.vehicle()
+    return [simulated_flight(v, c, s, duration=duration, calibration=calibration)
+            for s in range(n_seeds) for c in conditions]
+
+
+def _training_digest(real_rows, controllers):
+    fl = real_rows[(real_rows["kind"] == "flight") & real_rows["controller"].isin(controllers)]
+    cols = ["controller", "condition", "aero_force_x", "aero_force_z", "pitch_deg",
+            "fa_x_spread", *noise_columns()]
+    blob = fl[cols].sort_values(["controller", "condition"]).to_json(orient="values",
+                                                                      double_precision=15)
+    return hashlib.sha256(blob.encode()).hexdigest()
 
 
 def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
              n_jobs: int | None = None) -> pd.DataFrame:
-    """Experiment 13's simulated rows (the real rows' columns, plus ``drag_scale`` in
-    ``attrs``), kept by :func:`uavwind.analysis.memo.memo` under a digest of the drag target,
-    the study and the version; a damaged or altered copy is recomputed with a warning."""
+    """Experiment 13's simulated rows (the real rows' columns; ``attrs["calibration"]`` the
+    :class:`TwinCalibration` as a dict, ``attrs["held_out"]`` the controller it was not fitted
+    on), kept by :func:`uavwind.analysis.memo.memo` under a digest of the training
+    controllers' flight rows, the study and the version; a damaged or altered copy is
+    recomputed with a warning."""
     if profile not in STUDIES:
         raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
     study = STUDIES[profile]
-    target, _ = real_drag_target(real_rows)
+    everyone = sorted(set(real_rows.loc[real_rows["kind"] == "flight", "controller"]))
+    held = held_out_controller(everyone)
+    train = [c for c in everyone if c != held]
+    conditions = tuple(c for c in CONDITIONS if not study.conditions or c in study.conditions
+                       or c in (FIT_CONDITION, SPREAD_CONDITION))
 
     def compute():
-        scale = fit_drag_scale(target, study=study)
-        conditions = tuple(c for c in CONDITIONS
-                           if not study.conditions or c in study.conditions or c == FIT_CONDITION)
-        flights = simulated_flights(Multirotor.neural_fly(drag_scale=scale), conditions=conditions,
-                                    duration=flight_duration(study))
+        cal = calibrate_twin(real_rows, study, train)
+        flights = simulated_flights(cal, conditions=conditions, duration=flight_duration(study))
         df = compute_rows(flights, study, n_jobs=n_jobs)
-        df.attrs.update(profile=profile, drag_scale=scale, drag_target=target,
+        df.attrs.update(profile=profile, calibration=json.dumps(cal.to_dict()), held_out=held,
                         uavwind_version=__version__)
         return df
 
-    return memo("exp13_sim", {"target": repr(target), "study": asdict(study), "seed": SIM_SEED,
-                              "n_seeds": N_SEEDS, "version": SIM_VERSION}, compute, results)
+    return memo("exp13_sim", {"training": _training_digest(real_rows, train), "held_out": held,
+                              "study": asdict(study), "seed": SIM_SEED, "n_seeds": N_SEEDS,
+                              "version": SIM_VERSION}, compute, results)
 
 
-def prediction_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame:
-    """Per condition: the simulated and the real mean tilt [deg], aerodynamic force along
-    the wind (0 m/s subtracted) [N] and tracking error [m], the real spread over controllers
-    (min, max), and the simulation's error; ``fitted`` marks the condition the drag was
-    fitted on (the others are predictions)."""
+def calibration_of(sim: pd.DataFrame) -> TwinCalibration:
+    """The :class:`TwinCalibration` :func:`sim_rows` fitted (from its ``attrs``)."""
+    d = json.loads(sim.attrs["calibration"])
+    d["noise"] = tuple(tuple(x) for x in d["noise"])
+    return TwinCalibration(**d)
+
+
+#: What :func:`validation_table` compares: name -> (flight-row column, subtract 0 m/s, unit).
+VALIDATION = {"force along x": ("aero_force_x", True, "N"),
+              "force along z": ("aero_force_z", True, "N"),
+              "lean": ("pitch_deg", False, "deg"),
+              "tracking error": ("tracking_rms", False, "m"),
+              "lap-to-lap spread of force x": ("fa_x_spread", False, "N"),
+              "noise of force x": ("noise_aero_force_x", False, "N"),
+              "noise of the attitude x": ("noise_attitude_x", False, "1")}
+
+
+def validation_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame:
+    """The twin against the real flights, per wind and quantity (:data:`VALIDATION`): the
+    twin's mean over its seeds (``sim``) with their range, the held-out controller's value
+    (``held_out``), the training controllers' range, ``within`` (the twin inside the range of
+    all the real controllers) and ``fitted`` (the twin was fitted on this quantity at this
+    wind, or on its training mean, so only the held-out column checks it)."""
+    held = sim.attrs.get("held_out")
+    fitted = {("force along x", FIT_CONDITION), ("force along z", FIT_CONDITION),
+              ("lean", "nowind"), ("lap-to-lap spread of force x", SPREAD_CONDITION)}
+    fitted |= {(q, c) for q in ("noise of force x", "noise of the attitude x") for c in CONDITIONS}
     out = []
-    real_f, sim_f = real_rows[real_rows.kind == "flight"], sim[sim.kind == "flight"]
+    real_f = real_rows[real_rows.kind == "flight"]
+    sim_f = sim[sim.kind == "flight"]
 
-    def force(df):
-        base = df[df.condition == "nowind"].set_index("controller")["aero_force_x"]
-        return df.assign(force=df["aero_force_x"] - df["controller"].map(base))
+    def values(df, col, minus):
+        v = df.set_index(["controller", "condition"])[col]
+        if minus:
+            base = v.xs("nowind", level="condition")
+            v = v - base.reindex(v.index.get_level_values("controller")).to_numpy()
+        return v
 
-    real_f, sim_f = force(real_f), force(sim_f)
-    for cond in CONDITIONS:
-        r, s = real_f[real_f.condition == cond], sim_f[sim_f.condition == cond]
-        if not len(r) or not len(s):
-            continue
-        row = {"condition": cond, "wind_speed": CONDITIONS[cond], "fitted": cond == FIT_CONDITION}
-        for c in ("tilt_deg", "force", "tracking_rms"):
-            row[f"{c}_sim"] = float(s[c].mean())
-            row[f"{c}_real"] = float(r[c].mean())
-            row[f"{c}_real_min"], row[f"{c}_real_max"] = float(r[c].min()), float(r[c].max())
-            row[f"{c}_error"] = row[f"{c}_sim"] - row[f"{c}_real"]
-        out.append(row)
+    for name, (col, minus, unit) in VALIDATION.items():
+        rv, sv = values(real_f, col, minus), values(sim_f, col, minus)
+        for cond in CONDITIONS:
+            if cond not in sv.index.get_level_values("condition") or \
+                    cond not in rv.index.get_level_values("condition"):
+                continue
+            r = rv.xs(cond, level="condition")
+            s = sv.xs(cond, level="condition")
+            train = r.drop(held, errors="ignore")
+            out.append({"condition": cond, "wind_speed": CONDITIONS[cond], "quantity": name,
+                        "unit": unit, "sim": float(s.mean()), "sim_min": float(s.min()),
+                        "sim_max": float(s.max()),
+                        "held_out": float(r.get(held, np.nan)),
+                        "train_min": float(train.min()), "train_max": float(train.max()),
+                        "real_min": float(r.min()), "real_max": float(r.max()),
+                        "within": bool(r.min() <= s.mean() <= r.max()),
+                        "fitted": (name, cond) in fitted})
     return pd.DataFrame(out)
 
 

@@ -23,7 +23,12 @@ The design (the page says it in prose):
   its nearest lap (DTW) among the other controllers' laps of the pair; the accuracy is the
   share right.
 * *Replicates.* Each (controller, condition) is ONE flight, so its laps are not independent:
-  the controllers are the replicates, and every CI is a bootstrap over controllers.
+  the controllers are the replicates, and every CI is a Student t interval over controllers
+  (a percentile bootstrap over five values undercovers).
+* *Negative control.* The same clustering on two controllers' flights at the *same* wind
+  (each controller against the next): what a channel scores there is flight identity. A
+  channel separates the winds only where its score on different winds beats its control,
+  paired by controller, with a CI (:func:`controlled_table`).
 """
 
 from __future__ import annotations
@@ -36,24 +41,29 @@ from itertools import combinations
 
 import numpy as np
 import pandas as pd
+from joblib import Parallel, delayed
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
 from ..core.parallel import check_jobs
-from ..core.stats import bootstrap_ci
-from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, files_digest, flight_files,
-                              flight_laps, read_flights)
+from ..core.stats import t_ci
+from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, files_digest,
+                              flight_files, flight_laps, lap_starts, pitch_degrees, read_flights,
+                              split_noise)
 from ..method.clustering import ClusteringParams, score_loop
 from ..method.softdtw import dtw_pdist
 from .memo import memo
+from .wind_estimates import estimation_rows
 
 __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
-           "pair_table", "channel_table", "flight_table", "flights_digest"]
+           "pair_table", "channel_table", "controlled_table", "flight_table", "flights_digest",
+           "NOISE_CHANNELS", "noise_columns", "flight_summaries"]
 
 #: Bump when a change alters the rows (part of the cache digest), including a change to how
 #: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are
-#: kept under the files' bytes, not the parsed arrays.
-REAL_VERSION = "1"
+#: kept under the files' bytes, not the parsed arrays. 2: thrust over the hover throttle,
+#: the same-wind controls, the flight rows' lean, vertical force, spread and noise.
+REAL_VERSION = "2"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -205,13 +215,35 @@ def _pair_task(laps, controllers, a, b, channel, params):
     return rows
 
 
+def _control_task(laps, controllers, condition, channel, params):
+    """The same-wind negative control of one condition and channel: each controller's laps
+    against the next controller's (in name order) at the same wind, scored as a pair of
+    winds is: a score above 0 there measures which flight it is, not the wind."""
+    rows = []
+    base = {"condition_a": condition, "condition_b": condition, "wind_a": CONDITIONS[condition],
+            "wind_b": CONDITIONS[condition], "channel": channel}
+    for i, k in enumerate(controllers):
+        other = controllers[(i + 1) % len(controllers)]
+        xa, xb = laps[(k, condition)][channel], laps[(other, condition)][channel]
+        r = score_loop(np.concatenate([xa, xb]),
+                       np.r_[np.zeros(len(xa), int), np.ones(len(xb), int)], **params)
+        rows.append({**base, "kind": "control", "controller": k, "other": other,
+                     "score": r.score, "silhouette": r.silhouette, "correct": bool(r.correct),
+                     "n_windows": len(xa) + len(xb)})
+    return rows
+
+
 def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightStudy(),
                  n_jobs: int | None = None, **params) -> pd.DataFrame:
     """Every row of Experiment 13's real-flight part, computed (no cache): ``kind``
     ``"cluster"`` (``score``, ``silhouette``, ``correct`` per controller and ``"pooled"``),
-    ``"loco"`` (``accuracy`` of the held-out ``controller``) and ``"flight"`` (one row per
-    flight: mean tilt [deg], aerodynamic force [N], tracking error [m], thrust set-point,
-    over its kept laps, unscaled), for every pair of conditions and channel."""
+    ``"loco"`` (``accuracy`` of the held-out ``controller``), ``"control"`` (the same-wind
+    negative control: ``controller`` against ``other`` at one wind), for every pair of
+    conditions and channel; ``"flight"`` (one row per flight: mean tilt and lean [deg],
+    aerodynamic force [N], tracking error [m], thrust over the hover throttle, lap-to-lap
+    spread and noise, over its kept laps, unscaled) and ``"estimate"`` (the wind estimated on
+    each flight by each :class:`~uavwind.method.wind_estimator.WindEstimator` method fitted on
+    the other controllers: :func:`uavwind.analysis.wind_estimates.estimation_rows`)."""
     check_instance(study, "study", RealFlightStudy)
     params = ClusteringParams.from_kwargs({"max_iter": study.max_iter, **params},
                                           "clustering parameters").to_dict()
@@ -229,17 +261,21 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
         conditions = [c for c in conditions if c in study.conditions]
     raw = _laps(flights, study)
     laps, _ = _windows({k: w for k, w in raw.items() if k[1] in conditions}, study)
-    tasks = [(a, b, ch) for a, b in combinations(conditions, 2) for ch in study.channels]
-    from joblib import Parallel, delayed
-    out = Parallel(n_jobs=n_jobs)(delayed(_pair_task)(laps, controllers, a, b, ch, params)
-                                  for a, b, ch in tasks)
+    tasks = [delayed(_pair_task)(laps, controllers, a, b, ch, params)
+             for a, b in combinations(conditions, 2) for ch in study.channels]
+    if len(controllers) > 1:
+        tasks += [delayed(_control_task)(laps, controllers, c, ch, params)
+                  for c in conditions for ch in study.channels]
+    out = Parallel(n_jobs=n_jobs)(tasks)
     rows = [r for rs in out for r in rs]
     rows += _flight_rows(flights, raw)
+    rows += estimation_rows(flights)
     df = pd.DataFrame(rows)
-    cols = ["kind", "controller", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
+    cols = ["kind", "controller", "other", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
-            "tilt_deg", "aero_force_x", "aero_force_norm", "tracking_rms", "thrust_sp",
-            "n_laps"]
+            "tilt_deg", "pitch_deg", "aero_force_x", "aero_force_z", "aero_force_norm",
+            "tracking_rms", "thrust_sp", "fa_x_spread", "n_laps", *noise_columns(),
+            "method", "estimate", "sample_rmse", "amplitude", "phase", "phase_ref", "lag"]
     for c in cols:
         if c not in df.columns:
             df[c] = np.nan
@@ -248,21 +284,64 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     return df
 
 
+#: What a flight row's noise columns measure: ``noise_<channel>_<axis>``, the standard
+#: deviation of the channel's content above :data:`~uavwind.data.neuralfly.NOISE_CUTOFF`.
+NOISE_CHANNELS = {"position": "xyz", "velocity": "xyz", "attitude": "xyz", "thrust": "t",
+                  "aero_force": "xyz"}
+
+
+def noise_columns() -> list[str]:
+    """The flight rows' noise columns, in order."""
+    return [f"noise_{ch}_{ax}" for ch, axes in NOISE_CHANNELS.items() for ax in axes]
+
+
+def flight_summaries(flights: list[RealFlight], study: RealFlightStudy = RealFlightStudy()
+                     ) -> list[dict]:
+    """The kind ``"flight"`` rows of :func:`compute_rows` alone (one per flight, over the
+    laps ``study`` keeps), without the clustering."""
+    check_instance(study, "study", RealFlightStudy)
+    return _flight_rows(flights, _laps(flights, study))
+
+
 def _flight_rows(flights, raw):
-    """One row per flight: its kept laps' mean tilt, aerodynamic force, tracking error and
-    thrust set-point, unscaled (``raw``: :func:`_laps`)."""
+    """One row per flight: its kept laps' mean tilt and lean towards +x (``pitch_deg``),
+    aerodynamic force (x, z, norm), tracking error and thrust over the hover throttle,
+    unscaled (``raw``: :func:`_laps`); the lap-to-lap spread of the slow part of the force
+    along x (``fa_x_spread``: RMS about the mean lap, below the noise cutoff: gusts and the
+    controller) and each channel's noise (:func:`noise_columns`) over the same laps."""
     rows = []
     for f in flights:
         w = raw[(f.controller, f.condition)]
         fa = w["aero_force"]
-        rows.append({"kind": "flight", "controller": f.controller, "condition": f.condition,
-                     "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"].mean()),
-                     "aero_force_x": float(fa[..., 0].mean()),
-                     "aero_force_norm": float(np.linalg.norm(fa, axis=-1).mean()),
-                     "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"],
-                                                                   axis=-1) ** 2).mean())),
-                     "thrust_sp": float(w["thrust"].mean()),
-                     "n_laps": int(len(w["starts"]))})
+        a = f.arrays
+        t = a["t"]
+        dt = float(np.median(np.diff(t)))
+        lap = float(np.median(np.diff(lap_starts(f))))
+        span = (t >= w["starts"][0]) & (t < w["starts"][-1] + lap)  # the kept laps
+        slow, _ = split_noise(a["fa"], dt)
+        slow_laps = flight_laps(RealFlight(controller=f.controller, condition=f.condition,
+                                           wind_speed=f.wind_speed, source=f.source,
+                                           arrays={**a, "fa": slow}),
+                                ("aero_force",), fa.shape[1], 0)
+        kept = np.isin(np.round(slow_laps["starts"], 9), np.round(w["starts"], 9))
+        sl = slow_laps["aero_force"][kept][..., 0]
+        row = {"kind": "flight", "controller": f.controller, "condition": f.condition,
+               "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"].mean()),
+               "pitch_deg": float(pitch_degrees(a["R"][span]).mean()),
+               "aero_force_x": float(fa[..., 0].mean()),
+               "aero_force_z": float(fa[..., 2].mean()),
+               "aero_force_norm": float(np.linalg.norm(fa, axis=-1).mean()),
+               "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"],
+                                                             axis=-1) ** 2).mean())),
+               "thrust_sp": float(w["thrust"].mean()),
+               "fa_x_spread": float(np.sqrt(((sl - sl.mean(0)) ** 2).mean()))
+               if len(sl) > 1 else np.nan,
+               "n_laps": int(len(w["starts"]))}
+        for ch, axes in NOISE_CHANNELS.items():
+            _, fast = split_noise(channel_series(f, ch)[span], dt)
+            for k, ax in enumerate(axes):
+                row[f"noise_{ch}_{ax}"] = float(fast[:, k].std())
+        rows.append(row)
     return rows
 
 
@@ -313,15 +392,13 @@ def real_flight_rows(folder: os.PathLike | str | None = None, profile: str = "pa
 # summaries (what the page shows)
 # --------------------------------------------------------------------------- #
 def _ci(values):
-    v = np.asarray(values, dtype=float)
-    if v.size < 2:
-        return float(v.mean()), np.nan, np.nan
-    return bootstrap_ci(v)
+    """Mean and 95% t interval over controllers (NaN bounds for one)."""
+    return t_ci(np.asarray(values, dtype=float))
 
 
 def pair_table(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per pair of conditions and channel: the mean score over controllers with its
-    bootstrap CI over controllers, the share of controllers whose clusters are the two
+    t interval over controllers, the share of controllers whose clusters are the two
     flights, the pooled score, and the leave-one-controller-out accuracy with its CI."""
     cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
     pooled = rows[(rows["kind"] == "cluster") & (rows["controller"] == "pooled")]
@@ -364,6 +441,40 @@ def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
     df = pd.DataFrame(out).sort_values("mean", ascending=False, ignore_index=True)
     df.insert(1, "rank", np.arange(1, len(df) + 1))
     return df
+
+
+def controlled_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """One row per channel: the mean score over controllers on different winds (each
+    controller's mean over the pairs of winds), on the same wind (the negative control,
+    each controller's mean over the winds), their paired difference per controller with a
+    95% t interval over controllers, the share of correctly grouped control pairs, and the
+    ``verdict``: ``"separates the winds"`` when the difference's interval lies above 0,
+    ``"no better than its control"`` when it lies below or at 0, else ``"cannot decide"``
+    (and with fewer than two controllers)."""
+    cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
+    ctl = rows[rows["kind"] == "control"]
+    out = []
+    for ch, g in cl.groupby("channel", sort=False):
+        diff_wind = g.groupby("controller")["score"].mean()
+        same = ctl[ctl.channel == ch].groupby("controller")["score"].mean()
+        both = pd.concat({"winds": diff_wind, "same": same}, axis=1).dropna()
+        m, lo, hi = _ci((both["winds"] - both["same"]).to_numpy()) if len(both) else (np.nan,) * 3
+        if len(both) < 2 or np.isnan(lo):
+            verdict = "cannot decide"
+        elif lo > 0:
+            verdict = "separates the winds"
+        elif hi <= 0:
+            verdict = "no better than its control"
+        else:
+            verdict = "cannot decide"
+        c = ctl[ctl.channel == ch]
+        out.append({"channel": ch, "different_winds": float(diff_wind.mean()),
+                    "same_wind": float(same.mean()) if len(same) else np.nan,
+                    "same_wind_correct": float(c["correct"].astype(float).mean())
+                    if len(c) else np.nan,
+                    "difference": m, "ci_low": lo, "ci_high": hi,
+                    "n_controllers": len(both), "verdict": verdict})
+    return pd.DataFrame(out).sort_values("difference", ascending=False, ignore_index=True)
 
 
 def flight_table(rows: pd.DataFrame) -> pd.DataFrame:

@@ -36,7 +36,8 @@ import pandas as pd
 from ..core.checks import check_scalar
 
 __all__ = ["RealFlight", "CONDITIONS", "CHANNELS", "COLUMNS", "ENV_VAR", "load_neuralfly",
-           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "channel_series", "tilt_degrees", "CITATION"]
+           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "channel_series", "tilt_degrees", "pitch_degrees", "split_noise", "NOISE_CUTOFF",
+           "CITATION"]
 
 #: The environment variable naming the folder of the flights.
 ENV_VAR = "UAVWIND_NEURALFLY"
@@ -248,13 +249,41 @@ def tilt_degrees(R: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(np.asarray(R)[..., 2, 2], -1.0, 1.0)))
 
 
+def pitch_degrees(R: np.ndarray) -> np.ndarray:
+    """The signed lean of the body's z axis towards +x (about y) [deg], from rotations
+    (..., 3, 3): positive when leaning into a wind that blows along -x."""
+    R = np.asarray(R)
+    return np.degrees(np.arctan2(R[..., 0, 2], R[..., 2, 2]))
+
+
+#: The frequency [Hz] above which a channel's content is counted as measurement noise: the
+#: figure-8 runs at 0.16 Hz (0.32 Hz in z), the controllers' and gusts' response lies below.
+NOISE_CUTOFF = 2.0
+
+
+def split_noise(series: np.ndarray, dt: float, cutoff: float = NOISE_CUTOFF
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """``(slow, fast)``: a series (n, ...) sampled every ``dt`` [s] split at ``cutoff`` [Hz]
+    by a zero-phase 4th-order Butterworth low-pass (``slow``) and the rest (``fast``,
+    ``series - slow``): what the wind and the controller do, and measurement noise."""
+    from scipy.signal import butter, sosfiltfilt
+
+    dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False, high=10.0)
+    cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=0.5 / dt,
+                          high_inclusive=False)
+    x = np.asarray(series, dtype=float)
+    slow = sosfiltfilt(butter(4, cutoff, fs=1.0 / dt, output="sos"), x, axis=0)
+    return slow, x - slow
+
+
 #: Channel -> (what it is, its unit). Experiment 13 clusters each.
 CHANNELS: Mapping[str, tuple[str, str]] = {
     "position": ("position p", "m"),
     "tracking_error": ("tracking error p - p_d", "m"),
     "velocity": ("velocity v", "m/s"),
     "attitude": ("body z axis in the world frame (tilt and its direction)", "1"),
-    "thrust": ("thrust set-point T_sp (normalised)", "1"),
+    "thrust": ("thrust set-point over the hover throttle, T_sp / hover_throttle (1 in a "
+               "hover whatever the battery)", "1"),
     "aero_force": ("aerodynamic residual force fa", "N"),
 }
 
@@ -270,8 +299,8 @@ def channel_series(flight: RealFlight, channel: str) -> np.ndarray:
         return a["v"]
     if channel == "attitude":
         return a["R"][:, :, 2]
-    if channel == "thrust":
-        return a["T_sp"][:, None]
+    if channel == "thrust":  # the battery moves the hover throttle (0.45-0.51): divided out
+        return (a["T_sp"] / a["hover_throttle"])[:, None]
     if channel == "aero_force":
         return a["fa"]
     raise ValueError(f"channel must be one of {list(CHANNELS)}, got {channel!r}")

@@ -3,7 +3,9 @@
 This module owns :func:`run_page`: a MyST notebook (``notebooks/<page>.md``) read with
 jupytext, executed by papermill with the build's parameters (profile, workers) under a
 per-cell timeout, its injected parameter cell hidden (the page's provenance lines say the
-same, readably), written to ``output`` only when every cell ran. The Makefile wraps it in
+same, readably), written to ``output`` only when every cell ran. A cell tagged
+``needs-env:VAR`` is left out of the page (not run, not shown) when the environment variable
+``VAR`` is unset or empty: a page whose data the build does not have shows only what it can. The Makefile wraps it in
 the page timeout and names the page when it fails; papermill names the cell. Before, the
 same three steps were three programs per page (jupytext's, papermill's and a small
 script), each paying its own start-up: about 2 CPU-s a page.
@@ -22,7 +24,10 @@ from pathlib import Path
 
 from ..core.io import atomic_write
 
-__all__ = ["run_page", "KERNEL", "main"]
+__all__ = ["run_page", "KERNEL", "NEEDS_ENV", "main"]
+
+#: The tag prefix of a cell that needs an environment variable (``needs-env:VAR``).
+NEEDS_ENV = "needs-env:"
 
 #: The kernel every page runs on.
 KERNEL = {"name": "python3", "display_name": "Python 3", "language": "python"}
@@ -47,6 +52,9 @@ def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str,
         raise ValueError(f"source must be an existing MyST notebook, got {str(source)!r}")
     nb = jupytext.read(source)
     nb.metadata["kernelspec"] = dict(KERNEL)
+    nb.cells = [c for c in nb.cells if all(
+        os.environ.get(t[len(NEEDS_ENV):]) for t in c.metadata.get("tags", [])
+        if t.startswith(NEEDS_ENV))]
     nb = papermill.execute_notebook(
         nb, None, parameters={"profile": profile, "n_jobs": n_jobs}, kernel_name=KERNEL["name"],
         execution_timeout=execution_timeout, start_timeout=start_timeout, log_output=True,

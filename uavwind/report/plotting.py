@@ -15,7 +15,7 @@ that a test cannot reach elsewhere). Figures:
 * beyond the paper: the inference fits, noise, observations, the baseline, the multirotor,
   the future work (:func:`future_grid`) and the closed loop (:func:`closed_loop_curves`,
   :func:`reliability_diagram`, :func:`manoeuvre_plot`), the real flights
-  (:func:`real_vs_simulated`, :func:`channel_pair_heatmap`).
+  (:func:`twin_validation`, :func:`wind_estimates`, :func:`channel_pair_heatmap`).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ __all__ = ["flyable_scores", "fig1_trajectory_and_wind", "fig1_velocity_projecti
            "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
            "predicted_vs_paper", "noise_curves", "observation_bars", "baseline_vs_clustering",
            "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp",
-           "real_vs_simulated", "channel_pair_heatmap"]
+           "twin_validation", "wind_estimates", "channel_pair_heatmap"]
 
 GROUP_COLOURS = ("tab:blue", "tab:orange")
 
@@ -654,31 +654,63 @@ def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
     return fig
 
 
-def real_vs_simulated(table) -> Figure:
-    """Exp 13: tilt [deg], aerodynamic force along the wind [N] and tracking error [m]
-    against wind speed, the real flights' mean with their spread over controllers (bars:
-    min to max) beside the simulation's (``table``:
-    :func:`uavwind.analysis.figure8.prediction_table`); the fitted condition is circled."""
+def twin_validation(table) -> Figure:
+    """Exp 13: the calibrated twin against the real flights, one panel per quantity of
+    :data:`uavwind.analysis.figure8.VALIDATION` against wind speed: the five real
+    controllers' range (bars), the held-out controller (filled), the twin's mean over its
+    seeds (open squares); where the twin was fitted, its marker is circled (``table``:
+    :func:`uavwind.analysis.figure8.validation_table`)."""
     plt = _plt()
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.8), constrained_layout=True)
-    panels = (("tilt_deg", "mean tilt [deg]"), ("force", "aerodynamic force along x [N]"),
-              ("tracking_rms", "tracking error, RMS [m]"))
-    x = table["wind_speed"].to_numpy(float)
-    sin = (table["condition"] == "70p20sint").to_numpy()
-    x = np.where(sin, x + 0.25, x)  # 8.5 + 2.4 sin t beside the steady 8.5
-    for ax, (c, label) in zip(axes, panels):
-        real = table[f"{c}_real"].to_numpy(float)
-        err = np.vstack([real - table[f"{c}_real_min"], table[f"{c}_real_max"] - real])
-        ax.errorbar(x, real, yerr=np.clip(err, 0, None), fmt="o", color="black", capsize=3,
-                    label="real (5 controllers: mean, min-max)")
-        ax.plot(x, table[f"{c}_sim"], "s", color="tab:red", mfc="none",
-                label="simulated (SE3, 5 gust seeds)")
-        fit = table["fitted"].to_numpy(bool)
-        ax.plot(x[fit], table[f"{c}_sim"][fit], "o", ms=14, mfc="none", color="tab:blue",
-                label="drag fitted here")
-        ax.set(xlabel="wind speed [m/s]", ylabel=label)
+    quantities = list(dict.fromkeys(table["quantity"]))
+    ncols = 4
+    nrows = math.ceil(len(quantities) / ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(13, 3.3 * nrows), constrained_layout=True)
+    axes = np.atleast_1d(axes).ravel()
+    for ax, q in zip(axes, quantities):
+        t = table[table["quantity"] == q]
+        x = t["wind_speed"].to_numpy(float) + np.where(t["condition"] == "70p20sint", 0.35, 0.0)
+        mid = (t["real_min"] + t["real_max"]).to_numpy(float) / 2
+        half = (t["real_max"] - t["real_min"]).to_numpy(float) / 2
+        ax.errorbar(x, mid, yerr=half, fmt="none", color="0.55", capsize=4, lw=2,
+                    label="real: 5 controllers, min-max")
+        ax.plot(x, t["held_out"], "o", color="black", label="real: held-out controller")
+        ax.plot(x, t["sim"], "s", color="tab:red", mfc="none", ms=7, label="twin: 5 seeds' mean")
+        fit = t["fitted"].to_numpy(bool)
+        ax.plot(x[fit], t["sim"].to_numpy(float)[fit], "o", ms=15, mfc="none", color="tab:blue",
+                label="twin fitted here")
+        ax.set_title(f"{q} [{t['unit'].iloc[0]}]", fontsize=10)
+        ax.set_xlabel("wind speed [m/s]")
+        ax.set_xticks([0, 4.2, 8.5, 12.1])
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="upper left")
+    for ax in axes[len(quantities):]:
+        ax.axis("off")
+    handles, labels = axes[0].get_legend_handles_labels()
+    (axes[len(quantities)] if len(quantities) < len(axes) else axes[0]).legend(
+        handles, labels, loc="center", fontsize=9, frameon=False)
+    return fig
+
+
+def wind_estimates(rows) -> Figure:
+    """Exp 13: each held-out flight's mean estimated wind speed against the tunnel's, one
+    panel per :class:`~uavwind.method.wind_estimator.WindEstimator` method (``rows``: the
+    real rows' kind ``"estimate"``; the sinusoidal wind's flights drawn beside the steady
+    8.5 m/s), the identity line dashed."""
+    plt = _plt()
+    est = rows[rows["kind"] == "estimate"]
+    methods = list(dict.fromkeys(est["method"]))
+    fig, axes = plt.subplots(1, len(methods), figsize=(4.2 * len(methods), 3.8),
+                             constrained_layout=True, sharey=True, squeeze=False)
+    for ax, m in zip(axes[0], methods):
+        g = est[est["method"] == m]
+        for ctl, d in g.groupby("controller"):
+            x = d["wind_speed"].to_numpy(float) + np.where(d["condition"] == "70p20sint",
+                                                           0.35, 0.0)
+            ax.plot(x, d["estimate"], "o", ms=5, alpha=0.8, label=ctl)
+        ax.plot([0, 13], [0, 13], "--", color="0.5", lw=1)
+        ax.set(title=m, xlabel="tunnel wind [m/s]", xticks=[0, 4.2, 8.5, 12.1])
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("estimated mean wind [m/s]")
+    axes[0, 0].legend(title="held out", fontsize=8, loc="upper left")
     return fig
 
 

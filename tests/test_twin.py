@@ -1,0 +1,247 @@
+"""The calibrated twin of Experiment 13 and what it is built of: winds that add, SE3 with an
+integral term, a thrust cone and yaw given up first, the hover trim, the sensor axis offset
+and noise, the calibration's fits, and the twin held to the real flights (when they are
+there: ``$UAVWIND_NEURALFLY``)."""
+import math
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import uavwind as uw
+from uavwind.analysis import figure8, real_flights as rf
+from uavwind.data.neuralfly import NOISE_CUTOFF, lap_starts, pitch_degrees, split_noise
+from uavwind.sim.multirotor import NEURAL_FLY_CONTROL, PX4_LIKE, Multirotor, PositionControl
+
+DURATION = 20.0  # three laps: the ramp lap, then two
+
+
+def _flight(condition="100wind", seed=0, cal=None, duration=DURATION):
+    cal = cal or figure8.TwinCalibration()
+    return figure8.simulated_flight(cal.vehicle(), condition, seed, duration, cal)
+
+
+# --------------------------------------------------------------------------- #
+# gusts that reach the twin (issue: CombinedWind placed them beside it)
+# --------------------------------------------------------------------------- #
+def test_a_gust_seed_changes_the_twins_flight_and_without_gusts_none_does():
+    gusty = figure8.TwinCalibration(gust_scale=0.25)
+    a, b = _flight(seed=0, cal=gusty), _flight(seed=3, cal=gusty)
+    keep = a.t > 2 * np.pi
+    assert np.abs(a.p - b.p)[keep].max() > 1e-3
+    assert np.abs(a.fa - b.fa)[keep].max() > 0.05
+    calm_a, calm_b = _flight(seed=0), _flight(seed=3)
+    assert np.array_equal(calm_a.p, calm_b.p) and np.array_equal(calm_a.fa, calm_b.fa)
+    # the gusts are in the wind the twin flies: its force varies more with them
+    assert (np.std(split_noise(a.fa[keep, 0], 0.02)[0])
+            > np.std(split_noise(calm_a.fa[keep, 0], 0.02)[0]))
+
+
+def test_the_twins_wind_is_the_mean_plus_gusts():
+    w = figure8._wind("100wind", np.random.SeedSequence(1), 0.25)
+    pos = np.array([[0.0, 0.0, 2.15]])
+    v = np.array([w.velocity(t, pos)[0] for t in np.arange(8.0, 20.0, 0.02)])
+    assert v[:, 0].mean() == pytest.approx(-12.1, abs=0.6)
+    assert v[:, 0].std() > 0.05 and v[:, 1].std() > 0.05  # the gusts, not the mean alone
+    calm = figure8._wind("100wind", np.random.SeedSequence(1), 0.0)
+    assert calm.velocity(10.0, pos)[0].tolist() == [-12.1, 0.0, 0.0]
+
+
+# --------------------------------------------------------------------------- #
+# the position controller
+# --------------------------------------------------------------------------- #
+def test_the_integral_term_removes_the_steady_error_se3_leaves():
+    """In a steady wind SE3 (a PD law) holds a hover off its point by F / (m kp); with the
+    integral term the error goes to zero."""
+    wind = uw.RampedWind(uw.ConstantWind([[-8.5, 0.0, 0.0]]), 3.0)
+    hover = uw.Hover((0.0, 0.0, 2.0))
+    pd_law = uw.simulate_flight(hover, wind, uav=Multirotor.neural_fly(), dt=0.1, duration=40.0)
+    pid = uw.simulate_flight(hover, wind, uav=Multirotor.neural_fly(position_control=PX4_LIKE),
+                             dt=0.1, duration=40.0)
+    drag = -Multirotor.neural_fly().hover_trim(8.5)[1] * math.sin(
+        math.radians(Multirotor.neural_fly().hover_trim(8.5)[0]))
+    steady = drag / (2.6 * 6.5)  # F / (m kp): the air pushes along -x
+    assert pd_law.positions[0, -1, 0] == pytest.approx(steady, rel=0.05)
+    assert abs(pid.positions[0, -1, 0]) < 0.02 < abs(steady)
+
+
+def test_the_thrust_cone_bounds_the_tilt_and_keeps_the_thrust_positive():
+    """A reference that asks for far more than the cone: the vehicle leans at most the
+    cone's angle (plus the attitude loop's overshoot) and never commands a negative
+    thrust."""
+    far = uw.WaypointSpline([[0, 0, 10.0], [6, 0, 10.0], [0, 0, 10.0]], [0.0, 1.0, 2.0])
+    for control in (PX4_LIKE, NEURAL_FLY_CONTROL):
+        f = uw.simulate_flight(far, uw.ConstantWind([[0.0, 0, 0]]),
+                               uav=Multirotor.neural_fly(position_control=control), dt=0.01,
+                               duration=4.0)
+        q = f.attitudes[0]
+        tilt = np.degrees(np.arccos(1 - 2 * (q[:, 0] ** 2 + q[:, 1] ** 2)))
+        assert tilt.max() < control.max_tilt + 5.0
+        assert f.thrust_commands.min() > 0.0
+    plain = uw.simulate_flight(far, uw.ConstantWind([[0.0, 0, 0]]), uav=Multirotor.neural_fly(),
+                               dt=0.01, duration=4.0)
+    q = plain.attitudes[0]
+    assert np.degrees(np.arccos(1 - 2 * (q[:, 0] ** 2 + q[:, 1] ** 2))).max() > 65.0
+
+
+def test_a_large_frame_gives_up_yaw_before_it_flips():
+    """On the Neural-Fly frame a manoeuvre's yaw moment saturates the motors under RotorPy's
+    gains; the controller that gives up yaw first flies it (issue: such loops flipped)."""
+    ref = uw.sample_waypoints(np.random.default_rng(3))
+    wind = uw.RampedWind(uw.ConstantWind([[0.9, 0.9, 0.0]]), 3.0)
+    control = PositionControl(max_tilt=60.0)
+    f = uw.simulate_flight(ref, wind, uav=Multirotor.neural_fly(position_control=control),
+                           dt=0.1, duration=12.0)
+    q = f.attitudes[0]
+    assert np.degrees(np.arccos(1 - 2 * (q[:, 0] ** 2 + q[:, 1] ** 2))).max() < 60.0
+    assert np.linalg.norm(f.positions - f.references, axis=-1).max() < 0.5
+
+
+def test_position_control_is_checked_and_rotorpys_se3_is_the_default():
+    assert Multirotor().position_control is None
+    for bad, match in (({"ki": (1, 2)}, "ki"), ({"ki": (-1, 0, 0)}, "ki"),
+                       ({"max_tilt": 0.0}, "max_tilt"), ({"max_tilt": 90.0}, "max_tilt"),
+                       ({"min_thrust": 1.5}, "min_thrust"),
+                       ({"min_thrust": 0.5, "max_thrust": 0.4}, "max_thrust"),
+                       ({"max_integral_acceleration": 0.0}, "max_integral_acceleration")):
+        with pytest.raises((ValueError, TypeError), match=match):
+            PositionControl(**bad)
+    with pytest.raises(TypeError, match="position_control"):
+        Multirotor(position_control="px4")
+    s = uw.make_setting("light constant", "light constant", 2, uav=Multirotor())
+    assert s.key() == uw.make_setting("light constant", "light constant", 2,
+                                      uav=Multirotor(lift_scale=1.0, position_control=None)).key()
+    assert s.key() != uw.make_setting("light constant", "light constant", 2,
+                                      uav=Multirotor(position_control=PX4_LIKE)).key()
+
+
+def test_the_hover_trim_is_where_a_hover_settles():
+    v = Multirotor.neural_fly(position_control=PX4_LIKE)
+    tilt, thrust = v.hover_trim(10.0)
+    f = uw.simulate_flight(uw.Hover((0, 0, 5.0)), uw.ConstantWind([[10.0, 0, 0]]), uav=v,
+                           dt=0.1, duration=30.0)
+    q = f.attitudes[0, -1]
+    assert np.degrees(np.arccos(1 - 2 * (q[0] ** 2 + q[1] ** 2))) == pytest.approx(tilt, abs=0.05)
+    assert f.thrust_commands[0, -1] == pytest.approx(thrust, rel=2e-3)
+    assert v.hover_trim(0.0) == pytest.approx((0.0, v.weight))
+    assert tilt > math.degrees(math.atan2(v.drag_force(10.0), v.weight))  # the tilted frame
+    with pytest.raises(ValueError, match="airspeed"):
+        v.hover_trim(-1.0)
+    with pytest.raises(ValueError, match="no rotor speed"):
+        Multirotor.neural_fly().hover_trim(30.0)
+
+
+def test_lift_scale_scales_the_translational_lift_alone():
+    base, half = Multirotor.neural_fly(), Multirotor.neural_fly(lift_scale=0.5)
+    assert half.quad_params()["k_h"] == pytest.approx(0.5 * base.quad_params()["k_h"])
+    assert half.drag_force(8.0) == pytest.approx(base.drag_force(8.0), rel=1e-12)
+    assert half.hover_trim(8.0)[1] > base.hover_trim(8.0)[1]  # less lift, more thrust
+    with pytest.raises(ValueError, match="lift_scale"):
+        Multirotor(lift_scale=-0.1)
+
+
+# --------------------------------------------------------------------------- #
+# the sensors
+# --------------------------------------------------------------------------- #
+def test_the_axis_offset_shows_as_the_real_vehicles_still_air_lean_and_force():
+    cal = figure8.TwinCalibration(axis_offset=-3.0)
+    f = _flight("nowind", cal=cal)
+    bare = _flight("nowind")
+    keep = f.t > 2 * np.pi
+    lean = pitch_degrees(f.R)[keep].mean() - pitch_degrees(bare.R)[keep].mean()
+    assert lean == pytest.approx(-3.0, abs=1e-6)
+    # the authors' fa from the offset attitude: + T sin(3 deg) along x, as the real flights
+    extra = (f.fa - bare.fa)[keep, 0].mean()
+    assert extra == pytest.approx(25.5 * math.sin(math.radians(3.0)), rel=0.02)
+    assert np.array_equal(f.p, bare.p)  # the flight itself is the same
+
+
+def test_the_noise_above_the_cutoff_is_what_the_calibration_says():
+    cols = rf.noise_columns()
+    levels = dict.fromkeys(cols, 0.0) | {"noise_aero_force_x": 0.8, "noise_thrust_t": 0.01,
+                                         "noise_attitude_x": 0.002, "noise_position_z": 0.004}
+    cal = figure8.TwinCalibration(noise=tuple(("35wind", c, v) for c, v in levels.items()))
+    f = _flight("35wind", cal=cal, duration=30.0)
+    keep = f.t > 2 * np.pi
+    for col, series in (("noise_aero_force_x", f.fa[:, 0]),
+                        ("noise_thrust_t", f.T_sp / f.hover_throttle),
+                        ("noise_attitude_x", f.R[:, 0, 2]), ("noise_position_z", f.p[:, 2])):
+        fast = split_noise(series[keep], 0.02, NOISE_CUTOFF)[1]
+        assert fast.std() == pytest.approx(levels[col], rel=0.1), col
+    other = _flight("35wind", seed=1, cal=cal, duration=30.0)
+    assert not np.array_equal(f.fa, other.fa)
+    with pytest.raises(ValueError, match="noise"):
+        figure8.TwinCalibration(noise=(("35wind", "noise_altitude_q", 1.0),))
+
+
+def test_calibration_values_are_checked():
+    with pytest.raises(ValueError, match="two laps"):
+        figure8.calibrate_twin(_target_rows({"force_x": -7.0, "force_z": -0.4, "offset": -2.5,
+                                             "spread": 0.3}), rf.RealFlightStudy(max_laps=1))
+    for bad in ({"drag_scale": 0.0}, {"gust_scale": -1.0}, {"axis_offset": 90.0}):
+        with pytest.raises(ValueError, match=next(iter(bad))):
+            figure8.TwinCalibration(**bad)
+    with pytest.raises(ValueError, match="at least two"):
+        figure8.held_out_controller(["A"])
+    assert figure8.held_out_controller(["NF-C", "indi", "L1"]) == "indi"
+
+
+# --------------------------------------------------------------------------- #
+# the calibration against targets it is given
+# --------------------------------------------------------------------------- #
+def _target_rows(targets):
+    """Flight rows of two training controllers whose means are ``targets``."""
+    rows = []
+    for c in ("A", "B"):
+        for cond in figure8.CONDITIONS:
+            row = {"kind": "flight", "controller": c, "condition": cond,
+                   "aero_force_x": 0.0, "aero_force_z": 0.0, "pitch_deg": 0.0,
+                   "fa_x_spread": 0.0, **dict.fromkeys(rf.noise_columns(), 0.01)}
+            if cond == "nowind":
+                row.update(pitch_deg=targets["offset"], aero_force_x=1.0)
+            if cond == figure8.FIT_CONDITION:
+                row.update(aero_force_x=1.0 + targets["force_x"], aero_force_z=targets["force_z"])
+            if cond == figure8.SPREAD_CONDITION:
+                row.update(fa_x_spread=targets["spread"])
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def test_the_calibration_hits_its_targets(monkeypatch):
+    targets = {"force_x": -7.0, "force_z": -0.4, "offset": -2.5, "spread": 0.3}
+    study = rf.RealFlightStudy(max_laps=2)
+    cal = figure8.calibrate_twin(_target_rows(targets), study, controllers=("A", "B"))
+    assert cal.axis_offset == -2.5 and cal.controllers == ("A", "B")
+    assert len(cal.noise) == len(figure8.CONDITIONS) * len(rf.noise_columns())
+    quiet = figure8.TwinCalibration(drag_scale=cal.drag_scale, lift_scale=cal.lift_scale,
+                                    axis_offset=cal.axis_offset)
+    row = figure8._twin_row(quiet, figure8.FIT_CONDITION, study)
+    still = figure8._twin_row(quiet, "nowind", study)
+    assert row["aero_force_x"] - still["aero_force_x"] == pytest.approx(-7.0, rel=0.01)
+    assert row["aero_force_z"] - still["aero_force_z"] == pytest.approx(-0.4, abs=0.03)
+    spread = figure8._twin_row(figure8.TwinCalibration(**{
+        **quiet.to_dict(), "gust_scale": cal.gust_scale}), figure8.SPREAD_CONDITION, study)
+    assert spread["fa_x_spread"] == pytest.approx(0.3, rel=0.03)
+
+
+# --------------------------------------------------------------------------- #
+# held to the real flights
+# --------------------------------------------------------------------------- #
+needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
+                                   reason="needs the Neural-Fly flights ($UAVWIND_NEURALFLY)")
+
+
+@needs_flights
+def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
+    """``NEURAL_FLY_FITTED`` (Exp 14's vehicle) is Exp 13's fit, redone here at the quick
+    profile on the flights' rows."""
+    from uavwind.study.registry import NEURAL_FLY_FITTED
+
+    flights = uw.load_neuralfly()
+    study = rf.STUDIES["quick"]
+    real = rf.compute_rows(flights, rf.RealFlightStudy(max_laps=2, channels=("thrust",),
+                                                       conditions=("nowind", "70wind")))
+    cal = figure8.calibrate_twin(real, study)
+    assert cal.drag_scale == pytest.approx(NEURAL_FLY_FITTED["drag_scale"], abs=0.02)
+    assert cal.lift_scale == pytest.approx(NEURAL_FLY_FITTED["lift_scale"], abs=0.03)
