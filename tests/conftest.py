@@ -107,11 +107,11 @@ def not_a_regular_file():
 
 def _forbid_writes():
     """Run on every worker: any attempt to write a cache entry there fails its task."""
-    from uavwind.study import cache
+    from uavwind.core import store
 
     def refuse(*args, **kwargs):
         raise AssertionError("a cluster worker tried to write a cache entry")
-    cache.atomic_write = refuse
+    store.atomic_write = refuse
     return os.getcwd()
 
 

@@ -27,8 +27,9 @@ import warnings
 from collections.abc import Sequence
 
 from .analysis.tables import summary_table
-from .core.io import atomic_write, check_target
+from .core.io import check_target
 from .core.parallel import check_jobs, cores
+from .core.store import atomic_write
 from .method.clustering import ENGINES
 from .study.fill import fill_cache, time_by_experiment
 from .study.profiles import PROFILES
