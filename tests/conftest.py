@@ -34,15 +34,84 @@ def compiled_kernels():
     softdtw.warmup(parallel=True, every=True)
 
 
+# ---- the result store's tests (tests/test_cache.py, test_store.py, test_future_work.py,
+# test_explore.py): forged entries, and reads that must not hang
+
+#: Parquet metadata key of the content digest stored with every parquet entry.
+DIGEST_KEY = b"uavwind.sha256"
+
+
+def _rewrite_parquet(path, edit, keep_digest=True):
+    """Edit a parquet entry's content, keeping its stored digest (as a careless editor would:
+    a value changed, the digest not) or writing it back without one (as ``to_parquet``
+    does)."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    table = pq.read_table(path)
+    new = pa.Table.from_pandas(edit(table.to_pandas()), preserve_index=False)
+    if keep_digest:
+        new = new.replace_schema_metadata({**(new.schema.metadata or {}),
+                                           DIGEST_KEY: table.schema.metadata[DIGEST_KEY]})
+    pq.write_table(new, path)
+
+
+@pytest.fixture
+def rewrite_parquet():
+    """:func:`_rewrite_parquet`: ``rewrite_parquet(path, edit, keep_digest=True)``."""
+    return _rewrite_parquet
+
+
+@contextlib.contextmanager
+def _deadline(seconds):
+    """Fail (``TimeoutError``) instead of hanging if the block runs longer than ``seconds``
+    (SIGALRM: a read blocked in ``open`` on a named pipe is interrupted, PEP 475)."""
+    def expire(signum, frame):
+        raise TimeoutError(f"still running after {seconds} s (a read that hangs?)")
+    previous = signal.signal(signal.SIGALRM, expire)
+    signal.alarm(seconds)
+    try:
+        yield
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.fixture
+def deadline():
+    """:func:`_deadline`: ``with deadline(60): ...`` fails the test rather than hanging it."""
+    return _deadline
+
+
+def _not_a_regular_file(path, what):
+    """Put ``what`` (``"fifo"``, ``"folder"`` or ``"link to fifo"``) where ``path`` was."""
+    if path.exists() or path.is_symlink():
+        path.unlink()
+    if what == "fifo":
+        os.mkfifo(path)
+    elif what == "folder":
+        path.mkdir()
+    else:
+        os.mkfifo(path.with_name(path.name + ".pipe"))
+        path.symlink_to(path.name + ".pipe")
+
+
+@pytest.fixture
+def not_a_regular_file():
+    """:func:`_not_a_regular_file`: ``not_a_regular_file(path, "fifo" | "folder" |
+    "link to fifo")``."""
+    return _not_a_regular_file
+
+
 # ---- one dask LocalCluster for the session (tests/test_cluster_fill.py, tests/test_parallel.py)
 
 def _forbid_writes():
     """Run on every worker: any attempt to write a cache entry there fails its task."""
-    from uavwind.study import cache
+    from uavwind.core import store
 
     def refuse(*args, **kwargs):
         raise AssertionError("a cluster worker tried to write a cache entry")
-    cache.atomic_write = refuse
+    store.atomic_write = refuse
     return os.getcwd()
 
 

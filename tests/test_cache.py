@@ -12,6 +12,7 @@ import pytest
 
 import uavwind as uw
 from uavwind import study as ex
+from uavwind.core import store
 from uavwind.study import cache, runner
 
 
@@ -109,7 +110,7 @@ def test_a_full_disk_leaves_no_orphan_file(tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(pq, "write_table", full)
     with pytest.raises(OSError, match="No space"):
-        cache.atomic_write(pd.DataFrame({"score": [1.0]}), tmp_path / "x.parquet")
+        store.atomic_write(tmp_path / "x.parquet", pd.DataFrame({"score": [1.0]}))
     assert list(tmp_path.iterdir()) == []
 
 
@@ -195,22 +196,6 @@ def _one_chunk(tmp_path, computed):
     return path
 
 
-def _rewrite(path, edit, keep_checksum=True):
-    """Edit a chunk's content, keeping its stored checksum (as a careless editor would) or
-    writing it back without one."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    table = pq.read_table(path)
-    df = edit(table.to_pandas())
-    new = pa.Table.from_pandas(df, preserve_index=False)
-    if keep_checksum:
-        new = new.replace_schema_metadata({**(new.schema.metadata or {}),
-                                           cache.CHECKSUM_KEY: table.schema.metadata[
-                                               cache.CHECKSUM_KEY]})
-    pq.write_table(new, path)
-
-
 @pytest.mark.parametrize("edit, keep, why", [
     # score and silhouette edited consistently: only the checksum can tell
     (lambda d: d.assign(score=d["score"] * 0.5, silhouette=d["silhouette"] * 0.5), True,
@@ -224,19 +209,20 @@ def _rewrite(path, edit, keep_checksum=True):
     (lambda d: d.assign(uavwind_version="0.1.0").drop(columns=["silhouette"]), False,
      "no silhouette column"),
 ])
-def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why, exp5_computed):
+def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why, exp5_computed, rewrite_parquet):
     path = _one_chunk(tmp_path, exp5_computed)
-    _rewrite(path, edit, keep)
+    rewrite_parquet(path, edit, keep)
     with pytest.warns(cache.CorruptChunkWarning, match=why):
         df = ex.run_experiment("exp5", results=tmp_path, **RUN)
     assert df.attrs["cached"] == 0  # recomputed
     assert path.with_name(path.name + ".corrupt").exists()
 
 
-def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path, exp5_computed):
+def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path, exp5_computed,
+                                                               rewrite_parquet):
     path = _one_chunk(tmp_path, exp5_computed)
     before = pd.read_parquet(path)
-    _rewrite(path, lambda d: d.assign(uavwind_version="0.1.0"), keep_checksum=False)
+    rewrite_parquet(path, lambda d: d.assign(uavwind_version="0.1.0"), keep_digest=False)
     with warnings.catch_warnings():
         warnings.simplefilter("error", cache.CorruptChunkWarning)
         df = ex.run_experiment("exp5", results=tmp_path, **RUN)
@@ -275,6 +261,25 @@ def test_a_chunk_that_cannot_be_read_is_left_in_place_and_nothing_is_recomputed(
     monkeypatch.setattr(Path, "read_bytes", real)
     assert path.read_bytes() == good and not any(".corrupt" in p.name
                                                  for p in path.parent.iterdir())
+
+
+@pytest.mark.parametrize("what", ["fifo", "folder", "link to fifo"])
+def test_a_chunk_that_is_not_a_regular_file_is_moved_aside_unopened_and_recomputed(
+        tmp_path, what, exp5_computed, deadline, not_a_regular_file):
+    """A named pipe in place of a chunk hung the read for ever (issue 45): it, a folder, or a
+    symlink to a pipe is damaged, renamed aside (kept, never opened) and recomputed."""
+    import stat
+
+    path = _one_chunk(tmp_path, exp5_computed)
+    not_a_regular_file(path, what)
+    with deadline(60), pytest.warns(cache.CorruptChunkWarning, match=path.name):
+        df = ex.run_experiment("exp5", results=tmp_path, **RUN)
+    assert df.attrs["cached"] == 0
+    pd.testing.assert_frame_equal(exp5_computed["case0"][1], df)
+    aside = path.with_name(path.name + ".corrupt")
+    mode = os.lstat(aside).st_mode
+    assert {"fifo": stat.S_ISFIFO, "folder": stat.S_ISDIR, "link to fifo": stat.S_ISLNK}[what](mode)
+    assert path.is_file() and not path.is_symlink()  # the recomputed chunk, a regular file
 
 
 def test_a_complete_cache_in_a_read_only_folder_is_read(tmp_path, monkeypatch, exp5_computed):
@@ -350,7 +355,7 @@ def test_a_forged_closed_loop_chunk_is_moved_aside_and_recomputed(tmp_path, forg
         bad["p_true"] = np.where(bad["test_group"] == 1, bad["p_group_b"], 1 - bad["p_group_b"])
         bad["correct"] = bad["predicted"] == bad["test_group"]
     path = tmp_path / "chunk.parquet"
-    cache.atomic_write(bad, path)  # a forgery with its checksum recomputed
+    store.atomic_write(path, bad)  # a forgery with its checksum recomputed
     with pytest.warns(cache.CorruptChunkWarning):
         assert cache.read_verified(path, expect) is None
     assert not path.exists() and (tmp_path / "chunk.parquet.corrupt").exists()
@@ -368,7 +373,7 @@ def test_the_content_digest_of_numbers_is_what_it_was_before_its_fast_path():
     def reference(df):  # the digest as first written
         h = hashlib.sha256()
         for col in df.columns:
-            values = [cache._plain(v) for v in df[col].tolist()]
+            values = [store.plain(v) for v in df[col].tolist()]
             h.update(json.dumps([str(col), str(df[col].dtype), values], default=str,
                                 allow_nan=True).encode())
         return h.hexdigest()

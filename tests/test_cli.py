@@ -194,3 +194,12 @@ def test_a_silent_scheduler_is_a_clear_error_within_seconds(tmp_path):
         server.close()
     assert proc.returncode == 2 and "no dask scheduler answered" in err, err
     assert err.count("\n") == 1 and time.monotonic() - t0 < 30
+
+
+def test_run_exp13_asked_for_without_neural_fly_fails_naming_the_variable(monkeypatch, capsys):
+    """Asked for explicitly, Exp 13 without its flights is an error, not a silent exit 0
+    (issue 45); `run all` skips it, saying so."""
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    code = main(["run", "exp13", "--no-progress"])
+    err = capsys.readouterr().err
+    assert code != 0 and "UAVWIND_NEURALFLY" in err and "exp13" in err

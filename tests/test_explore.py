@@ -33,6 +33,31 @@ def test_the_fill_makes_the_grid_and_a_page_never_does(tmp_path, monkeypatch):
     assert explore.cached_grid(tmp_path) == {"controls": {}, "loops": {}} and calls == [1]
 
 
+@pytest.mark.parametrize("damage", ["{}", "not json", "digest kept, controls gone"])
+def test_a_damaged_explorer_grid_is_moved_aside_and_recomputed_with_a_warning(
+        tmp_path, monkeypatch, damage):
+    """A grid replaced by ``{}`` was trusted (issue 45; then explorer_html raised
+    KeyError 'controls'): moved aside, recomputed, a warning naming the file."""
+    import json
+
+    from uavwind.report import explore
+
+    calls = []
+    monkeypatch.setattr(explore, "explore_grid", _stub_grid(calls))
+    grid = explore.cached_grid(tmp_path)
+    (path,) = (tmp_path / "explore").glob("grid-*.json")
+    if damage == "digest kept, controls gone":
+        stored = json.loads(path.read_text())
+        path.write_text(json.dumps({k: v for k, v in stored.items() if k != "content"}
+                                   | {"content": {"loops": {}}}))
+    else:
+        path.write_text(damage)
+    with pytest.warns(UserWarning, match=path.name):
+        again = explore.cached_grid(tmp_path)
+    assert again == grid and "controls" in again and len(calls) == 2
+    assert path.with_name(path.name + ".corrupt").exists()
+
+
 def _stub_grid(calls):
     def explore_grid(pairs=(), n_per_group=(), layouts=(), every=3, engine=None, seed=0):
         calls.append(1)

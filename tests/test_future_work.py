@@ -153,7 +153,7 @@ def test_the_filters_find_a_known_wind_on_a_hover_probe(tmp_path):
     assert ukf["diverged"] == 0 and ukf["rmse"] < 0.5 and ukf["correct"]
     assert set(df["filter"]) == {"ekf", "ukf"} and len(df) == 2
     again = filter_comparison(s, n_flights=1, probe=True, n_jobs=1, results=tmp_path)
-    assert again.equals(df) and len(list((tmp_path / "filters").iterdir())) == 1
+    assert again.equals(df) and len(list((tmp_path / "filters").glob("*.parquet"))) == 1
     with pytest.raises(ValueError, match="kinds"):
         filter_comparison(s, kinds=("kalman",))
     with pytest.raises(TypeError, match="Multirotor"):
@@ -241,23 +241,57 @@ def test_run_filter_names_what_it_cannot_use(short_flight, change, error, word):
 
 def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
     from uavwind.analysis.filters import filter_comparison
-    from uavwind.study.cache import CorruptChunkWarning, atomic_write
+    from uavwind.core.store import atomic_write
+    from uavwind.study.cache import CorruptChunkWarning
 
     s = uw.make_setting("light constant", "strong constant", 2, duration=6.0,
                         uav=Multirotor(start="hover"))
     kw = dict(n_flights=2, probe=True, kinds="ekf", n_jobs=1, results=tmp_path)  # the cheaper one
     df = filter_comparison(s, **kw)
-    (path,) = (tmp_path / "filters").iterdir()
-    atomic_write(df.iloc[::-1].reset_index(drop=True), path)  # forged: checksum recomputed
+    (path,) = (tmp_path / "filters").glob("*.parquet")
+    atomic_write(path, df.iloc[::-1].reset_index(drop=True))  # forged: checksum recomputed
     with pytest.warns(CorruptChunkWarning, match="out of order"):
         again = filter_comparison(s, **kw)
     assert again.equals(df)
-    df.to_parquet(path, index=False)  # written before tables carried a checksum: still read
-    assert filter_comparison(s, **kw).equals(df)
+    df.to_parquet(path, index=False)  # no digest: not trusted (a rewrite drops it), recomputed
+    with pytest.warns(UserWarning, match="no checksum"):
+        assert filter_comparison(s, **kw).equals(df)
     for kwargs, error in (({"probe": "yes"}, TypeError), ({"kinds": ("ekf", "ekf")}, ValueError),
                           ({"kinds": ()}, ValueError)):
         with pytest.raises(error, match="probe|kinds"):
             filter_comparison(s, n_flights=1, n_jobs=1, results=tmp_path, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def hover_filter_table(tmp_path_factory):
+    """One cheap filter comparison, computed once: ``(setting, kwargs without results,
+    folder, table)``; tests copy the folder, never write into it."""
+    from uavwind.analysis.filters import filter_comparison
+
+    s = uw.make_setting("light constant", "strong constant", 2, duration=6.0,
+                        uav=Multirotor(start="hover"))
+    kw = dict(n_flights=1, probe=True, kinds="ekf", n_jobs=1)
+    folder = tmp_path_factory.mktemp("filters")
+    return s, kw, folder, filter_comparison(s, results=folder, **kw)
+
+
+@pytest.mark.parametrize("keep_digest", [False, True])
+def test_a_tampered_filter_table_is_moved_aside_recomputed_and_named(
+        tmp_path, keep_digest, hover_filter_table, rewrite_parquet):
+    """A value changed, the digest not (issue 45: rmse 0.001 was returned as is when the
+    rewrite dropped the digest): moved aside, recomputed, with a warning naming the file."""
+    import shutil
+
+    from uavwind.analysis.filters import filter_comparison
+
+    s, kw, folder, df = hover_filter_table
+    shutil.copytree(folder, tmp_path, dirs_exist_ok=True)
+    (path,) = (tmp_path / "filters").glob("*.parquet")
+    rewrite_parquet(path, lambda d: d.assign(rmse=0.001), keep_digest)
+    with pytest.warns(UserWarning, match=path.name):
+        again = filter_comparison(s, results=tmp_path, **kw)
+    assert again.equals(df) and again["rmse"].iloc[0] != 0.001
+    assert path.with_name(path.name + ".corrupt").exists()  # kept, not deleted
 
 
 def test_the_filter_table_flies_one_scenario_quick_and_all_four_at_the_paper_profile(

@@ -238,7 +238,8 @@ def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
 
 
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
-    """`analyses` and `run exp13` without Neural-Fly's folder: a clear skip, exit 0."""
+    """`analyses` with a bad folder: a clear error; `run exp13` asked for without Neural-Fly's
+    folder: an error naming the variable (issue 45: it exited 0)."""
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(rf.__file__).rsplit("/uavwind/", 1)[0],
            "UAVWIND_RESULTS": str(tmp_path)}
     run = [sys.executable, "-m", "uavwind", "analyses", "--profile", "quick"]
@@ -247,7 +248,7 @@ def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
     assert p.returncode == 2 and "existing folder" in p.stderr
     p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick"],
                        env=env, capture_output=True, text=True, timeout=120)
-    assert p.returncode == 0 and "Experiment 13 is skipped" in p.stderr
+    assert p.returncode != 0 and "UAVWIND_NEURALFLY" in p.stderr
 
 
 def test_rows_read_from_a_folder_are_found_again_without_parsing_it(folder, rows, tmp_path,

@@ -27,8 +27,10 @@ import warnings
 from collections.abc import Sequence
 
 from .analysis.tables import summary_table
-from .core.io import atomic_write, check_target
+from .core.io import check_target
 from .core.parallel import check_jobs, cores
+from .core.store import atomic_write
+from .data.neuralfly import ENV_VAR as NEURALFLY_ENV
 from .method.clustering import ENGINES
 from .study.fill import fill_cache, time_by_experiment
 from .study.profiles import PROFILES
@@ -126,8 +128,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
-    if not ids:
-        return _exp13(args)
+    if not ids or ("exp13" in args.experiments and not os.environ.get(NEURALFLY_ENV)):
+        return _exp13(args, asked=True)  # asked for without its flights: fails before any work
     times = None
     if args.times is not None:
         try:
@@ -178,7 +180,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
     if times is not None:
         _write_times(times, args, t0, records, complete=True)
-    if real and _exp13(args):
+    if real and _exp13(args, asked="exp13" in args.experiments):
         return 2
     if args.no_tables:
         return 0
@@ -193,13 +195,20 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _exp13(args) -> int:
+def _exp13(args, asked: bool) -> int:
     """``run exp13``: Experiment 13's rows into the cache (the flights from
-    ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's predictions."""
+    ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's validation.
+    Without the flights, ``run all`` skips it, saying so (exit 0); asked for by name
+    (``asked``), it is an error naming the variable (exit 2)."""
     from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
     from .analysis.real_flights import channel_table, real_flight_rows
     from .data.neuralfly import ENV_VAR
     if not os.environ.get(ENV_VAR):
+        if asked:
+            print(f"python -m uavwind run exp13: error: Experiment 13 reads Neural-Fly's real "
+                  f"flights and ${ENV_VAR} is not set: set it to the folder of the flights "
+                  f"(or use `python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
+            return 2
         print(f"exp13: no Neural-Fly folder (${ENV_VAR}); Experiment 13 is skipped",
               file=sys.stderr)
         return 0

@@ -24,18 +24,14 @@ averaging it in.
 
 from __future__ import annotations
 
-import contextlib
 import functools
-import hashlib
-import json
 import math
-import warnings
 
 import numpy as np
 import pandas as pd
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
-from ..core.io import refuse_to_compute
+from ..core.store import get_or_compute
 from ..core.parallel import check_jobs, pin_threads
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..method.baseline import two_means
@@ -48,8 +44,7 @@ from ..sim.setting import Setting
 from ..sim.wind import ConstantWind
 from ..study.profiles import DEFAULT_SEED
 from ..study.registry import EXPERIMENTS
-from ..study.cache import (CHECKSUM_KEY, RESULTS_VERSION, CorruptChunkWarning, atomic_write,
-                           content_digest, results_dir)
+from ..study.cache import RESULTS_VERSION
 
 __all__ = ["filter_table", "QUICK_SCENARIOS", "FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
 
@@ -247,9 +242,10 @@ def filter_comparison(setting: Setting, n_flights: int = 5, seed: int = 0, probe
     n_jobs : int, optional
         Worker processes over flights (-1/None: all cores); the table does not depend on it.
     results : path-like, optional
-        The result folder (:func:`~uavwind.study.cache.results_dir`): the table is kept in
-        its ``filters/`` folder under a digest of everything that determines it, and read
-        back (a damaged file is recomputed).
+        The result folder (:func:`~uavwind.core.store.results_dir`): the table is kept in
+        its ``filters/`` folder by :func:`~uavwind.core.store.get_or_compute` under a key of
+        everything that determines it, and read back (a damaged, tampered or unsigned file is
+        moved aside, with a warning naming it, and recomputed).
 
     Returns
     -------
@@ -273,22 +269,22 @@ def filter_comparison(setting: Setting, n_flights: int = 5, seed: int = 0, probe
         raise ValueError(f"kinds must name each filter of {list(FILTERS)} at most once, and "
                          f"one at least, got {list(kinds)}")
     n_jobs = check_jobs(n_jobs)
-    blob = json.dumps({"setting": setting.key(), "n_flights": n_flights, "seed": seed,
-                       "probe": bool(probe), "kinds": kinds, "version": RESULTS_VERSION,
-                       "filters": FILTERS_VERSION}, sort_keys=True)
-    path = results_dir(results) / "filters" / f"{hashlib.sha256(blob.encode()).hexdigest()[:20]}.parquet"
-    cached = _read_table(path, n_flights, kinds, setting.n_env)
-    if cached is not None:
-        return cached
-    refuse_to_compute(f"the filter comparison {path.name} ({setting.name or setting.key()})")
-    root = root_seed(seed)
-    drag = calibrate_drag(setting.uav, seed=child_seed(root, 10 ** 6))
-    from joblib import Parallel, delayed
-    chunks = Parallel(n_jobs=n_jobs)(delayed(_one_flight)(setting, i, root, probe, kinds, drag)
-                                     for i in range(n_flights))
-    out = pd.DataFrame([r for rows in chunks for r in rows], columns=list(COLUMNS))
-    atomic_write(out, path)
-    return out
+
+    def compute():
+        root = root_seed(seed)
+        drag = calibrate_drag(setting.uav, seed=child_seed(root, 10 ** 6))
+        from joblib import Parallel, delayed
+        chunks = Parallel(n_jobs=n_jobs)(delayed(_one_flight)(setting, i, root, probe, kinds,
+                                                              drag)
+                                         for i in range(n_flights))
+        return pd.DataFrame([r for rows in chunks for r in rows], columns=list(COLUMNS))
+    # the key is the one these tables had before the store: cached tables keep their names
+    key = {"setting": setting.key(), "n_flights": n_flights, "seed": seed,
+           "probe": bool(probe), "kinds": kinds, "filters": FILTERS_VERSION}
+    return get_or_compute("filters", key, compute,
+                          lambda df: _table_problem(df, n_flights, kinds, setting.n_env),
+                          results, version=RESULTS_VERSION,
+                          what=f"filter comparison ({setting.name or setting.key()})")
 
 
 def _table_problem(df, n_flights, kinds, n_env):
@@ -315,35 +311,6 @@ def _table_problem(df, n_flights, kinds, n_env):
     if not (np.all(np.isfinite(drag)) and np.all(drag > 0) and np.all(drag == drag[0])):
         return "drag coefficients that are not one positive triple"
     return ""
-
-
-def _read_table(path, n_flights, kinds, n_env):
-    """The cached table at ``path`` if it is there and can be trusted, else ``None`` (a
-    damaged or inconsistent one is reported with a :class:`CorruptChunkWarning` and
-    recomputed; one written before tables carried a checksum is checked by the rules
-    alone and given its checksum)."""
-    import pyarrow.parquet as pq
-
-    if not path.exists():
-        return None
-    try:
-        table = pq.read_table(path)
-        df = table.to_pandas()
-        stored = (table.schema.metadata or {}).get(CHECKSUM_KEY)
-        if stored is not None and stored.decode() != content_digest(df):
-            why = "its content does not match its checksum"
-        else:
-            why = _table_problem(df, n_flights, kinds, n_env)
-    except Exception as exc:  # pyarrow raises many types for damaged files
-        why = f"unreadable ({type(exc).__name__})"
-    if not why:
-        if stored is None:
-            with contextlib.suppress(OSError):
-                atomic_write(df, path)
-        return df
-    warnings.warn(f"cached filter table {path.name} failed verification ({why}): "
-                  f"recomputed", CorruptChunkWarning, stacklevel=3)
-    return None
 
 
 def _one_flight(setting, i, root, probe, kinds, drag):

@@ -1,10 +1,11 @@
 """Analyses the pages show, computed once by the fill and read by the pages.
 
 This module owns :func:`memo`: a table computed by an analysis function (not an
-experiment's loops: a measurement such as Exp 10's saturation split), filed in the result
-folder's ``analyses/`` under a digest of the function's name, its arguments and
-:data:`MEMO_VERSION`, with the digest of its own content; a missing, damaged or altered copy
-is recomputed (with a warning for the latter two), and under
+experiment's loops: a measurement such as Exp 10's saturation split), filed by the one
+verified cache (:func:`uavwind.core.store.get_or_compute`) in the result folder's
+``analyses/`` under a key of the function's name, its arguments and :data:`MEMO_VERSION`,
+with the digest of its own content (index included); a missing, damaged or altered copy is
+recomputed (the latter two moved aside, with a warning naming the file), and under
 ``UAVWIND_PAGES_READ_ONLY`` a page that would compute it fails naming it
 (:func:`uavwind.core.io.refuse_to_compute`). :data:`PAGE_ANALYSES` lists what the fill
 computes (``python -m uavwind analyses``).
@@ -16,16 +17,13 @@ and reads its result from the function of the same name, which runs that code in
 
 from __future__ import annotations
 
-import hashlib
-import json
 import math
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 
 import pandas as pd
 
-from ..core.io import atomic_write, refuse_to_compute
+from ..core.store import content_digest, get_or_compute
 from ..core.parallel import check_jobs
 from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
 from ..method.clustering import score_loop
@@ -36,7 +34,6 @@ from ..sim.observation import Noise
 from ..study.builders import direction_settings, make_setting
 from ..study.conditions import table3_setting
 from ..study.layouts import Layout
-from ..study.cache import content_digest, results_dir
 from ..study.readings import DEFAULT_READING
 from ..study.registry import EXPERIMENTS
 from ..study.runner import run_experiment
@@ -58,30 +55,23 @@ MEMO_VERSION = "1"
 def memo(name: str, params: Mapping, compute: Callable[[], pd.DataFrame],
          results=None) -> pd.DataFrame:
     """``compute()``'s table, cached under ``name`` and ``params`` (JSON-serialisable: the
-    arguments that determine it); see the module text."""
+    arguments that determine it) as ``analyses/<name>-<key>.parquet``; see the module text.
+    An entry written before the store (its digest in ``attrs``, not in the file's metadata)
+    is trusted if that digest still matches, and given the store's."""
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"name must be an identifier, got {name!r}")
-    key = hashlib.sha256(json.dumps({"name": name, "params": params, "version": MEMO_VERSION},
-                                    sort_keys=True, default=str).encode()).hexdigest()
-    path = results_dir(results) / "analyses" / f"{name}-{key[:20]}.parquet"
-    if path.exists():
-        try:
-            df = pd.read_parquet(path)
-            flat = df.reset_index(drop=True)
-            if df.attrs.get("inputs") == key and df.attrs.get("content") == content_digest(flat):
-                return df
-            why = "its content does not match its digest"
-        except Exception as exc:
-            why = f"{type(exc).__name__}: {exc}"
-        warnings.warn(f"{path.name}: cached analysis not trusted ({why}); recomputing",
-                      stacklevel=2)
-    refuse_to_compute(f"the analysis {name} ({path.name})")
-    df = compute()
-    if not isinstance(df, pd.DataFrame):
-        raise TypeError(f"{name} must compute a pandas DataFrame, got {type(df).__name__}")
-    df.attrs.update(inputs=key, content=content_digest(df.reset_index(drop=True)))
-    atomic_write(path, lambda tmp: df.to_parquet(tmp))
-    return pd.read_parquet(path)
+    if not isinstance(params, Mapping):
+        raise TypeError(f"params must be a mapping, got {type(params).__name__}")
+    return get_or_compute("analyses", {"name": name, "params": params}, compute,
+                          folder=results, version=MEMO_VERSION, name=name,
+                          legacy=_legacy_memo, what=f"analysis {name}")
+
+
+def _legacy_memo(df) -> bool:
+    """True for a table :func:`memo` wrote before the store whose own digest (of its columns,
+    in ``attrs``) still matches."""
+    stored = df.attrs.get("content") if isinstance(df, pd.DataFrame) else None
+    return isinstance(stored, str) and stored == content_digest(df.reset_index(drop=True))
 
 
 def derived(name: str, compute: Callable[[], pd.DataFrame], inputs: Mapping[str, pd.DataFrame],

@@ -1,24 +1,18 @@
-"""Writing files all at once, or not at all.
+"""Two rules about files: what a target may be, and when nothing may be computed.
 
-This module owns :func:`atomic_write`, the one way the project writes a file another process
-or a later run may read (cache chunks, the explorer's grid, the ``--times`` record): the
-content goes to a temporary file with a unique name in the same folder (so concurrent
-writers never share one), is flushed to disk, and is renamed over the target; if anything
-fails, the temporary file is removed and the target is untouched. It refuses to replace
-anything but a regular file (a device or a named pipe at the path is an error, never
-replaced by a file).
+This module owns :func:`check_target` (a path that is a regular file or a new one, never a
+folder, a device or a named pipe: what :func:`uavwind.core.store.atomic_write`, the one
+atomic write, may replace) and :func:`refuse_to_compute` with :data:`READ_ONLY_ENV` (while
+the book's pages run, a result missing from the cache is an error naming it, never computed).
 """
 
 from __future__ import annotations
 
-import contextlib
 import os
 import stat
-import tempfile
-from collections.abc import Callable
 from pathlib import Path
 
-__all__ = ["atomic_write", "check_target", "READ_ONLY_ENV", "refuse_to_compute"]
+__all__ = ["check_target", "READ_ONLY_ENV", "refuse_to_compute"]
 
 #: Set (to 1) while the book's pages run: a page reads what the fill computed and never
 #: computes it itself, so a result missing from the cache is an error naming it.
@@ -48,46 +42,4 @@ def check_target(path: os.PathLike | str, name: str = "path") -> Path:
         what = "a folder" if stat.S_ISDIR(st.st_mode) else "not a regular file"
         raise ValueError(f"{name} must be a regular file or a new path, got {str(path)!r} "
                          f"({what})")
-    return path
-
-
-def atomic_write(path: os.PathLike | str, write: Callable[[Path], None] | str | bytes,
-                 name: str = "path") -> Path:
-    """Write ``path`` atomically.
-
-    Parameters
-    ----------
-    path : path-like
-        The target: a regular file (replaced) or a new path; its folder is created.
-    write : callable, str or bytes
-        ``write(tmp_path)`` writes the content to the temporary path it is given (e.g.
-        ``lambda p: df.to_parquet(p, index=False)``); a ``str`` or ``bytes`` is written as is.
-    name : str
-        The parameter named in errors.
-
-    Returns
-    -------
-    Path
-        The target.
-    """
-    path = check_target(path, name)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp)
-    try:
-        if isinstance(write, str):
-            tmp.write_text(write)
-        elif isinstance(write, bytes):
-            tmp.write_bytes(write)
-        else:
-            write(tmp)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        raise
     return path

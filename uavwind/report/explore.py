@@ -4,27 +4,28 @@ This module owns :func:`explore_loop` (build a setting from plain choices, fly
 one random thrust sequence, score it, draw it), :func:`explorer` (the ipywidgets
 interface around it, for ``make lab``), and the static explorer that works in the
 built book without a kernel: :func:`explore_grid` precomputes every combination of
-its controls and :func:`explorer_html` draws them with plotly.js in the browser.
+its controls, :func:`cached_grid` keeps it in the one verified cache
+(:func:`uavwind.core.store.get_or_compute`, JSON) and :func:`explorer_html` draws it with
+plotly.js in the browser.
 """
 
 from __future__ import annotations
 
-import hashlib
 import html
 import json
-import re
 import os
+import re
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.checks import check_scalar
-from ..core.io import atomic_write, refuse_to_compute
+from ..core.store import get_or_compute
 from ..method.clustering import score_loop
 from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 from ..study.builders import make_setting
-from ..study.cache import RESULTS_VERSION, results_dir
+from ..study.cache import RESULTS_VERSION
 from ..study.readings import get_reading
 from .display import group_name
 from .plotting import fig3_loop
@@ -149,27 +150,47 @@ def _grid_settings(pairs, n_per_group, layouts):
                 yield (i, n, layout), make_setting(a, b, n, **get_reading(layout).builder_kwargs)
 
 
+#: :func:`explore_grid`'s arguments, in order.
+_GRID_ARGS = ("pairs", "n_per_group", "layouts", "every", "engine", "seed")
+
+
 def cached_grid(folder: os.PathLike | str | None = None, **kwargs: Any) -> dict:
-    """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a digest of
+    """:func:`explore_grid`, cached as JSON in ``<results>/explore/`` under a key of
     everything that determines it -- its arguments with their defaults, every setting's
     key (so a refitted layout changes it), the thrust sequences and the results version;
-    a damaged file is recomputed."""
-    folder = results_dir(folder)
-    args = {**dict(zip(("pairs", "n_per_group", "layouts", "every", "engine", "seed"),
-                       explore_grid.__defaults__)), **kwargs}
+    a damaged or altered file (not what was written, or not a grid) is moved aside, with a
+    warning naming it, and recomputed."""
+    unknown = sorted(set(kwargs) - set(_GRID_ARGS))
+    if unknown:  # before anything is written
+        raise TypeError(f"cached_grid() got unexpected keyword argument(s) {unknown}; it takes "
+                        f"those of explore_grid: {list(_GRID_ARGS)}")
+    args = {**dict(zip(_GRID_ARGS, explore_grid.__defaults__)), **kwargs}
     settings = [s.key() for _, s in
                 _grid_settings(args["pairs"], args["n_per_group"], args["layouts"])]
     thrusts = {k: t.to_dict() for k, t in explore_thrusts().items()}
-    blob = json.dumps({"args": args, "settings": settings, "thrusts": thrusts,
-                       "version": RESULTS_VERSION}, sort_keys=True, default=str)
-    path = folder / "explore" / f"grid-{hashlib.sha256(blob.encode()).hexdigest()[:16]}.json"
-    try:
-        return json.loads(path.read_text())
-    except (OSError, ValueError):
-        refuse_to_compute(f"the explorer's grid {path.name}")
-        grid = explore_grid(**kwargs)
-        atomic_write(path, json.dumps(grid))
-        return grid
+    return get_or_compute("explore", {"args": args, "settings": settings, "thrusts": thrusts},
+                          lambda: explore_grid(**kwargs), _grid_problem, folder,
+                          version=RESULTS_VERSION, fmt="json", name="grid",
+                          what="explorer's grid")
+
+
+#: The fields of each loop of a grid (:func:`explore_grid`).
+_LOOP_FIELDS = {"x", "y", "z", "groups", "score", "correct"}
+
+
+def _grid_problem(grid) -> str:
+    """Why ``grid`` is not an explorer grid :func:`explorer_html` can draw ("" if it is)."""
+    if not isinstance(grid, dict) or set(grid) != {"controls", "loops"}:
+        return "not an object of controls and loops"
+    controls, loops = grid["controls"], grid["loops"]
+    if not isinstance(controls, dict) or not isinstance(loops, dict):
+        return "controls or loops is not an object"
+    if any(not isinstance(v, list) for v in controls.values()):
+        return "a control whose options are not a list"
+    for key, loop in loops.items():
+        if not isinstance(loop, dict) or set(loop) != _LOOP_FIELDS:
+            return f"loop {key!r} lacks {sorted(_LOOP_FIELDS)}"
+    return ""
 
 
 def fill_grid(profile: str, seed: int, results=None) -> None:

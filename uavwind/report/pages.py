@@ -22,7 +22,7 @@ import os
 import sys
 from pathlib import Path
 
-from ..core.io import atomic_write
+from ..core.store import atomic_write
 
 __all__ = ["run_page", "KERNEL", "NEEDS_ENV", "main"]
 

@@ -1,37 +1,34 @@
-"""The result cache: keys, verified reads, atomic writes and per-chunk locks.
+"""The result chunks of the experiments: their keys, what a trusted chunk holds, and the lock.
 
-This module owns every rule that makes a cached result trustworthy:
+This module owns what is particular to a chunk of loops (or CEM samples, or closed-loop
+episodes); everything else of its storage is :mod:`uavwind.core.store`'s, the one verified
+cache of the project:
 
-* :func:`cache_key` -- a digest of everything that determines a chunk of results
-  (setting, seed, loop range, engine, clustering parameters, results version);
-* :func:`results_dir` -- the folder a caller names, else ``$UAVWIND_RESULTS``, else the
-  user's cache folder (``$XDG_CACHE_HOME/uavwind/results``, by default
-  ``~/.cache/uavwind/results``), never a folder inside the installed package (``~``
-  expanded; ``make`` names the checkout's ``data/results``);
+* :func:`cache_key` -- a chunk's key by the store's one recipe (:func:`~uavwind.core.store.make_key`)
+  from everything that determines it (setting, seed, loop range, engine, clustering
+  parameters) and :data:`RESULTS_VERSION`;
 * :func:`check_writable` -- before any work starts, so a run never computes what it
   cannot keep;
-* :func:`read_verified` -- a chunk is trusted only if it parses, its content matches the
-  checksum stored with it, it has every column, its stamps (setting key, seed, engine, row
-  count) are what the caller expects and its rows are consistent; anything else is moved
-  aside as ``*.corrupt`` (never over earlier evidence) with one warning line, and
-  recomputed; a file that cannot be *read* is left in place and the run stops;
-* :func:`atomic_write` -- a chunk written through :func:`uavwind.core.io.atomic_write`: a
-  temporary file with a unique name in the same folder renamed over the target, removed
-  again if writing fails (a full disk leaves no orphan);
-* :func:`cached` -- all of the above around one chunk, under an exclusive per-chunk lock
-  (``fcntl.flock``), so two processes on one results folder compute a chunk once: the
-  second waits, then reads the first one's result.
+* :class:`Expected` and its rules -- a chunk is trusted only if, beyond the store's checks
+  (a regular file that parses, its content matching its stored digest), it has every
+  column, its stamps (setting key, seed, engine, row count) are what the caller expects and
+  its rows are consistent; a chunk written by uavwind 0.1, before digests, is checked by
+  these rules alone and given its digest;
+* :func:`read_verified` and :func:`cached` -- the store's one damaged-entry rule
+  (:func:`~uavwind.core.store.read_entry`: moved aside as ``*.corrupt``, never deleted, one
+  warning naming the file, recomputed) and its locked read-compute-write
+  (:func:`~uavwind.core.store.fill_entry`) applied to a chunk at the path the runner gives.
+
+:func:`results_dir`, :func:`content_digest`, :data:`CHECKSUM_KEY`, :func:`chunk_lock`,
+:class:`CorruptChunkWarning` and :class:`TransientReadError` are the store's, under the names
+this module has always offered.
 """
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
-import json
 import math
 import os
-import warnings
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -39,56 +36,36 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..core.io import atomic_write as _write_atomically
-from ..core.io import refuse_to_compute
+from ..core import store
+from ..core.store import DIGEST_KEY as CHECKSUM_KEY
+from ..core.store import CorruptEntryWarning as CorruptChunkWarning
+from ..core.store import TransientReadError, content_digest, make_key, plain, results_dir
+from ..core.store import entry_lock as chunk_lock
 from ..method.baseline import BASELINE_VERSION
 from ..method.clustering import DEFAULT_PARAMS
 
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "cache_key", "results_dir", "check_writable", "Expected",
-           "read_verified", "atomic_write", "chunk_lock", "cached", "CorruptChunkWarning",
-           "TransientReadError", "content_digest"]
+__all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "CHECKSUM_KEY", "cache_key", "results_dir",
+           "check_writable", "Expected", "read_verified", "chunk_lock", "cached",
+           "CorruptChunkWarning", "TransientReadError", "content_digest"]
 
 #: Bump when a change to the library alters results; it is part of every cache key.
 #: 2: Dryden filters built with python-control by default (equal to 1e-12, not bit for bit).
 RESULTS_VERSION = "2"
 
 
-class CorruptChunkWarning(UserWarning):
-    """A cached chunk failed verification and was moved aside to be recomputed."""
-
-
-def results_dir(folder: str | os.PathLike | None = None) -> Path:
-    """The results folder, by one rule: ``folder`` if given; else ``$UAVWIND_RESULTS`` if set
-    and not empty; else the user's cache folder, ``$XDG_CACHE_HOME/uavwind/results`` (by
-    default ``~/.cache/uavwind/results``). ``~`` is expanded; an empty ``folder`` is a
-    ``ValueError`` (name ``"."`` for the working folder)."""
-    if folder is not None:
-        if not isinstance(folder, (str, os.PathLike)):
-            raise TypeError(f"results must be a path or None, got {type(folder).__name__}")
-        if str(folder) == "":
-            raise ValueError("results must name a folder, got an empty string (use '.' for "
-                             "the working folder, or None for the default)")
-        return Path(folder).expanduser()
-    env = os.environ.get("UAVWIND_RESULTS")
-    if env:
-        return Path(env).expanduser()
-    base = os.environ.get("XDG_CACHE_HOME") or os.path.join("~", ".cache")
-    return Path(base).expanduser() / "uavwind" / "results"
-
-
 def cache_key(setting: Setting, seed: int, start: int, stop: int, engine: str, params: dict,
               extra: dict | None = None) -> str:
     """Digest of everything that determines a chunk of results."""
     fields = {"setting": setting.key(), "seed": seed, "loops": [start, stop], "engine": engine,
-              "params": {**DEFAULT_PARAMS, **params}, "version": RESULTS_VERSION,
-              "extra": extra}
+              "params": {**DEFAULT_PARAMS, **params}, "extra": extra}
     if getattr(setting, "baseline", False):  # loops that also run the physics baseline
         fields["baseline"] = BASELINE_VERSION
-    blob = json.dumps(fields, sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+    # the runner files the chunk (loops/ or the experiment's folder): the kind names a folder
+    # and does not enter the digest, so the chunks cached before the store keep their names
+    return make_key("loops", fields, RESULTS_VERSION)
 
 
 def check_writable(folder) -> Path:
@@ -149,55 +126,6 @@ REQUIRED = {"score": "f", "silhouette": "f", "correct": "b", "n_iter": "iu", "la
 EPISODE_REQUIRED = {"episode": "iu", "policy": "O", "test_group": "iu", "time": "f",
                     "p_group_b": "f", "p_true": "f", "predicted": "iu", "correct": "b",
                     "log_loss": "f", "setting_key": "O", "seed": "iu", "engine": "O"}
-#: Parquet metadata key of the content digest written with every chunk.
-CHECKSUM_KEY = b"uavwind.sha256"
-
-
-class TransientReadError(OSError):
-    """A cached chunk could not be *read* (permission, out of file descriptors, an I/O error):
-    the file is left where it is, since it may be sound, and the run stops."""
-
-
-#: numpy dtype kinds whose ``tolist()`` is Python scalars already (floats, ints, flags): the
-#: content digest takes them as they come.
-_SCALAR_KINDS = "fiub"
-
-
-def _plain(v):
-    if isinstance(v, np.ndarray):
-        if v.dtype.kind in _SCALAR_KINDS:  # nested lists of Python scalars already
-            return v.tolist()
-        return [_plain(x) for x in v.tolist()]
-    if isinstance(v, (list, tuple)):
-        return [_plain(x) for x in v]
-    if isinstance(v, (np.generic,)):
-        return v.item()
-    return v
-
-
-def _bare(df: pd.DataFrame) -> pd.DataFrame:
-    """``df``'s columns without its ``attrs``: pandas deep-copies a frame's ``attrs`` into
-    every column it hands out, which was a fifth of the time a cached chunk took to verify."""
-    if not df.attrs:
-        return df
-    out = df.copy(deep=False)
-    out.attrs = {}
-    return out
-
-
-def content_digest(df: pd.DataFrame) -> str:
-    """SHA-256 of a chunk's content: every column's name, dtype and values, in order (list
-    columns as lists, floats by their shortest round-trip repr)."""
-    h = hashlib.sha256()
-    for col, column in _bare(df).items():
-        values = column.tolist()
-        if column.dtype.kind not in _SCALAR_KINDS:
-            values = [_plain(v) for v in values]
-        h.update(json.dumps([str(col), str(column.dtype), values], default=str,
-                            allow_nan=True).encode())
-    return h.hexdigest()
-
-
 def _episode_problem(df):
     """Why closed-loop rows are inconsistent (empty string: they are not)."""
     p_b = df["p_group_b"].to_numpy(dtype=float)
@@ -235,7 +163,11 @@ def _episode_problem(df):
 
 def _problem(df, expect):
     """Why ``df`` cannot be trusted as ``expect`` (empty string: it can)."""
-    df = _bare(df)
+    if not isinstance(df, pd.DataFrame):
+        return f"a {type(df).__name__}, not a table"
+    if df.attrs:  # pandas deep-copies attrs into every column it hands out: drop them here
+        df = df.copy(deep=False)
+        df.attrs = {}
     if len(df) != expect.n_rows:
         return f"{len(df)} rows, expected {expect.n_rows}"
     required = EPISODE_REQUIRED if expect.kind == "episodes" else REQUIRED
@@ -265,56 +197,12 @@ def _problem(df, expect):
     if expect.groups:
         g = np.asarray(expect.groups)
         for i, (labels, correct) in enumerate(zip(df["labels"], ok)):
-            lab = np.asarray(_plain(labels))
+            lab = np.asarray(plain(labels))
             if lab.shape != g.shape or not np.all(np.isin(lab, (0, 1))):
                 return f"row {i} has labels {lab.tolist()} for {g.size} environments"
             if correct != bool(np.array_equal(lab, g) or np.array_equal(lab, 1 - g)):
                 return f"row {i}: its labels contradict its correct flag"
     return ""
-
-
-def _read_bytes(path):
-    """The file's bytes; a failure to read them is a :class:`TransientReadError`."""
-    try:
-        return path.read_bytes()
-    except (FileNotFoundError, NotADirectoryError):  # not there (or a file where a folder is)
-        return None
-    except OSError as exc:
-        raise TransientReadError(exc.errno, f"cached chunk {path.name} could not be read "
-                                 f"({exc.strerror or exc}); it is left in place: fix the cause "
-                                 f"(permissions, open files, the disk) and rerun",
-                                 str(path)) from exc
-
-
-def _parse(blob):
-    """``(df, stored digest or None)`` from a chunk's bytes; any failure means damaged."""
-    import io
-
-    import pyarrow.parquet as pq
-
-    table = pq.read_table(io.BytesIO(blob))
-    meta = table.schema.metadata or {}
-    stored = meta.get(CHECKSUM_KEY)
-    return table.to_pandas(), (stored.decode() if stored else None)
-
-
-def _move_aside(path):
-    """Rename ``path`` to ``<name>.corrupt`` (``.corrupt.1``, ``.corrupt.2``, ... if taken):
-    evidence is never overwritten. Returns the new name."""
-    for i in range(10_000):
-        aside = path.with_name(path.name + (".corrupt" if i == 0 else f".corrupt.{i}"))
-        try:
-            os.link(path, aside)  # fails if aside exists: never replaces earlier evidence
-        except FileExistsError:
-            continue
-        except OSError:  # no hard links here: rename if the name is free
-            if aside.exists():
-                continue
-            os.replace(path, aside)
-            return aside
-        path.unlink()
-        return aside
-    raise RuntimeError(f"10,000 corrupt copies of {path.name}: clean the folder")
 
 
 def _legacy(df):
@@ -324,89 +212,42 @@ def _legacy(df):
 
 
 def read_verified(path, expect: Expected) -> pd.DataFrame | None:
-    """The chunk at ``path`` if it exists and can be trusted, else ``None``.
+    """The chunk at ``path`` if it exists and can be trusted, else ``None``
+    (:func:`uavwind.core.store.read_entry` with the rules of :class:`Expected`).
 
-    Trusted means: it parses, its content matches the SHA-256 stored in its metadata (a
-    chunk stamped by uavwind 0.1, before checksums were stored, is checked by the rules
-    alone and given its checksum in place; any later chunk without one is untrusted), it has every column with its dtype, its stamps are what
-    :class:`Expected` says, and its rows are consistent (scores, silhouettes, labels against
-    the correct flag). A damaged or untrusted chunk is renamed ``<name>.corrupt`` (never
-    deleted, never overwriting an earlier one: it may be evidence) with one
-    :class:`CorruptChunkWarning`, so the caller recomputes it. A chunk that cannot be
-    *read* (permissions, file descriptors, I/O) raises :class:`TransientReadError` and is
-    left where it is.
+    Trusted means: it is a regular file, it parses, its content matches the SHA-256 stored in
+    its metadata (a chunk stamped by uavwind 0.1, before checksums were stored, is checked by
+    the rules alone and given its checksum in place; any later chunk without one is
+    untrusted), it has every column with its dtype, its stamps are what :class:`Expected`
+    says, and its rows are consistent (scores, silhouettes, labels against the correct
+    flag). A damaged or untrusted chunk is renamed ``<name>.corrupt`` (never deleted, never
+    overwriting an earlier one: it may be evidence) with one :class:`CorruptChunkWarning`,
+    so the caller recomputes it. A chunk that cannot be *read* (permissions, file
+    descriptors, I/O) raises :class:`TransientReadError` and is left where it is.
     """
-    path = Path(path)
-    blob = _read_bytes(path)
-    if blob is None:
-        return None
-    try:
-        df, stored = _parse(blob)
-        if stored is not None and stored != content_digest(df):
-            why = "its content does not match its checksum"
-        elif stored is None and not _legacy(df):
-            why = "no checksum"
-        else:
-            why = _problem(df, expect)
-    except Exception as exc:  # pyarrow raises many types for damaged files
-        why = f"unreadable ({type(exc).__name__})"
-    if not why:
-        if stored is None:  # a sound chunk of 0.1: give it its checksum now, if we may
-            with contextlib.suppress(OSError):
-                atomic_write(df, path)
-        return df
-    aside = _move_aside(path)
-    warnings.warn(f"cached chunk {path.name} failed verification ({why}): moved to "
-                  f"{aside.name} and recomputed", CorruptChunkWarning, stacklevel=3)
-    return None
-
-
-def atomic_write(df: pd.DataFrame, path) -> Path:
-    """Write ``df`` to ``path`` (Parquet) all at once, or not at all, with the SHA-256 of
-    its content (as it reads back) in the file's metadata."""
-    import pyarrow as pa
-    import pyarrow.parquet as pq
-
-    table = pa.Table.from_pandas(df, preserve_index=False)
-    digest = content_digest(table.to_pandas())
-    meta = {**(table.schema.metadata or {}), CHECKSUM_KEY: digest.encode()}
-    table = table.replace_schema_metadata(meta)
-    return _write_atomically(path, lambda tmp: pq.write_table(table, tmp))
-
-
-@contextlib.contextmanager
-def chunk_lock(path) -> Iterator[None]:
-    """Exclusive lock on ``path``'s chunk for as long as the block runs (``<path>.lock``)."""
-    import fcntl
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    lock = path.with_name(path.name + ".lock")
-    with open(lock, "a") as fh:
-        fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    if not isinstance(expect, Expected):
+        raise TypeError(f"expect must be an Expected, got {type(expect).__name__}")
+    return store.read_entry(path, lambda df: _problem(df, expect), _legacy, what="cache entry")
 
 
 def cached(path, compute: Callable[[], pd.DataFrame], meta: dict,
            expect: Expected) -> tuple[pd.DataFrame, bool]:
     """``(df, from_cache)``: the verified chunk at ``path``, or ``compute()`` stamped with
-    ``meta`` and written atomically, all under the chunk's lock. Either way ``df`` is the
-    chunk as read from disk, so a first run and a cached run return the same values of the
-    same types (a list column comes back as arrays, as Parquet stores it)."""
-    with chunk_lock(path):
-        df = read_verified(path, expect)
-        if df is not None:
-            return df, True
-        refuse_to_compute(f"the cache entry {Path(path).parent.name}/{Path(path).name}")
+    ``meta`` and written atomically, all under the chunk's lock
+    (:func:`uavwind.core.store.fill_entry`). Either way ``df`` is the chunk as read from
+    disk, so a first run and a cached run return the same values of the same types (a list
+    column comes back as arrays, as Parquet stores it); a computed chunk that its own rules
+    would not trust is never stored (``RuntimeError``)."""
+    if not isinstance(expect, Expected):
+        raise TypeError(f"expect must be an Expected, got {type(expect).__name__}")
+
+    def stamped():
         df = compute()
+        if not isinstance(df, pd.DataFrame):
+            raise TypeError(f"compute must return a pandas DataFrame, got {type(df).__name__}")
+        df = df.reset_index(drop=True)  # chunks are numbered rows: no index is stored
         for k, v in meta.items():
             df[k] = v
-        why = _problem(df, expect)
-        if why:  # never store what would not be trusted on reading
-            raise RuntimeError(f"computed chunk {Path(path).name} is inconsistent: {why}")
-        atomic_write(df, path)
-        back, _ = _parse(_read_bytes(Path(path)))
-        return back, False
+        return df
+    return store.fill_entry(path, stamped, lambda df: _problem(df, expect), _legacy,
+                            what="cache entry")
