@@ -52,6 +52,10 @@ def _allowed():
     from uavwind.study.layouts import TABLE3_SPACING
     ok |= {round(TABLE3_SPACING, 2)}  # Table 3's spacing along x = y
     ok |= {0.01}  # wind spacing of test_the_multirotor_keeps_thrust_because_zero_thrust_is_chaotic
+    from uavwind.data.neuralfly import CONDITIONS
+    from uavwind.sim.multirotor import NEURAL_FLY
+    ok |= set(CONDITIONS.values())  # Neural-Fly's tunnel winds (section 13)
+    ok |= {NEURAL_FLY["thrust_to_weight"]}  # the Neural-Fly quadrotor's, from its article
     return ok
 
 

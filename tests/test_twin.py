@@ -234,14 +234,17 @@ needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
 
 @needs_flights
 def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
-    """``NEURAL_FLY_FITTED`` (Exp 14's vehicle) is Exp 13's fit, redone here at the quick
-    profile on the flights' rows."""
+    """``NEURAL_FLY_FITTED`` (Exp 14's vehicle) is Exp 13's fit of the drag and lift, redone
+    here on one lap a flight."""
     from uavwind.study.registry import NEURAL_FLY_FITTED
 
     flights = uw.load_neuralfly()
-    study = rf.STUDIES["quick"]
-    real = rf.compute_rows(flights, rf.RealFlightStudy(max_laps=2, channels=("thrust",),
-                                                       conditions=("nowind", "70wind")))
-    cal = figure8.calibrate_twin(real, study)
-    assert cal.drag_scale == pytest.approx(NEURAL_FLY_FITTED["drag_scale"], abs=0.02)
-    assert cal.lift_scale == pytest.approx(NEURAL_FLY_FITTED["lift_scale"], abs=0.03)
+    study = rf.RealFlightStudy(max_laps=1)  # forces are lap means: one lap a flight gives them
+    real = pd.DataFrame(rf.flight_summaries(flights, study))
+    ctl = sorted(set(real["controller"]))
+    target = figure8.real_force_targets(real, [c for c in ctl
+                                               if c != figure8.held_out_controller(ctl)])
+    quiet = figure8.TwinCalibration(axis_offset=target["offset"])
+    drag, lift = figure8._fit_forces(quiet, target, study)
+    assert drag == pytest.approx(NEURAL_FLY_FITTED["drag_scale"], abs=0.02)
+    assert lift == pytest.approx(NEURAL_FLY_FITTED["lift_scale"], abs=0.03)

@@ -234,7 +234,7 @@ def _control_task(laps, controllers, condition, channel, params):
 
 
 def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightStudy(),
-                 n_jobs: int | None = None, **params) -> pd.DataFrame:
+                 n_jobs: int | None = None, estimate: bool = True, **params) -> pd.DataFrame:
     """Every row of Experiment 13's real-flight part, computed (no cache): ``kind``
     ``"cluster"`` (``score``, ``silhouette``, ``correct`` per controller and ``"pooled"``),
     ``"loco"`` (``accuracy`` of the held-out ``controller``), ``"control"`` (the same-wind
@@ -243,7 +243,8 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     aerodynamic force [N], tracking error [m], thrust over the hover throttle, lap-to-lap
     spread and noise, over its kept laps, unscaled) and ``"estimate"`` (the wind estimated on
     each flight by each :class:`~uavwind.method.wind_estimator.WindEstimator` method fitted on
-    the other controllers: :func:`uavwind.analysis.wind_estimates.estimation_rows`)."""
+    the other controllers: :func:`uavwind.analysis.wind_estimates.estimation_rows`; only with
+    ``estimate``)."""
     check_instance(study, "study", RealFlightStudy)
     params = ClusteringParams.from_kwargs({"max_iter": study.max_iter, **params},
                                           "clustering parameters").to_dict()
@@ -269,7 +270,8 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     out = Parallel(n_jobs=n_jobs)(tasks)
     rows = [r for rs in out for r in rs]
     rows += _flight_rows(flights, raw)
-    rows += estimation_rows(flights)
+    if estimate:
+        rows += estimation_rows(flights)
     df = pd.DataFrame(rows)
     cols = ["kind", "controller", "other", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",

@@ -486,6 +486,8 @@ def get_or_compute(kind: str, key_params: Mapping, compute: Callable[[], Any],
         What the entry is, in warnings and errors, e.g. ``"analysis toy"`` (default:
         ``"<kind> entry"``).
 
+    Notes
+    -----
     A cached entry is read without the lock (a complete cache in a read-only folder is
     readable); a missing or damaged one is computed by :func:`fill_entry`.
     """

@@ -35,11 +35,9 @@ start-up lap) are never fitted on.
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from ..data.neuralfly import RealFlight, flight_laps
-from .softdtw import dtw
 
 __all__ = ["WindEstimator", "ESTIMATORS", "training_wind", "UNRECORDED"]
 
@@ -69,6 +67,8 @@ def _odd_cubic(x):
 def _lowpass(x, dt, cutoff):
     """2nd-order Butterworth low-pass at ``cutoff`` [Hz], causal, started at the first
     value (what an on-board filter could do)."""
+    from scipy import signal  # imported when used: `import uavwind` stays cheap
+
     b, a = signal.butter(2, cutoff, fs=1.0 / dt)
     zi = signal.lfilter_zi(b, a).reshape((-1,) + (1,) * (x.ndim - 1)) * x[0]
     return signal.lfilter(b, a, x, axis=0, zi=zi)[0]
@@ -104,13 +104,12 @@ class WindEstimator:
         Training samples before this time [s] are not fitted on (the start-up lap), in
         [0, 1e4]; default 2 pi.
 
-    Attributes (after :meth:`fit`)
-    ------------------------------
-    coef_ : dict
-        ``"drag"``/``"ekf"``: per horizontal axis (0, 1) the curve's weights ``w`` and
-        intercept ``c``, and the fit's RMS residual.
-    laps_, lap_winds_, scale_ : ndarray
-        ``"clusters"``: the training laps, their wind speeds [m/s] and the channel scales.
+    Notes
+    -----
+    After :meth:`fit`: ``coef_`` (``"drag"``, ``"ekf"``), per horizontal axis (0, 1) the
+    curve's weights ``w``, intercept ``c`` and the fit's RMS residual; ``laps_``,
+    ``lap_winds_`` and ``scale_`` (``"clusters"``), the training laps, their wind speeds
+    [m/s] and the channel scales.
 
     Examples
     --------
@@ -255,6 +254,8 @@ class WindEstimator:
         return out
 
     def _predict_laps(self, flight):
+        from .softdtw import dtw  # the kernels load when a lap is compared, not on import
+
         laps, starts = self._lap_windows(flight)
         train, query = self.laps_ / self.scale_, laps / self.scale_
         D = np.array([[dtw(q, x) for x in train] for q in query])
