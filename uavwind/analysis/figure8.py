@@ -339,11 +339,12 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     return replace(cal, drag_scale=drag, lift_scale=lift, gust_scale=gust)
 
 
-def _fit_forces(quiet, target, study):
+def _fit_forces(quiet, target, study, start=(1.0, 1.0)):
     """``(drag, lift)``: the factors with which the twin ``quiet`` (no gusts, no noise) meets
     ``target``'s forces along x and z at :data:`FIT_CONDITION` (0 m/s subtracted) over the
     laps ``study`` keeps. The drag moves the vertical force too (induced inflow, the tilted
-    frame) and the lift the lean: they are fitted in turn until both hold together."""
+    frame) and the lift the lean: they are fitted in turn until both hold together, from
+    ``start`` (the preset's own drag and lift)."""
     def force(axis):
         def measure(x):
             c = replace(quiet, **{f"{'drag' if axis == 'x' else 'lift'}_scale": x})
@@ -352,7 +353,7 @@ def _fit_forces(quiet, target, study):
         return measure
 
     tol_x, tol_z = 0.005 * abs(target["force_x"]), 0.02
-    drag, lift = 1.0, 1.0
+    drag, lift = start
     for _ in range(_ROUNDS):
         drag = _secant(force("x"), target["force_x"], drag, drag * 0.9, 1e-3, 100.0, tol_x,
                        "drag")

@@ -662,9 +662,9 @@ def twin_validation(table) -> Figure:
     :func:`uavwind.analysis.figure8.validation_table`)."""
     plt = _plt()
     quantities = list(dict.fromkeys(table["quantity"]))
-    ncols = 4
-    nrows = math.ceil(len(quantities) / ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(13, 3.3 * nrows), constrained_layout=True)
+    ncols = 3
+    nrows = math.ceil((len(quantities) + 1) / ncols)  # and a panel for the legend
+    fig, axes = plt.subplots(nrows, ncols, figsize=(10, 2.9 * nrows), constrained_layout=True)
     axes = np.atleast_1d(axes).ravel()
     for ax, q in zip(axes, quantities):
         t = table[table["quantity"] == q]
@@ -678,15 +678,15 @@ def twin_validation(table) -> Figure:
         fit = t["fitted"].to_numpy(bool)
         ax.plot(x[fit], t["sim"].to_numpy(float)[fit], "o", ms=15, mfc="none", color="tab:blue",
                 label="twin fitted here")
-        ax.set_title(f"{q} [{t['unit'].iloc[0]}]", fontsize=10)
+        ax.set_title(f"{q} [{t['unit'].iloc[0]}]", fontsize=11)
         ax.set_xlabel("wind speed [m/s]")
         ax.set_xticks([0, 4.2, 8.5, 12.1])
+        ax.set_xlim(-1.0, 13.5)
         ax.grid(alpha=0.3)
     for ax in axes[len(quantities):]:
         ax.axis("off")
     handles, labels = axes[0].get_legend_handles_labels()
-    (axes[len(quantities)] if len(quantities) < len(axes) else axes[0]).legend(
-        handles, labels, loc="center", fontsize=9, frameon=False)
+    axes[len(quantities)].legend(handles, labels, loc="center", fontsize=10, frameon=False)
     return fig
 
 
@@ -698,7 +698,7 @@ def wind_estimates(rows) -> Figure:
     plt = _plt()
     est = rows[rows["kind"] == "estimate"]
     methods = list(dict.fromkeys(est["method"]))
-    fig, axes = plt.subplots(1, len(methods), figsize=(4.2 * len(methods), 3.8),
+    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 3.4),
                              constrained_layout=True, sharey=True, squeeze=False)
     for ax, m in zip(axes[0], methods):
         g = est[est["method"] == m]

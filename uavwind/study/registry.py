@@ -326,9 +326,11 @@ def _exp11_cem(reading):
 #: keep the cost modest (velocity and body rates cost 1.6 and 0.8 CPU-s a loop).
 FLYABLE_CHANNELS = ("position", "attitude", "imu")
 #: CPU seconds one Exp 14 waypoint loop costs (10 environments, 12 s, flight and clustering),
-#: measured on the project's 2-core machine with ``random_search(..., n_jobs=1)`` on light
-#: constant vs light shear, 4 loops per channel (numba compiled beforehand).
-FLYABLE_CPU_PER_LOOP = {"position": 0.61, "attitude": 0.64, "imu": 1.14}
+#: measured on the project's 2-core machine (Intel Xeon) with ``random_search(..., n_jobs=1)``,
+#: 2 loops of each of the seven scenarios per channel (numba compiled beforehand), with the
+#: vehicle and budget of issue 43 (before it: 0.61, 0.64 and 1.14 on light constant vs light
+#: shear: the old vehicle's loops crashed or separated in few k-means iterations)
+FLYABLE_CPU_PER_LOOP = {"position": 0.75, "attitude": 2.33, "imu": 3.19}
 #: Exp 14's CEM, smaller than the profile's: a third of the draws, a quarter of the
 #: iterations (paper profile: N = 10, Ne = 4, 5 iterations).
 FLYABLE_CEM_SCALE = {"n_samples": 1 / 3, "max_iter": 1 / 4}
