@@ -326,7 +326,7 @@ def test_the_budget_in_wind_leaves_room_for_the_lean_and_a_thrust_margin():
     assert check_flyable(ref, strong) is ref
     with pytest.raises(ValueError, match="with the strongest wind"):
         check_flyable(sample_waypoints(np.random.default_rng(5)), strong)
-    # the preset's own drag leans 47.5 degrees in 13.86 m/s and needs 89% of its thrust
+    # the preset's own drag leans 47.5 degrees in 13.86 m/s and needs 91% of its thrust
     with pytest.raises(ValueError, match="cannot hold this wind"):
         FLYABLE_IN_WIND.in_wind(Multirotor.neural_fly(position_control=NEURAL_FLY_CONTROL), 13.86)
     with pytest.raises(ValueError, match="thrust cone"):

@@ -339,7 +339,7 @@ FLYABLE_CEM_SCALE = {"n_samples": 1 / 3, "max_iter": 1 / 4}
 #: The Neural-Fly quadrotor's drag and lift factors as Exp 13 fits them on the real flights
 #: (:func:`uavwind.analysis.figure8.calibrate_twin`, four controllers, paper profile: 0.739
 #: and 0.631; tests/test_twin.py holds these to a new fit when the flights are there).
-#: With the preset's own drag (factor 1) the vehicle leans 47.5 degrees and needs 89% of its
+#: With the preset's own drag (factor 1) the vehicle leans 47.5 degrees and needs 91% of its
 #: thrust to hold still in 13.86 m/s: no room for a manoeuvre.
 NEURAL_FLY_FITTED = {"drag_scale": 0.74, "lift_scale": 0.63}
 #: Exp 14's vehicle for the flyable references: the Neural-Fly quadrotor (2.6 kg,
