@@ -241,7 +241,7 @@ def _analyses(args) -> int:
     :data:`~uavwind.analysis.memo.PAGE_ANALYSES` (in one pool), Exp 11's filter table, then Exp 13's
     real rows and simulated ones (which fit the drag on the real flights; skipped, saying so,
     without Neural-Fly's folder)."""
-    from .analysis.figure8 import sim_rows
+    from .analysis.figure8 import calibration_of, sim_rows
     from .analysis.filters import filter_table
     from .analysis.memo import fill_page_analyses
     from .report.explore import fill_grid
@@ -271,7 +271,7 @@ def _analyses(args) -> int:
         return 2
     print(f"analyses: Exp 13, {len(real)} real rows in {t1 - t0:.1f} s, {len(sim)} simulated "
           f"rows in {time.perf_counter() - t1:.1f} s (the twin's drag scale "
-          f"{json.loads(sim.attrs['calibration'])['drag_scale']:.3f})")
+          f"{calibration_of(sim).drag_scale:.3f})")
     return 0
 
 

@@ -50,7 +50,7 @@ from scipy.spatial.transform import Rotation
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
 from ..core.seeding import child_rng, child_seed, root_seed
-from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight, flight_laps, split_noise
+from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight
 from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import NEURAL_FLY_CONTROL, Multirotor

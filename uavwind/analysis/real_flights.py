@@ -149,12 +149,16 @@ def _laps(flights, study):
     """{(controller, condition): flight_laps(...)} with the laps the study keeps: every
     channel it clusters and every channel a flight row summarises, cut once per flight."""
     channels = tuple(dict.fromkeys(study.channels + _FLIGHT_CHANNELS))
-    keep = slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
     out = {}
     for f in flights:
         w = flight_laps(f, channels, study.n_samples, study.drop_first)
-        out[(f.controller, f.condition)] = {k: v[keep] for k, v in w.items()}
+        out[(f.controller, f.condition)] = {k: v[_kept(study)] for k, v in w.items()}
     return out
+
+
+def _kept(study):
+    """The laps ``study`` keeps of those :func:`~uavwind.data.flight_laps` cuts."""
+    return slice(None) if study.max_laps == 0 else slice(0, study.max_laps)
 
 
 def _windows(raw, study):
@@ -269,7 +273,7 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
                   for c in conditions for ch in study.channels]
     out = Parallel(n_jobs=n_jobs)(tasks)
     rows = [r for rs in out for r in rs]
-    rows += _flight_rows(flights, raw)
+    rows += _flight_rows(flights, raw, study)
     if estimate:
         rows += estimation_rows(flights)
     df = pd.DataFrame(rows)
@@ -302,10 +306,10 @@ def flight_summaries(flights: list[RealFlight], study: RealFlightStudy = RealFli
     """The kind ``"flight"`` rows of :func:`compute_rows` alone (one per flight, over the
     laps ``study`` keeps), without the clustering."""
     check_instance(study, "study", RealFlightStudy)
-    return _flight_rows(flights, _laps(flights, study))
+    return _flight_rows(flights, _laps(flights, study), study)
 
 
-def _flight_rows(flights, raw):
+def _flight_rows(flights, raw, study):
     """One row per flight: its kept laps' mean tilt and lean towards +x (``pitch_deg``),
     aerodynamic force (x, z, norm), tracking error and thrust over the hover throttle,
     unscaled (``raw``: :func:`_laps`); the lap-to-lap spread of the slow part of the force
@@ -321,12 +325,11 @@ def _flight_rows(flights, raw):
         lap = float(np.median(np.diff(lap_starts(f))))
         span = (t >= w["starts"][0]) & (t < w["starts"][-1] + lap)  # the kept laps
         slow, _ = split_noise(a["fa"], dt)
-        slow_laps = flight_laps(RealFlight(controller=f.controller, condition=f.condition,
-                                           wind_speed=f.wind_speed, source=f.source,
-                                           arrays={**a, "fa": slow}),
-                                ("aero_force",), fa.shape[1], 0)
-        kept = np.isin(np.round(slow_laps["starts"], 9), np.round(w["starts"], 9))
-        sl = slow_laps["aero_force"][kept][..., 0]
+        slow_flight = RealFlight(controller=f.controller, condition=f.condition,
+                                 wind_speed=f.wind_speed, source=f.source,
+                                 arrays={**a, "fa": slow})
+        sl = flight_laps(slow_flight, ("aero_force",), study.n_samples,
+                         study.drop_first)["aero_force"][_kept(study)][..., 0]
         row = {"kind": "flight", "controller": f.controller, "condition": f.condition,
                "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"].mean()),
                "pitch_deg": float(pitch_degrees(a["R"][span]).mean()),

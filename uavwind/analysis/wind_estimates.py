@@ -127,11 +127,8 @@ def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
             cond != SINUSOID[0] or abs(row["amplitude"] - SINUSOID[1])
             <= TARGETS["amplitude_error"]))
         out.append(row)
-    order = {c: i for i, c in enumerate(CONDITIONS)}
     df = pd.DataFrame(out)
     if not len(df):
         return df
-    df["_o"] = df["condition"].map(order)
-    return df.sort_values(["method", "_o"], key=lambda s: s.map(
-        {m: i for i, m in enumerate(ESTIMATORS)}) if s.name == "method" else s,
-        ignore_index=True).drop(columns="_o")
+    rank = {**{m: i for i, m in enumerate(ESTIMATORS)}, **{c: i for i, c in enumerate(CONDITIONS)}}
+    return df.sort_values(["method", "condition"], key=lambda s: s.map(rank), ignore_index=True)
