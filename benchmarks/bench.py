@@ -707,10 +707,94 @@ def bench_cluster(report):
     report["cluster"] = out
 
 
+def host_cpu():
+    """The host's CPU model (``/proc/cpuinfo``), LLVM's name for it and the engine's lanes:
+    a figure of the engine is a figure of one host (an AMD EPYC and an Intel Xeon of the
+    same machine kind differ by half)."""
+    from llvmlite import binding
+
+    from uavwind.method.softdtw._simd import N
+    model = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"model": model, "llvm_cpu": binding.get_host_cpu_name(), "lanes": int(N)}
+
+
+def _heldout_loop(i):
+    """Loop ``i`` of the held-out check: Table 2 scenario ``i % 7 + 1``, 5 or 10 environments
+    a group (alternately), 120 steps, seed 20_000 + i (no other section's loops)."""
+    from uavwind.study.conditions import PAPER_SCENARIOS
+
+    a, b = list(PAPER_SCENARIOS.values())[i % 7]
+    s = uw.make_setting(a.label, b.label, (5, 10)[i % 2])
+    thrust = s.sample_thrust(np.random.default_rng(20_000 + i))
+    return s.simulate(thrust, seed=20_000 + i), s.groups
+
+
+def heldout_times(engines=("fast", "tslearn"), n_loops=12):
+    """``{engine: (wall seconds, CPU seconds, [(labels, score)])}`` over the held-out loops,
+    the engines taking turns on each loop (so a burst of load falls on both)."""
+    loops = [_heldout_loop(i) for i in range(n_loops)]
+    for e in engines:
+        uw.score_loop(*loops[0], engine=e)  # compile / load caches
+    out = {e: [0.0, 0.0, []] for e in engines}
+    for X, g in loops:
+        for e in engines:
+            w0, c0 = time.perf_counter(), time.process_time()
+            r = uw.score_loop(X, g, engine=e)
+            out[e][0] += time.perf_counter() - w0
+            out[e][1] += time.process_time() - c0
+            out[e][2].append((r.labels.tolist(), r.score))
+    return out
+
+
+def bench_heldout(report, n_loops=12):
+    """The held-out check of the engine against tslearn: 12 loops of 5 or 10 environments a
+    group, 120 steps, gamma 0.5, the default k-means and barycentre iterations, each engine
+    with its default threads, side by side; then the fast engine alone with AVX2 code
+    (``NUMBA_CPU_NAME=haswell``, a cache of its own) in a child process, the narrower vectors
+    another host of this kind may give."""
+    import subprocess
+    import tempfile
+
+    host = host_cpu()
+    print(f"\n== held-out check: {n_loops} loops, fast vs tslearn side by side, on "
+          f"{host['model']} ({host['llvm_cpu']}, {host['lanes']} lanes) ==")
+    t = heldout_times(n_loops=n_loops)
+    same = sum(a == b for a, b in zip(t["fast"][2], t["tslearn"][2]))
+    wall, cpu = t["tslearn"][0] / t["fast"][0], t["tslearn"][1] / t["fast"][1]
+    print(f"  fast {t['fast'][0]:.2f} s, tslearn {t['tslearn'][0]:.2f} s: {wall:.1f}x "
+          f"(CPU time {cpu:.1f}x); identical labels and scores on {same}/{n_loops}")
+    with tempfile.TemporaryDirectory() as cache:
+        code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench; "
+                f"t = bench.heldout_times(('fast',), {n_loops}); "
+                "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2]]))")
+        env = {**os.environ, "NUMBA_CPU_NAME": "haswell", "NUMBA_CACHE_DIR": cache}
+        res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                             text=True, timeout=1800, check=True)
+        avx2 = json.loads(res.stdout.strip().splitlines()[-1])
+    avx2_same = sum(a == [b[0], b[1]] for a, b in zip(avx2[2], t["tslearn"][2]))
+    print(f"  AVX2 code (NUMBA_CPU_NAME=haswell): fast {avx2[0]:.2f} s, "
+          f"{t['tslearn'][0] / avx2[0]:.1f}x tslearn; identical on {avx2_same}/{n_loops}")
+    report["heldout"] = {
+        "host": host, "loops": n_loops, "identical": same,
+        "fast_seconds": t["fast"][0], "tslearn_seconds": t["tslearn"][0],
+        "speedup": wall, "cpu_speedup": cpu,
+        "avx2": {"fast_seconds": avx2[0], "speedup": t["tslearn"][0] / avx2[0],
+                 "identical": avx2_same},
+        "command": "ONLY=heldout make bench"}
+
+
 SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": bench_spread,
             "agreement": bench_agreement, "search": bench_search,
             "profile": bench_where_time_goes, "compile": bench_cold_compile,
             "closed_loop": bench_closed_loop, "exp13": bench_exp13, "cluster": bench_cluster,
+            "heldout": bench_heldout,
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 
 
@@ -718,7 +802,8 @@ def main():
     only = os.environ.get("ONLY")
     stamp = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     report = {"measured": stamp, "python": sys.version.split()[0],
-              "machine": platform.machine(), "cores": os.cpu_count(), "numpy": np.__version__}
+              "machine": platform.machine(), "cpu": host_cpu(), "cores": os.cpu_count(),
+              "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
     if only:  # one section, measured now, merged into the figures already on file
         if only not in SECTIONS:

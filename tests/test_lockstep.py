@@ -11,7 +11,7 @@ from tslearn.metrics import cdist_soft_dtw
 import uavwind as uw
 from uavwind.method import softdtw as fk
 from uavwind.method.clustering import score_loop
-from uavwind.method.softdtw import _consts, _dispatch
+from uavwind.method.softdtw import _consts, _dispatch, _kernels
 from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
                                              _sdtw_forward)
 from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
@@ -142,6 +142,46 @@ def test_lockstep_equals_the_scalar_kernel_on_odd_shapes_and_gammas(gamma):
             _check_kernels(A, B, gamma, tslearn=False)
             if m == n:  # the objective needs Z and X of one length only per call
                 _check_kernels(B, A[:2], gamma, tslearn=False)
+
+
+def test_lockstep_is_exact_where_a_cells_three_terms_tie():
+    """The forward cell takes two exps, not three, choosing each term's by equality with
+    the max, the second or the smallest; series on a coarse integer grid make many cells
+    whose terms tie (two or three equal, or equal to the max), with gammas of both kinds."""
+    rng = np.random.default_rng(11)
+    for gamma in (0.5, 0.3, 4.0):
+        A = rng.integers(0, 2, size=(9, 12, 2)).astype(float)
+        B = rng.integers(0, 2, size=(3, 12, 2)).astype(float)
+        _check_kernels(A, B, gamma, tslearn=True)
+        _check_kernels(np.zeros((5, 6, 1)), np.zeros((2, 6, 1)), gamma, tslearn=True)
+
+
+def test_the_gradient_runs_on_the_scalar_kernels_where_the_jacobian_does_not_contract(
+        monkeypatch):
+    """The lockstep gradient adds each term with one fused multiply-add, the operation the
+    scalar Jacobian (tslearn's expression under fastmath) compiles to on this host; the check
+    reads the scalar kernel's own answer, and where it did not fuse, the barycentres run on
+    the scalar kernels, with the same doubles."""
+    from fractions import Fraction
+
+    e, v = 1.0 / 3.0, 1.0 / 7.0
+    G = np.array([[-(2 * e * v)]])
+    _kernels._jacobian_product_sq_euc(np.array([[v]]), np.zeros((1, 1)), np.array([[e]]),
+                                      np.zeros(1, np.int64), np.zeros(1, np.int64), G)
+    fused = float(Fraction(2 * e) * Fraction(v) + Fraction(-(2 * e * v)))
+    assert fused != 0.0 and G[0, 0] in (0.0, fused)
+    assert _dispatch.jacobian_contracts() == (G[0, 0] == fused)
+    X, g = _loop(3, "inferred", seed=5)
+    lock = fk.fit(X, parallel=False)
+
+    def refuse(*args):
+        raise AssertionError("the lockstep gradient ran")
+
+    monkeypatch.setattr(_dispatch, "_CONTRACTS", [False])
+    monkeypatch.setattr(_dispatch, "_objgrad_lockstep", refuse)
+    scal = fk.fit(X, parallel=False)
+    assert np.array_equal(lock.labels, scal.labels) and lock.inertia == scal.inertia
+    assert np.array_equal(lock.cluster_centers, scal.cluster_centers)
 
 
 def _walk(rng, n, scale, T=120, d=3):

@@ -5,8 +5,9 @@ same arithmetic and gives the same doubles (see the replication notes)."""
 import numpy as np
 
 from . import _consts
-from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _n_workers, _objgrad_batch_par,
-                       _objgrad_batch_serial, _sdtw_cross_par_inner, _sdtw_cross_serial)
+from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _jacobian_product_sq_euc,
+                       _n_workers, _objgrad_batch_par, _objgrad_batch_serial,
+                       _sdtw_cross_par_inner, _sdtw_cross_serial)
 from ._lockstep import (N, _dtw_upper_lockstep, _dtw_upper_lockstep_par, _objgrad_lockstep,
                         _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
 
@@ -15,6 +16,25 @@ def _use_lockstep(fx, lockstep=None):
     """The lockstep kernel runs where the glibc replicas are exact on this platform (``fx``;
     its vector exp/log are the same replicas) and unless ``UAVWIND_SOFTDTW_LOCKSTEP=0``."""
     return bool(fx) and (_consts.LOCKSTEP if lockstep is None else bool(lockstep))
+
+
+_CONTRACTS = []
+
+
+def jacobian_contracts():
+    """Whether the scalar Jacobian product (tslearn's expression under its ``fastmath``)
+    compiles on this host to one fused multiply-add per term, ``G = fma(E + E, Z - X, G)``,
+    the operation the lockstep gradient performs on every lane; checked once, on a term
+    where a fused and a separate multiply and add round differently (with G = -(2e * v)
+    rounded, the separate pair gives exactly 0.0 and the fused one the product's rounding
+    error). Where it does not, the gradient runs on the scalar kernels."""
+    if not _CONTRACTS:
+        e, v = 1.0 / 3.0, 1.0 / 7.0
+        G = np.array([[-(2 * e * v)]])
+        _jacobian_product_sq_euc(np.array([[v]]), np.zeros((1, 1)), np.array([[e]]),
+                                 np.zeros(1, np.int64), np.zeros(1, np.int64), G)
+        _CONTRACTS.append(G[0, 0] != 0.0)
+    return _CONTRACTS[0]
 
 
 def _sdtw_cross(A, B, gamma, out, par, fx, lockstep=None):
@@ -43,7 +63,7 @@ def _objgrad_many(Zs, Xss, gamma, par, fx, lockstep=None):
     every centre's series in one call, N per vector whichever centre they belong to (two
     clusters of 10 series fill 3 vectors of 8 lanes instead of 4); the scalar kernels one
     centre at a time. Each pair is the same doubles either way."""
-    if _use_lockstep(fx, lockstep):
+    if _use_lockstep(fx, lockstep) and jacobian_contracts():
         sizes = np.array([X.shape[0] for X in Xss], dtype=np.int64)
         starts = np.zeros(len(Xss) + 1, dtype=np.int64)
         np.cumsum(sizes, out=starts[1:])

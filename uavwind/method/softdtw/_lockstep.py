@@ -11,6 +11,9 @@ all already divided by -gamma as the scalar kernel keeps them::
     if second - mx < -38 on every lane:  lg = 0.0          (tmp == 1.0 exactly, log(1) == 0)
     else, tslearn's sum on the lanes that need it:
         lg = log(((0.0 + exp(a - mx)) + exp(b - mx)) + exp(c - mx))
+    with two exps, not three: each of a, b, c equals mx, the second largest or the smallest
+    of the three, so its exp is exp(+0.0) == 1.0 (mx finite), exp(second - mx) or
+    exp(smallest - mx), the same doubles; a lane whose mx is not finite takes all three
     r = D + (-gamma) * (lg + mx);   S = r * (1 / -gamma)  if gamma = 2**k  else r / -gamma
 
 The scalar kernel's skip rule (a cell whose two smaller terms are negligible needs no
@@ -27,9 +30,9 @@ Layout: series are lane-interleaved, ``x[(i * d + k) * N + l]`` = feature k of s
 l's series; the S buffer is padded like tslearn's accumulated matrix (row -1 is -inf but for
 the corner (-1, -1) = 0 / -gamma, column -1 is -inf), so the borders run the same code.
 The same lanes serve the barycentre objective (N series, each against its own centre, so
-k-means' clusters share the vectors: value, gradient
-matrix by the backward recursion over the union of the lanes' bands, and each lane's
-Jacobian by the scalar kernel's own function) and DTW (N pairs of the silhouette's matrix;
+k-means' clusters share the vectors: value, gradient matrix by the backward recursion over
+the union of the lanes' bands, row by row, and the Jacobian product on every lane with the
+fused multiply-add the scalar kernel compiles to, where it does) and DTW (N pairs of the silhouette's matrix;
 min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
 :mod:`._kernels` stays the scalar reference.
 """
@@ -40,9 +43,9 @@ import numpy as np
 from numba import njit, prange
 
 from ._consts import _EXP_NEGLIGIBLE
-from ._kernels import _is_pow2, _jacobian_product_sq_euc, _reduce_objgrad, _unrank_upper
-from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vload, vlt, vmax,
-                    vmin, vmul, vsqrt, vstore, vsub)
+from ._kernels import _is_pow2, _reduce_objgrad, _unrank_upper
+from ._simd import (N, lane, many, mand, mnot, mor, sel, splat, vadd, vdiv, veq, vfma, vload,
+                    vlt, vmax, vmin, vmul, vsqrt, vstore, vsub)
 from ._vlibm import vexp_care, vlog_care
 
 #: Rows per block of the register wavefront.
@@ -55,12 +58,21 @@ def _cellv(a, b, c, dv, ng, inv, pow2):
     lanes that need the sum, exactly 0.0 + mx on the others) and s = r / -gamma."""
     mab = vmax(a, b)
     mx = vmax(mab, c)
-    second = vmax(vmin(a, b), vmin(mab, c))
+    mib = vmin(a, b)
+    second = vmax(mib, vmin(mab, c))
     full = mnot(vlt(vsub(second, mx), _EXP_NEGLIGIBLE))
     if many(full):
-        tmp = vadd(0.0, vexp_care(vsub(a, mx), full))
-        tmp = vadd(tmp, vexp_care(vsub(b, mx), full))
-        tmp = vadd(tmp, vexp_care(vsub(c, mx), full))
+        if many(mand(full, mnot(veq(vsub(mx, mx), 0.0)))):  # a lane's max is not finite
+            ea = vexp_care(vsub(a, mx), full)
+            eb = vexp_care(vsub(b, mx), full)
+            ec = vexp_care(vsub(c, mx), full)
+        else:  # two exps: the max's own term is exp(+0.0) == 1.0
+            e2 = vexp_care(vsub(second, mx), full)
+            e3 = vexp_care(vsub(vmin(mib, c), mx), full)
+            ea = sel(veq(a, mx), 1.0, sel(veq(a, second), e2, e3))
+            eb = sel(veq(b, mx), 1.0, sel(veq(b, second), e2, e3))
+            ec = sel(veq(c, mx), 1.0, sel(veq(c, second), e2, e3))
+        tmp = vadd(vadd(vadd(0.0, ea), eb), ec)
         lg = sel(full, vlog_care(tmp, full), 0.0)
     else:
         lg = splat(0.0)
@@ -313,49 +325,54 @@ def _factor(e, care, rn, r11, dn, gamma, inv_gamma, pow2):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _backward(Rf, x, y, d, m, n, gamma, E, clo, chi):
+def _backward(Rf, x, y, d, m, n, gamma, E, rlo, rhi):
     """tslearn's gradient matrix (``_njit_soft_dtw_grad``) of every lane into E (m * n * N,
     all zero on entry), on the union over lanes of the band where E can be non-zero, from
     the accumulated matrix Rf and the lane-interleaved series x (m steps) and y (n steps),
-    whose costs are computed again where a factor needs one (:func:`_cost_at`).
+    whose costs are computed again where a factor needs one (:func:`_cost_at`); a factor
+    whose e is 0 on every lane is not evaluated, and a cell inside the union band but
+    outside a lane's own band gets exactly +0.0 on that lane, as in tslearn.
 
-    Same traversal as the scalar ``_sdtw_backward`` (columns right to left, rows bottom to
-    top) and the same expression ``(p1 + p2) + p3`` per cell; a factor whose e is 0 on every
-    lane is not evaluated. A cell inside the union band but outside a lane's own band gets
-    exactly 0 on that lane, as in tslearn. ``clo[c] .. chi[c]`` receive the rows computed in
-    column c (what :func:`_clear_band` resets)."""
+    Rows bottom to top, columns right to left in a row. A cell depends on the cells below, to its right and below-right only, so any order
+    that visits those first gives every cell the same doubles (each still ``(p1 + p2) + p3``
+    with p1 the cell below, p2 the one to the right, p3 the diagonal, as tslearn adds
+    them); this one walks E and Rf along their rows, which lie contiguous in memory, where
+    tslearn's column order strides a whole row (``n * N`` doubles) per cell. ``rlo[r] ..
+    rhi[r]`` receive the columns computed in row r (what :func:`_clear_rows` resets and
+    :func:`_jacobian_vec` sums over)."""
     pow2 = _is_pow2(gamma)
     inv_gamma = 1.0 / gamma
     nN = n * N
     zero = splat(0.0)
     one = splat(1.0)
     vstore(E, (m - 1) * nN + (n - 1) * N, one)
-    nxt_lo = m
+    nxt_lo = n
     nxt_hi = -1
-    for c in range(n - 1, -1, -1):
-        if c == n - 1:
-            r = m - 2
+    for r in range(m - 1, -1, -1):
+        if r == m - 1:
+            c = n - 2
             prev = one
-            cur_lo = m - 1
-            cur_hi = m - 1
-            comp_hi = m - 1
-            comp_lo = m - 1
+            cur_lo = n - 1
+            cur_hi = n - 1
+            comp_hi = n - 1
+            comp_lo = n - 1
         else:
-            r = min(m - 1, nxt_hi)
+            c = min(n - 1, nxt_hi)
             prev = zero
-            cur_lo = m
+            cur_lo = n
             cur_hi = -1
-            comp_hi = r
-            comp_lo = r + 1
-        while r >= 0:
-            e1 = prev
-            e2 = vload(E, r * nN + (c + 1) * N) if c + 1 < n else zero
-            e3 = vload(E, (r + 1) * nN + (c + 1) * N) if (c + 1 < n and r + 1 < m) else zero
+            comp_hi = c
+            comp_lo = c + 1
+        below = r + 1 < m
+        while c >= 0:
+            e1 = vload(E, (r + 1) * nN + c * N) if below else zero
+            e2 = prev
+            e3 = vload(E, (r + 1) * nN + (c + 1) * N) if (below and c + 1 < n) else zero
             n1 = mnot(veq(e1, 0.0))
             n2 = mnot(veq(e2, 0.0))
             n3 = mnot(veq(e3, 0.0))
             if not many(mor(mor(n1, n2), n3)):
-                if r < nxt_lo - 1:
+                if c < nxt_lo - 1:
                     break
                 v = zero
             else:
@@ -375,59 +392,51 @@ def _backward(Rf, x, y, d, m, n, gamma, E, clo, chi):
                                  _cost_at(x, y, r + 1, c + 1, d, True), gamma, inv_gamma, pow2)
                 v = vadd(vadd(p1, p2), p3)
             vstore(E, r * nN + c * N, v)
-            comp_lo = r
+            comp_lo = c
             if many(mnot(veq(v, 0.0))):
                 if cur_hi < 0:
-                    cur_hi = r
-                cur_lo = r
+                    cur_hi = c
+                cur_lo = c
             prev = v
-            r -= 1
-        clo[c] = comp_lo
-        chi[c] = comp_hi
+            c -= 1
+        rlo[r] = comp_lo
+        rhi[r] = comp_hi
         nxt_lo = cur_lo
         nxt_hi = cur_hi
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _jacobian_lanes(Zs, cid, Xs, s0, E, m, n, clo, chi, El, jlo, jhi, Gs):
-    """Per lane (series s0 + l, against centre Zs[cid[s]]): its E band copied into the
-    scalar matrix El, its per-row first and last non-zero column, then the scalar kernel's
-    Jacobian product itself (same compiled code and flags as tslearn's, so the same
-    doubles), into the zeroed Gs[s]."""
+def _jacobian_vec(zl, x, E, m, n, d, rlo, rhi, s0, ns, Gs):
+    """Every lane's Jacobian product at once: Gs[s0 + l][i, k] = the sum over j, in j
+    order, of fma(E[i, j] + E[i, j], zl[i, k] - x[j, k], .), from 0.0 -- the operations the
+    scalar :func:`._kernels._jacobian_product_sq_euc` (tslearn's expression, compiled with
+    its ``fastmath``) performs on this host, where LLVM contracts ``G + (E * 2) * (Z - X)``
+    into one fused multiply-add (:func:`jacobian_contracts` checks it; elsewhere the
+    lockstep kernel is not used). Row i sums over the columns computed in it
+    (``rlo[i] .. rhi[i]``): outside a lane's own band its E is +0.0, and fma(+0.0, finite,
+    G) is G, so the extra terms change no lane."""
     nN = n * N
-    d = Zs.shape[2]
-    for l in range(N):
-        s = s0 + l
-        if s >= Xs.shape[0]:
-            break
-        for i in range(m):
-            jlo[i] = n
-            jhi[i] = -1
-        for c in range(n - 1, -1, -1):
-            for r in range(clo[c], chi[c] + 1):
-                v = E[r * nN + c * N + l]
-                El[r, c] = v
-                if v != 0.0:
-                    if jhi[r] < 0:
-                        jhi[r] = c
-                    jlo[r] = c
-        G = Gs[s]
-        for i in range(m):
-            for k in range(d):
-                G[i, k] = 0.0
-        _jacobian_product_sq_euc(Zs[cid[s]], Xs[s], El, jlo, jhi, G)
-        for c in range(n):
-            for r in range(clo[c], chi[c] + 1):
-                El[r, c] = 0.0
+    for i in range(m):
+        lo = rlo[i]
+        hi = rhi[i]
+        for k in range(d):
+            zk = vload(zl, (i * d + k) * N)
+            acc = splat(0.0)
+            for j in range(lo, hi + 1):
+                e = vload(E, i * nN + j * N)
+                acc = vfma(vadd(e, e), vsub(zk, vload(x, (j * d + k) * N)), acc)
+            for l in range(N):
+                if s0 + l < ns:
+                    Gs[s0 + l, i, k] = lane(acc, l)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _clear_band(E, n, clo, chi):
-    """Restore the all-zero invariant of the lane-interleaved E workspace."""
+def _clear_rows(E, m, n, rlo, rhi):
+    """Restore the all-zero invariant of E after :func:`_backward_rows`."""
     nN = n * N
     zero = splat(0.0)
-    for c in range(n):
-        for r in range(clo[c], chi[c] + 1):
+    for r in range(m):
+        for c in range(rlo[r], rhi[r] + 1):
             vstore(E, r * nN + c * N, zero)
 
 
@@ -457,11 +466,10 @@ def _pack_centres(Zs, cid, g, zl):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf, E, clo, chi,
-                    El, jlo, jhi):
+def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
     """vals[s], Gs[s] = tslearn's ``_softdtw_func(Zs[cid[s]], Xs[s], 1, gamma, ..)`` for the
     series of lane groups g0, g0 + step, .. < g1, on one worker's workspace (zl .. jhi, as
-    :func:`_objgrad_workspace` makes them; E and El all zero on entry, and again on return).
+    :func:`_objgrad_workspace` makes them; E all zero on entry, and again on return).
     A lane's centre is its series' own (``cid``), so one vector can serve series of several
     barycentres; a lane's arithmetic does not depend on its neighbours."""
     m, d = Zs.shape[1], Zs.shape[2]
@@ -475,12 +483,12 @@ def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf,
             _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
         last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
-        _backward(Rf, zl, x, d, m, n, gamma, E, clo, chi)
+        _backward(Rf, zl, x, d, m, n, gamma, E, rlo, rhi)
         for l in range(N):
             if g * N + l < ns:
                 vals[g * N + l] = lane(last, l)
-        _jacobian_lanes(Zs, cid, Xs, g * N, E, m, n, clo, chi, El, jlo, jhi, Gs)
-        _clear_band(E, n, clo, chi)
+        _jacobian_vec(zl, x, E, m, n, d, rlo, rhi, g * N, ns, Gs)
+        _clear_rows(E, m, n, rlo, rhi)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -497,33 +505,31 @@ def _reduce_many(vals, Gs, starts):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, clo, chi, El, jlo, jhi):
+def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, rlo, rhi):
     ns = Xs.shape[0]
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
     _objgrad_groups(Zs, cid, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs, zl[0], x[0], S[0],
-                    D[0], Rf[0], E[0], clo[0], chi[0], El[0], jlo[0], jhi[0])
+                    D[0], Rf[0], E[0], rlo[0], rhi[0])
     return _reduce_many(vals, Gs, starts)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, clo, chi, El,
-                       jlo, jhi):
+def _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
     ngroups = (Xs.shape[0] + N - 1) // N
     for w in prange(nw):
         _objgrad_groups(Zs, cid, Xs, gamma, w, ngroups, nw, vals, Gs, zl[w], x[w], S[w], D[w],
-                        Rf[w], E[w], clo[w], chi[w], El[w], jlo[w], jhi[w])
+                        Rf[w], E[w], rlo[w], rhi[w])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_par(Zs, cid, starts, Xs, gamma, nw, zl, x, S, D, Rf, E, clo, chi, El, jlo, jhi):
+def _objgrad_par(Zs, cid, starts, Xs, gamma, nw, zl, x, S, D, Rf, E, rlo, rhi):
     ns = Xs.shape[0]
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, clo, chi, El,
-                       jlo, jhi)
+    _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi)
     return _reduce_many(vals, Gs, starts)
 
 
@@ -534,9 +540,9 @@ _WORKSPACE = threading.local()
 def _objgrad_workspace(m, n, d, nw):
     """The arrays :func:`_objgrad_groups` works in, one row per worker: packed centres and
     series, the wavefront's S rows, a block's costs, the whole accumulated and gradient
-    matrices of N lanes (E all zero), the scalar gradient matrix of one lane (El, all zero)
-    and the band bounds; about ``2 * m * n * N`` doubles a worker (1.9 MB for 120 x 120 and
-    8 lanes), kept for the life of the thread.
+    matrices of N lanes (E all zero) and the band's columns per row; about
+    ``2 * m * n * N`` doubles a worker (1.8 MB for 120 x 120 and 8 lanes), kept for the
+    life of the thread.
 
     Taken from this thread's cache when the last call had the same shape, else made (made
     at every call, the pages of these megabytes can be faulted in and zeroed again each
@@ -551,9 +557,7 @@ def _objgrad_workspace(m, n, d, nw):
     nN = m * n * N
     return (np.empty((nw, m * d * N)), np.empty((nw, n * d * N)),
             np.empty((nw, (R + 1) * (n + 1) * N)), np.empty((nw, R * n * N)),
-            np.empty((nw, nN)),
-            np.zeros((nw, nN)), np.empty((nw, n), dtype=np.int64),
-            np.empty((nw, n), dtype=np.int64), np.zeros((nw, m, n)),
+            np.empty((nw, nN)), np.zeros((nw, nN)),
             np.empty((nw, m), dtype=np.int64), np.empty((nw, m), dtype=np.int64))
 
 
@@ -569,7 +573,7 @@ def _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw=1):
     ws = _objgrad_workspace(m, n, d, nw)
     out = (_objgrad_par(Zs, cid, starts, Xs, gamma, nw, *ws) if nw > 1
            else _objgrad_serial(Zs, cid, starts, Xs, gamma, *ws))
-    _WORKSPACE.last = ((m, n, d, nw), ws)  # E and El are all zero again
+    _WORKSPACE.last = ((m, n, d, nw), ws)  # E is all zero again
     return out
 
 
