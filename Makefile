@@ -74,11 +74,11 @@ test: $(STAMP)  ## run the test suite
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section
 	$(BIN)/python benchmarks/bench.py
 
-# every result the book shows, under the readings its pages show, in one pool of workers, longest task first;
+# every result the book shows, under the readings its pages show, and every analysis its pages read (Exp 13
+# with $$UAVWIND_NEURALFLY), in one process and one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
 results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
-	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind analyses --profile $(PROFILE) --jobs $(JOBS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then

@@ -337,3 +337,54 @@ def test_a_parameter_spelt_as_a_float_keys_the_same_loops():
     a = fill.needed_entries("exp5", "quick")
     b = fill.needed_entries("exp5", "quick", max_iter=100.0)
     assert [e.path for e in a] == [e.path for e in b]
+
+
+def _read_exp5(profile, seed, results):
+    """An analysis that reads Exp 5's results: read-only, so it fails unless they are stored."""
+    import os
+
+    from uavwind.core.io import READ_ONLY_ENV
+    os.environ[READ_ONLY_ENV] = "1"
+    try:
+        df = ex.run_experiment("exp5", profile=TINY, seed=seed, results=results, n_jobs=1,
+                               progress=False)
+    finally:
+        del os.environ[READ_ONLY_ENV]
+    (results / "exp5_seen.txt").write_text(f"{profile} {seed} {len(df)}")
+
+
+def _own_run(profile, seed, results):
+    """An analysis that reads no experiment."""
+    (results / "own.txt").write_text(f"{profile} {seed}")
+
+
+def _failing(profile, seed, results):
+    raise RuntimeError("this analysis fails")
+
+
+def test_analyses_run_in_the_fills_pool_once_what_they_read_is_stored(tmp_path):
+    """`make results` is one process and one pool: the pages' analyses are tasks of the
+    fill beside the experiments' entries, each put once the entries of the experiments it
+    reads are stored (here, read-only: it fails if run before them), recorded in the times
+    as an analysis; with only analyses the same pool runs them, and a failing one fails
+    the fill after what finished is kept."""
+    res = tmp_path / "pool"
+    res.mkdir()
+    analyses = [fill.Analysis("reads_exp5", _read_exp5, reads=("exp5",)),
+                fill.Analysis("own", _own_run, long=True)]
+    done = fill.fill_cache(["exp5", "exp6"], profile=TINY, results=res, n_jobs=2,
+                           progress=False, analyses=analyses)
+    assert (res / "exp5_seen.txt").read_text().startswith(f"custom {ex.DEFAULT_SEED} ")
+    assert (res / "own.txt").exists()
+    kinds = [(t["experiment"], t["search"]) for t in done["times"]]
+    assert ("reads_exp5", "analysis") in kinds and ("own", "analysis") in kinds
+    assert done["computed"] == len(done["times"]) - 2
+    (res / "own.txt").unlink()
+    again = fill.fill_cache([], profile=TINY, results=res, n_jobs=2, progress=False,
+                            analyses=analyses)
+    assert again["entries"] == 0 and len(again["times"]) == 2 and (res / "own.txt").exists()
+    with pytest.raises(RuntimeError, match="this analysis fails"):
+        fill.fill_cache([], profile=TINY, results=res, n_jobs=2, progress=False,
+                        analyses=[fill.Analysis("bad", _failing), *analyses])
+    with pytest.raises(TypeError, match="analyses"):
+        fill.fill_cache([], profile=TINY, results=res, progress=False, analyses=[_own_run])

@@ -145,11 +145,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     readings = list(READINGS) if args.reading == "all" else [args.reading]
     t0 = time.perf_counter()
     records = []
+    # the book's whole fill (`make results`: every experiment under both readings) computes
+    # what the pages read beside the experiments, in the same pool: their analyses, Exp 11's
+    # filter table, the explorer's grid and Exp 13's real flights (when they are there)
+    book = args.experiments == ["all"] and args.reading == "all" and args.seed is None
     try:
+        analyses = _book_analyses(None) if book else []
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                           readings="all" if args.reading == "all" else args.reading,
                           progress=not args.no_progress, times=records, stop=stop,
-                          scheduler=args.scheduler, **kw)
+                          scheduler=args.scheduler, analyses=analyses, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
         if times is not None:
@@ -180,7 +185,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
     if times is not None:
         _write_times(times, args, t0, records, complete=True)
-    if real and _exp13(args, asked="exp13" in args.experiments):
+    if book and not os.environ.get(NEURALFLY_ENV):
+        print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
+              file=sys.stderr)
+    if real and not book and _exp13(args, asked="exp13" in args.experiments):
         return 2
     if args.no_tables:
         return 0
@@ -236,42 +244,68 @@ def _exp13(args, asked: bool) -> int:
     return 0
 
 
-def _analyses(args) -> int:
-    """Fill the caches of the analyses the pages read: the explorer's grid and
-    :data:`~uavwind.analysis.memo.PAGE_ANALYSES` (in one pool), Exp 11's filter table, then Exp 13's
-    real rows and simulated ones (which fit the drag on the real flights; skipped, saying so,
-    without Neural-Fly's folder)."""
-    from .analysis.figure8 import calibration_of, sim_rows
-    from .analysis.filters import filter_table
-    from .analysis.memo import fill_page_analyses
-    from .report.explore import fill_grid
+def _exp13_fill(folder, profile, seed, results):
+    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's."""
+    from .analysis.figure8 import sim_rows
     from .analysis.real_flights import real_flight_rows
-    from .study.profiles import DEFAULT_SEED
+    real = real_flight_rows(folder, profile=profile, results=results, n_jobs=1)
+    sim_rows(real, profile=profile, results=results, n_jobs=1)
+
+
+def _filter_fill(profile, seed, results):
+    """The fill's task for Experiment 11's filter table."""
+    from .analysis.filters import filter_table
+    filter_table(profile=profile, results=results, n_jobs=1)
+
+
+def _book_analyses(folder) -> list:
+    """Every analysis the pages read, as the fill's tasks: the explorer's grid, Exp 11's
+    filter table and Exp 13's real flights (first: long, and reading no experiment), then
+    :func:`~uavwind.analysis.memo.page_analyses` (each once what it reads is stored).
+    Exp 13 only with its flights: ``folder``, else ``$UAVWIND_NEURALFLY`` (else left out)."""
+    from functools import partial
+
+    from .analysis.memo import page_analyses
+    from .data.neuralfly import ENV_VAR, neuralfly_folder
+    from .report.explore import fill_grid
+    from .study.fill import Analysis
+    out = [Analysis("explore_grid", fill_grid, long=True),
+           Analysis("exp11_filter_table", _filter_fill, long=True)]
+    if folder is not None or os.environ.get(ENV_VAR):
+        out.append(Analysis("exp13", partial(_exp13_fill, str(neuralfly_folder(folder))),
+                            long=True))
+    return out + page_analyses()
+
+
+def _analyses(args) -> int:
+    """Fill the caches of the analyses the pages read (:func:`_book_analyses`: the
+    explorer's grid, Exp 11's filter table, Exp 13's real and simulated rows, the pages'
+    summaries and exercises), in one pool: what ``run all --reading all`` computes beside
+    the experiments, for a cache whose experiments were filled another way. Exp 13 is
+    skipped, saying so, without Neural-Fly's folder."""
+    from .analysis.figure8 import calibration_of, sim_rows
+    from .analysis.real_flights import real_flight_rows
     from .data.neuralfly import ENV_VAR, neuralfly_folder
     try:
         have = args.folder is not None or bool(os.environ.get(ENV_VAR))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
-        names = fill_page_analyses(args.profile, DEFAULT_SEED, n_jobs=args.jobs,
-                                   first={"explore_grid": fill_grid})
-        print(f"analyses: {', '.join(names)} in {time.perf_counter() - t0:.1f} s")
-        t0 = time.perf_counter()
-        ft = filter_table(profile=args.profile, n_jobs=args.jobs)
-        print(f"analyses: Exp 11's filter table, {len(ft)} rows in {time.perf_counter() - t0:.1f} s")
+        done = fill_cache([], profile=args.profile, n_jobs=args.jobs, progress=False,
+                          analyses=_book_analyses(folder))
+        cpu = {r["experiment"]: r["cpu_seconds"] for r in done["times"]}
+        print(f"analyses: {', '.join(f'{k} ({v:.1f} CPU-s)' for k, v in cpu.items())}, in "
+              f"{time.perf_counter() - t0:.1f} s")
         if folder is None:
             print(f"analyses: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
                   f"skipped")
             return 0
-        t0 = time.perf_counter()
-        real = real_flight_rows(folder, profile=args.profile, n_jobs=args.jobs)
-        t1 = time.perf_counter()
-        sim = sim_rows(real, profile=args.profile, n_jobs=args.jobs)
+        real = real_flight_rows(folder, profile=args.profile)  # read from the cache
+        sim = sim_rows(real, profile=args.profile)
     except (ValueError, TypeError) as exc:
         print(f"python -m uavwind analyses: error: {exc}", file=sys.stderr)
         return 2
-    print(f"analyses: Exp 13, {len(real)} real rows in {t1 - t0:.1f} s, {len(sim)} simulated "
-          f"rows in {time.perf_counter() - t1:.1f} s (the twin's drag scale "
-          f"{calibration_of(sim).drag_scale:.3f})")
+    print(f"analyses: Exp 13, {len(real)} real rows, {len(sim)} simulated rows (the twin's "
+          f"drag scale {calibration_of(sim).drag_scale:.3f})")
     return 0
 
 

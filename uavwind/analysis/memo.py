@@ -8,7 +8,8 @@ with the digest of its own content (index included); a missing, damaged or alter
 recomputed (the latter two moved aside, with a warning naming the file), and under
 ``UAVWIND_PAGES_READ_ONLY`` a page that would compute it fails naming it
 (:func:`uavwind.core.io.refuse_to_compute`). :data:`PAGE_ANALYSES` lists what the fill
-computes (``python -m uavwind analyses``).
+computes and :func:`page_analyses` hands them to it as tasks, each with the experiments it
+reads (``make results``: ``python -m uavwind run all --reading all``, one pool).
 
 The exercises' small runs live here too: a solution shows the code a student would write
 and reads its result from the function of the same name, which runs that code in the fill
@@ -24,7 +25,6 @@ from dataclasses import replace
 import pandas as pd
 
 from ..core.store import content_digest, get_or_compute
-from ..core.parallel import check_jobs
 from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
 from ..method.clustering import score_loop
 from ..method.search import cem, random_search
@@ -33,6 +33,7 @@ from ..sim.dryden import CitedDryden
 from ..sim.observation import Noise
 from ..study.builders import direction_settings, make_setting
 from ..study.conditions import table3_setting
+from ..study.fill import Analysis
 from ..study.layouts import Layout
 from ..study.readings import DEFAULT_READING
 from ..study.registry import EXPERIMENTS
@@ -41,7 +42,7 @@ from . import inference, manoeuvres
 from .claims import c1_by_vehicle, compare_readings, needed_experiments
 from .closed_loop import accuracy_over_time, closing_the_loop, time_to_confidence
 
-__all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "fill_page_analyses",
+__all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "page_analyses",
            "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary",
            "exp12_summaries",
            "model_example", "model_vertical_exercise", "exp1_line_exercise",
@@ -367,13 +368,15 @@ PAGE_ANALYSES = {"claims": _fill_claims,
                  "inference_gusts_exercise": _fixed(inference_gusts_exercise)}
 
 
-def fill_page_analyses(profile: str, seed: int, results=None, n_jobs: int | None = None,
-                       first: Mapping[str, Callable] | None = None) -> list[str]:
-    """Compute every :data:`PAGE_ANALYSES` entry missing from the cache, one per worker,
-    after ``first`` (more such functions, from layers above this one: the longest tasks,
-    dispatched first); the names, in order."""
-    from joblib import Parallel, delayed
-    tasks = {**(first or {}), **PAGE_ANALYSES}
-    Parallel(n_jobs=check_jobs(n_jobs))(delayed(f)(profile, seed, results)
-                                        for f in tasks.values())
-    return list(tasks)
+#: The experiments a page analysis reads (the others compute their own small runs).
+PAGE_ANALYSIS_READS = {"claims": (*needed_experiments(), "exp10"),
+                       "inference": ("fit_layout",),
+                       "exp12": ("exp12",),
+                       "exp12_inferred_exercise": ("exp12",)}
+
+
+def page_analyses() -> list[Analysis]:
+    """:data:`PAGE_ANALYSES` as the fill's tasks (:class:`~uavwind.study.fill.Analysis`),
+    each with the experiments it reads (:data:`PAGE_ANALYSIS_READS`)."""
+    return [Analysis(name, f, PAGE_ANALYSIS_READS.get(name, ()))
+            for name, f in PAGE_ANALYSES.items()]

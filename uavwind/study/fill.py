@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from ..core.checks import check_instance
 from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..method.clustering import ClusteringParams
 from ..method.search import CEMRun, evaluate
@@ -51,7 +52,37 @@ if TYPE_CHECKING:
     from .readings import Reading
     from .runner import Entry
 
-__all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
+__all__ = ["Analysis", "fill_cache", "needed_entries", "time_by_experiment"]
+
+
+@dataclass(frozen=True)
+class Analysis:
+    """Something a page reads that is not an experiment's entry (a page's summary of
+    results, an exercise's small run, Experiment 13's real flights): ``fill(profile, seed,
+    results)`` computes it into the result cache (and does nothing when it is there);
+    ``reads`` names the experiments whose results it reads, which the fill completes
+    first. A fill (:func:`fill_cache`) runs each as one task in its pool, as soon as what
+    it reads is complete, beside the experiments' own tasks; ``long`` puts it ahead of
+    the experiments' chunks (a long task started last would leave a core idle at the end)."""
+
+    name: str
+    fill: Any
+    reads: tuple = ()
+    long: bool = False
+
+    def __post_init__(self):
+        if not callable(self.fill):
+            raise TypeError(f"Analysis {self.name!r}: fill must be callable, got "
+                            f"{type(self.fill).__name__}")
+        object.__setattr__(self, "reads", tuple(self.reads))
+
+
+def _run_analysis(analysis, profile, seed, results):
+    """A task: ``analysis`` computed on one thread of a worker, and the CPU seconds it took."""
+    pin_threads()
+    cpu0 = time.process_time()
+    analysis.fill(profile, seed, results)
+    return None, time.process_time() - cpu0
 
 
 def needed_entries(exp_ids: str | Iterable[str] = "all",
@@ -154,6 +185,10 @@ def _cem_sample(setting, thrust, wind_seed, engine, params):
 #: Priority of a CEM sample's task: above every entry's (an entry's is its cost, capped
 #: below this), since each CEM iteration waits for its last sample.
 SAMPLE_PRIORITY = 2 ** 62 + 1
+#: Priority of a long :class:`Analysis` (Exp 13's flights, Exp 11's filter table): above
+#: every chunk, below CEM samples; the others go when they are ready, after the chunks
+#: waiting then (priority 0), as they read what the last chunks wrote.
+ANALYSIS_PRIORITY = 2 ** 62
 
 
 class _LocalPool:
@@ -382,7 +417,7 @@ class _Stepping:
     cpu: float = 0.0
 
 
-def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
+def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None, analyses=()):
     """Yield ``(path, rows, from_cache, CPU seconds, rows shown, tasks)`` as each entry of
     ``missing`` is done, its work handed out as tasks on ``pool``.
 
@@ -408,8 +443,13 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
     closed-loop entries (Experiment 12's episodes cluster nothing), so the compile of a
     fresh checkout leaves no core idle. It runs on a worker, not here, so that this
     process, which only waits, answers a stop request at once (a compile cannot be
-    interrupted, and takes tens of seconds)."""
-    if all(e.search == "closed_loop" for e in missing):
+    interrupted, and takes tens of seconds).
+
+    ``analyses``: ``(analysis, args, paths)`` triples; an :class:`Analysis` is put (a task of
+    its own, ``args`` its arguments) once every entry of ``paths`` (those of the
+    experiments it reads) is stored; it yields ``(("analysis", name), 0, False, CPU
+    seconds, 0, 1)`` when done."""
+    if all(e.search == "closed_loop" for e in missing) and not analyses:
         warm = None  # nothing to cluster
     runs = {}  # entry path -> its _Stepping
     by_path = {e.path: e for e in missing}
@@ -428,6 +468,18 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
             put((st.entry.path, st.run.iteration, j), SAMPLE_PRIORITY, _cem_sample,
                 st.entry.setting, th, ws, st.run.engine, st.run.params)
 
+    waiting = [(a, args, set(paths)) for a, args, paths in analyses]
+
+    def put_ready(path=None):
+        """Put every analysis no longer waiting on an entry (``path``: just stored)."""
+        for w in list(waiting):
+            w[2].discard(path)
+            if not w[2]:
+                waiting.remove(w)
+                a = w[0]
+                put(("analysis", a.name), ANALYSIS_PRIORITY if a.long else 0, _run_analysis,
+                    a, *w[1])
+
     def take(finished):
         """The entries ``finished`` completes, stored; then the first error, raised."""
         nonlocal held
@@ -435,6 +487,9 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
         for key, res, exc in finished:
             if exc is not None:
                 error = error or exc
+                continue
+            if isinstance(key, tuple) and key[0] == "analysis":
+                done.append((key, 0, False, res[1], 0, 1))
                 continue
             if key is _WARM:  # the kernels are compiled: the clustering tasks may go
                 for task in held:
@@ -448,6 +503,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
                     e = by_path[key]
                     back, hit = e.store(res[0])
                     done.append((e.path, len(back), hit, res[1], 0, 1))
+                put_ready(key)
                 continue
             path, _, j = key
             st = runs.get(path)
@@ -473,6 +529,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
             back, hit = e.store(run.result().samples)
             n = run.iteration * run.n_samples
             done.append((e.path, len(back), hit, st.cpu, n, n))
+            put_ready(path)
         if error is not None:
             raise error
         return done
@@ -487,6 +544,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None):
                 (pool.put if e.search == "closed_loop" else put)(
                     e.path, int(min(e.cost, 2 ** 62)), _fill_one if local else _compute_remote,
                     e)
+        put_ready()
         while pool.busy():
             if stop is not None and stop.is_set():
                 take(pool.wait(0, dispatch=False))  # what finished meanwhile is kept
@@ -502,8 +560,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
                results: os.PathLike | str | None = None,
                readings: str | Iterable[str | Reading] | None = None, progress: bool = True,
                times: list[dict] | None = None, stop: threading.Event | None = None,
-               scheduler: Any = None, **params: float | str) -> dict:
-    """Compute every missing result of ``exp_ids`` under ``readings`` in one pool.
+               scheduler: Any = None, analyses: Sequence[Analysis] = (),
+               **params: float | str) -> dict:
+    """Compute every missing result of ``exp_ids`` under ``readings`` in one pool, and the
+    ``analyses`` the pages read.
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
     over the workers, so a worker idles at the end of every chunk and every CEM iteration.
@@ -546,6 +606,11 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         one CEM sample) at a time per thread and returns its rows; this process steps the
         CEM runs, verifies and writes every entry (the workers need no access to
         ``results``). The rows equal a local fill's, bit for bit.
+    analyses : sequence of Analysis
+        Computed in the same pool, each as one task once the entries of the experiments it
+        reads are stored (with a ``scheduler``, in this process after the cluster's
+        entries: they write to ``results``); each is recorded in ``times`` with
+        ``search`` = ``"analysis"``.
 
     Returns
     -------
@@ -561,17 +626,20 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         :func:`time_by_experiment` sums them.
     """
     n_jobs = check_jobs(n_jobs)
+    analyses = list(analyses)
+    for a in analyses:
+        check_instance(a, "analyses[...]", Analysis)
     client, owned = (None, False) if scheduler is None else _check_scheduler(scheduler, stop)
     try:
         return _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress,
-                     times, stop, client, **params)
+                     times, stop, client, analyses, **params)
     finally:
         if owned:
             client.close()
 
 
 def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, times, stop,
-          client, **params):
+          client, analyses=(), **params):
     """:func:`fill_cache` once its pool is chosen (``client``: a cluster, or ``None``)."""
     from joblib import Parallel, delayed, effective_n_jobs
     from joblib._parallel_backends import LokyBackend
@@ -586,8 +654,13 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
            "rows_computed": 0, "times": [] if times is None else times}
     by_path = {e.path: e for e in missing}
-    if not missing:
+    if not missing and not analyses:
         return out
+    prof_name, results_arg = get_profile(profile).name, results
+    # an analysis waits for the missing entries of the experiments it reads
+    tasks = [(a, (prof_name, seed, results_arg),
+              [e.path for e in missing if any(x in a.reads for x, _ in users[e])])
+             for a in analyses]
     bar = None
     if progress:
         from tqdm import tqdm
@@ -595,11 +668,12 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
                    file=sys.stderr)
     watcher = done = None
     try:
-        if client is not None:
-            done = _run_tasks(missing, _ClusterPool(client), False, stop, bar)
-        elif effective_n_jobs(n_jobs) == 1 or len(missing) == 1:
+        if client is not None:  # the analyses write here: in this process, after
+            done = _then(_run_tasks(missing, _ClusterPool(client), False, stop, bar), tasks)
+        elif effective_n_jobs(n_jobs) == 1 or len(missing) + len(tasks) == 1:
             # in this process; a lone entry still gets every worker
-            done = ((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing)
+            done = _then(((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing),
+                         tasks)
         else:
             # the loop kernels compiled (or loaded from numba's cache) once, first: on a fresh
             # checkout, workers that each compiled them at once would spend a core-minute on
@@ -610,15 +684,21 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
                 # one task per chunk and per CEM sample, dispatched in priority order as
                 # workers free up (closed-loop entries fly while the kernels compile)
                 done = _run_tasks(missing, _LocalPool(effective_n_jobs(n_jobs)), True, stop,
-                                  bar, warm=softdtw.warmup)
+                                  bar, warm=softdtw.warmup, analyses=tasks)
             else:  # another joblib backend (joblib.parallel_config): one task per entry
                 softdtw.warmup()
-                done = ((*r, 0, 1) for r in Parallel(
+                done = _then(((*r, 0, 1) for r in Parallel(
                     n_jobs=n_jobs, batch_size=1, pre_dispatch="n_jobs",
-                    return_as="generator_unordered")(delayed(_fill_one)(e) for e in missing))
+                    return_as="generator_unordered")(delayed(_fill_one)(e) for e in missing)),
+                    tasks)
             if stop is not None:  # waiting on the workers: a stop request ends them at once
                 watcher = _Watcher(stop)
         for path, n_rows, hit, cpu, shown, n_tasks in done:
+            if isinstance(path, tuple):  # an analysis
+                out["times"].append({"experiment": path[1], "reading": "both",
+                                     "shared_with": [], "case": path[1], "search": "analysis",
+                                     "n_env": 0, "rows": 0, "tasks": 1, "cpu_seconds": cpu})
+                continue
             out["computed"] += not hit
             out["cached"] += hit  # another run on the same folder got there first
             out["rows_computed"] += 0 if hit else n_rows
@@ -650,6 +730,16 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
         if bar is not None:
             bar.close()
     return out
+
+
+def _then(done, tasks):
+    """What ``done`` yields, then the analyses of ``tasks`` in this process, one after the
+    other, as :func:`_run_tasks` yields them (a generator: closing it closes ``done``)."""
+    yield from done
+    for a, args, _ in tasks:
+        cpu0 = time.process_time()
+        a.fill(*args)
+        yield ("analysis", a.name), 0, False, time.process_time() - cpu0, 0, 1
 
 
 class _Watcher:
