@@ -306,3 +306,21 @@ def test_page_analyses_are_computed_once_verified_and_never_by_a_page(tmp_path, 
         memo("toy", {"n": 4}, compute, results=tmp_path)
     with pytest.raises(ValueError, match="identifier"):
         memo("not a name", {}, compute, results=tmp_path)
+
+
+def test_the_fill_computes_exp13_in_its_pool_when_the_flights_are_there(folder, monkeypatch):
+    """`make results` (run all --reading all) puts Experiment 13 in its pool as a long task
+    when the flights are there (``--folder`` or ``$UAVWIND_NEURALFLY``), and leaves it out,
+    saying so, when they are not; the task pickles (it goes to a worker process)."""
+    import pickle
+
+    from uavwind import cli
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    names = [a.name for a in cli._book_analyses(None)]
+    assert "exp13" not in names and {"explore_grid", "exp11_filter_table", "claims"} <= set(names)
+    exp13, = [a for a in cli._book_analyses(folder) if a.name == "exp13"]
+    assert exp13.long and exp13.reads == ()
+    back = pickle.loads(pickle.dumps(exp13))
+    assert back.fill.func is cli._exp13_fill and back.fill.args == (str(folder),)
+    monkeypatch.setenv("UAVWIND_NEURALFLY", str(folder))
+    assert "exp13" in [a.name for a in cli._book_analyses(None)]
