@@ -138,3 +138,21 @@ def test_the_one_loop_table_says_when_it_was_measured_and_on_which_footing():
     assert "measured 2026-11-27 15:00 UTC*" in summary_lines(new)["loops"]
     alone = {k: v for k, v in new.items() if k != "spread"}
     assert "one thread" not in summary_lines(alone)["loops"]
+
+
+def test_the_held_out_check_says_which_host_it_ran_on():
+    """A speed-up is a figure of one host: the held-out section names the CPU model, LLVM's
+    name for it and the lanes, and shows the AVX2 code's figure beside the native one."""
+    rep = {"measured": "2026-11-27 21:56 UTC",
+           "heldout": {"host": {"model": "Some CPU @ 2.5GHz", "llvm_cpu": "cascadelake",
+                                "lanes": 8},
+                       "loops": 12, "identical": 12, "fast_seconds": 2.0,
+                       "tslearn_seconds": 40.0, "speedup": 20.0, "cpu_speedup": 21.0,
+                       "avx2": {"fast_seconds": 2.5, "speedup": 16.0, "identical": 11}}}
+    line = summary_lines(rep)["heldout"]
+    assert "Some CPU @ 2.5GHz" in line and "cascadelake" in line and "8 float64 lanes" in line
+    assert "20.0 times faster" in line and "21.0 times in CPU time" in line
+    t = report_tables(rep)["heldout"]
+    assert t["speed-up"].tolist() == [20.0, 16.0] and t["identical"].tolist() == ["12/12",
+                                                                                  "11/12"]
+    assert "AVX2" in t.index[1]
