@@ -102,6 +102,14 @@ _N_PARAMS = 83
 _N_STATE, _N_STATE_PI = 20, 23
 
 
+def _kernels():
+    """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
+    1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
+    flies none). This module's one lazy import."""
+    from . import _rotor_kernels
+    return _rotor_kernels
+
+
 @dataclass(frozen=True)
 class PositionControl:
     """SE3's position law with an integral term and a thrust cone, as PX4's multicopter
@@ -449,7 +457,7 @@ class Multirotor:
         speed) in a horizontal airspeed of ``airspeed`` [m/s], opposing it: what couples a
         hovering multirotor to the wind (``F(1 m/s)`` is the per-speed coupling of the rotor
         drag, which is linear; the frame drag is quadratic)."""
-        from ._rotor_kernels import state_derivative
+        state_derivative = _kernels().state_derivative
 
         S = self.initial_states(np.zeros(3), np.zeros((1, 3)))
         S[0, 13] = check_scalar(airspeed, "airspeed", low=0.0, high=1e3)  # wind along x
@@ -464,7 +472,7 @@ class Multirotor:
         the tilt and the rotor speed, to 1e-9 m/s^2). Tilting into the wind shows it more
         frame to drag, so the lean exceeds ``atan(drag_force / weight)``. ``ValueError`` if
         no speed within the rotors' range holds it."""
-        from ._rotor_kernels import state_derivative  # a lazy kernel: start-up stays cheap
+        state_derivative = _kernels().state_derivative
 
         airspeed = check_scalar(airspeed, "airspeed", low=0.0, high=100.0)
         P = self.packed
@@ -568,7 +576,7 @@ class Multirotor:
         (n_env, n * control steps per sample), if given, is filled with whether a motor command
         was clipped in each control step (it changes nothing of the flight). (Checked inputs:
         call it through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`.)"""
-        from ._rotor_kernels import control_step
+        control_step = _kernels().control_step
 
         self.check_thrust(thrust)
         per = self.check_grid(dt)
@@ -640,7 +648,7 @@ class Multirotor:
         within the flight (before flying), or if an environment does (naming it and when).
         (Checked inputs: call it through :func:`uavwind.simulate` /
         :func:`uavwind.simulate_flight`.)"""
-        from ._rotor_kernels import control_step
+        control_step = _kernels().control_step
 
         if self.start != "hover":
             raise ValueError(f"start = {self.start!r}: a reference flight starts hovering at "
@@ -735,14 +743,14 @@ def _record_state(rec, j, P, S, u_held):
 
 
 def _clipped_commands(P, S, T, C):
-    from ._rotor_kernels import motor_commands
+    motor_commands = _kernels().motor_commands
     return np.clip(motor_commands(P, S, T, C, 0), P[30], P[31])
 
 
 def _specific_force(P, S, U):
     """What an accelerometer at the centre of mass reads, body frame [m/s^2]: ``R^T (dv/dt -
     g)`` at the states ``S`` under the held motor speeds ``U`` (RotorPy's IMU, no noise)."""
-    from ._rotor_kernels import state_derivative
+    state_derivative = _kernels().state_derivative
 
     vdot = state_derivative(P, S, U)[:, 3:6]
     acc = vdot - np.array([0.0, 0.0, -GRAVITY])
@@ -763,7 +771,7 @@ def _body_z_batch(Q) -> np.ndarray:
 
 
 def _clipped_se3(P, S, C, mode=2):
-    from ._rotor_kernels import se3_commands, se3i_commands
+    se3_commands, se3i_commands = _kernels().se3_commands, _kernels().se3i_commands
     u = se3_commands(P, S, C)[0] if mode == 2 else se3i_commands(P, S, C)[0]
     return np.clip(u, P[_SPEED_MIN], P[_SPEED_MAX])
 
@@ -773,7 +781,7 @@ def _aero_force(P, S, U):
     gravity and the rotors' nominal thrust ``R e_z sum k_eta omega^2`` (frame drag, rotor
     drag, induced inflow and translational lift: the simulated counterpart of Neural-Fly's
     ``fa``). ``U`` (the held motor commands) does not change it (only the motors' rates)."""
-    from ._rotor_kernels import state_derivative
+    state_derivative = _kernels().state_derivative
 
     vdot = state_derivative(P, S, U)[:, 3:6]
     m = P[0]
