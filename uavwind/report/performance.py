@@ -365,12 +365,17 @@ def _gradient_split(t: Mapping[str, Any]) -> str:
     idle in the last one, so its figure is scaled to the lanes used."""
     lanes, k = t["lanes"], 2 * t.get("cluster_series", 10)
     slots = -(-k // lanes) * lanes
-    both = t["ns_per_cell_value_and_gradient_both_clusters"] * k / slots
+    raw = t["ns_per_cell_value_and_gradient_both_clusters"]
+    both = raw * k / slots
     added = both - t["ns_per_cell_value"]
+    # the cells table shows ``raw`` (every lane counted, idle ones too): say why the two differ
+    footing = ("" if slots == k else
+               f" (the table's {raw:.2f} ns counts all {slots} lanes, {slots - k} of them idle "
+               f"in the last vector; this figure counts the {k} in use)")
     costs = t["ns_per_cell_costs"]
     root = costs["sqrt(.) ** 2"] - costs["squared distance"]
     return (f"Per lane of a vector at one cell, a k-means round (both clusters' {k} series in "
-            f"one call, {slots // lanes} vectors of {lanes} lanes) takes {both:.2f} ns for the value with its gradient, "
+            f"one call, {slots // lanes} vectors of {lanes} lanes) takes {both:.2f} ns for the value with its gradient{footing}, "
             f"{added:.2f} ns more than a value; {root:.2f} ns of that ({100 * root / added:.0f}%) "
             "is the square root the forward pass takes at every cell: tslearn's barycentre "
             "objective has its costs as `cdist(Z, X) ** 2`, the square of the square root of "
