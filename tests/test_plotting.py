@@ -155,7 +155,7 @@ def _figure_functions():
 
 
 def test_every_figure_function_has_a_smoke_call():
-    assert _figure_functions() == set(CALLS) | {"panel_grid"}
+    assert _figure_functions() == set(CALLS) | {"panel_grid", "integer_ticks"}  # helpers
 
 
 def test_panel_grid_shows_n_axes_and_hides_the_rest():
@@ -187,3 +187,22 @@ def test_stamp_writes_the_provenance_under_the_figure():
         assert "experiment exp7" in text and "'inferred' reading" in text and "Note." in text
     finally:
         plt.close(fig)
+
+
+def test_loop_and_iteration_axes_are_ticked_at_whole_numbers():
+    """Two loops or two CEM iterations: ticks at 1 and 2, never 1.2 or 1.4 (issue 44)."""
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from uavwind.report import plotting
+
+    for fig in (plotting.fig3_loop(np.zeros((2, 5, 3)), np.array([0, 1]), [50.0, 60.0]),
+                plotting.fig9_cem(pd.DataFrame({"max": [50.0, 60.0], "mean": [40.0, 45.0]},
+                                               index=[1, 2]))):
+        fig.canvas.draw()
+        ax = fig.axes[-1]
+        ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
+        assert ticks and all(float(t).is_integer() for t in ticks), ticks
+        plt.close(fig)
+    with pytest.raises(ValueError, match="axis must be"):
+        plotting.integer_ticks(None, axis="z")

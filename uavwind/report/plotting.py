@@ -45,7 +45,7 @@ __all__ = ["flyable_scores", "fig1_trajectory_and_wind", "fig1_velocity_projecti
            "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
            "predicted_vs_paper", "noise_curves", "observation_bars", "baseline_vs_clustering",
            "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp",
-           "twin_validation", "wind_estimates", "channel_pair_heatmap"]
+           "twin_validation", "wind_estimates", "channel_pair_heatmap", "integer_ticks"]
 
 GROUP_COLOURS = ("tab:blue", "tab:orange")
 
@@ -195,15 +195,26 @@ def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
     return fig
 
 
+def integer_ticks(ax, axis: str = "x") -> None:
+    """Ticks at whole numbers only on ``axis`` ("x" or "y") of ``ax``: a loop or an iteration
+    is counted, so 1.0, 1.2, ... 2.0 would show values it cannot take."""
+    from matplotlib.ticker import MaxNLocator
+
+    if axis not in ("x", "y"):
+        raise ValueError(f"axis must be 'x' or 'y', got {axis!r}")
+    (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(MaxNLocator(integer=True))
+
+
 def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
     loops = np.arange(1, len(scores) + 1)
     ax.plot(loops, scores, marker="o", ms=2.5, lw=0.8, color="tab:blue", label="score")
     ax.axhline(scores.max(), color="tab:red", ls="--", lw=1, label=f"max {scores.max():.2f}")
     ax.axhline(scores.mean(), color="tab:green", ls=":", lw=1.2, label=f"mean {scores.mean():.2f}")
     ax.set(xlabel="loop", ylabel="silhouette score", ylim=ylim)
+    integer_ticks(ax)
     if title:
         ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="best")
 
 
 def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
@@ -273,7 +284,8 @@ def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
         v = dict(zip(paper["quantity"], paper["value"]))
         ax.axhline(v["cem_maximum"], color="0.5", ls="--", lw=0.8, label="paper CEM max")
     ax.set(xlabel="iteration", ylabel="silhouette score", ylim=(-2, 102))
-    ax.legend(fontsize=7, loc="lower right")
+    integer_ticks(ax)
+    ax.legend(fontsize=7, loc="best")
     return fig
 
 
