@@ -44,8 +44,15 @@ SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate"
 
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     """A display copy of ``df``: shares as percentages, columns and index levels renamed
-    by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``."""
+    by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``; a row
+    of one loop (``n_loops`` 1) shows no interval (its bounds as :data:`MISSING`), since one
+    value has none."""
     out = df.copy()
+    if "n_loops" in out.columns:
+        one = (out["n_loops"] == 1).to_numpy()
+        for col in _INTERVAL_BOUNDS:
+            if col in out.columns and one.any():
+                out[col] = out[col].astype(float).where(~one)
     for col in out.columns:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
         if name in SHARES or str(name).startswith("correct_rate"):
@@ -57,6 +64,9 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
     return show_missing(out.round(precision))
 
+
+#: The columns holding a 95% interval's bounds.
+_INTERVAL_BOUNDS = ("ci_low", "ci_high", "correct_low", "correct_high")
 
 #: What a table shows where a value does not apply (a point mass's motor limits, a
 #: measurement a section does not take): never a bare "NaN".
