@@ -93,3 +93,13 @@ def test_pretty_shows_no_interval_for_one_loop():
     one, two = out.iloc[0], out.iloc[1]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
     assert two["95% CI low"] == 70.0 and two["95% CI high"] == 90.0 and one["mean"] == 85.0
+
+
+def test_channel_names_read_as_words():
+    import pytest
+
+    from uavwind.report.display import channel_name
+    assert channel_name("body_rates") == "body rates" and channel_name("imu") == "IMU"
+    assert channel_name("position") == "position" and channel_name("a_b") == "a b"
+    with pytest.raises(ValueError, match="name must be"):
+        channel_name(None)

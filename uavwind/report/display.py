@@ -22,7 +22,19 @@ from ..study.registry import column_names
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
+__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name",
+           "channel_name"]
+
+#: Observation channel (its code name) -> display name, where the code name does not read.
+CHANNEL_NAMES = {"imu": "IMU", "body_rates": "body rates", "position_velocity": "position + velocity"}
+
+
+def channel_name(name: str) -> str:
+    """The display name of an observation channel: ``"body_rates"`` -> ``"body rates"``,
+    ``"imu"`` -> ``"IMU"`` (:data:`CHANNEL_NAMES`, else underscores as spaces)."""
+    if not isinstance(name, str):
+        raise ValueError(f"name must be a channel name (str), got {name!r}")
+    return CHANNEL_NAMES.get(name, name.replace("_", " "))
 
 #: Column name -> display name.
 PRETTY = {

@@ -30,6 +30,7 @@ from ..analysis.closed_loop import POLICY_NAMES
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.dryden import dryden_psd
+from .display import channel_name
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -527,11 +528,11 @@ def future_grid(table) -> Figure:
                                    sort=False).reindex(index=obs, columns=scen)
             im = ax.imshow(grid.to_numpy(), vmin=0, vmax=100, cmap="viridis", aspect="auto")
             for (r, c), v in np.ndenumerate(grid.to_numpy()):
-                ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=7,
+                ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
             ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ") for s in scen],
-                          fontsize=6)
-            ax.set_yticks(range(len(obs)), obs, fontsize=7)
+                          fontsize=8)
+            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
     return fig
