@@ -92,6 +92,13 @@ def test_the_closed_loop_section_shows_flights_and_the_measured_run():
                                  measured_command="python -m uavwind run exp12")
     line = summary_lines(report)["closed_loop"]
     assert "4.3 min wall" in line and "8.5 CPU-minutes" in line
+    assert "fill table" not in line  # no paper fill on file: nothing to reconcile
+    report["paper"] = {"by_experiment": [  # the paper fill times Exp 12 too, under one reading
+        {"experiment": "exp12", "reading": "halves", "entries": 6, "rows": 10, "share": 3.0,
+         "cpu_seconds": 258.0}]}
+    line = summary_lines(report)["closed_loop"]
+    assert ("8.5 CPU-minutes (target: " in line and "the paper build's fill table above shows "
+            "4.3 CPU-minutes for it, from another run" in line), line
 
 
 def test_the_cluster_sentence_gives_both_ways_their_medians_spread_and_ratio():

@@ -277,6 +277,13 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                     f"empty cache): {c['measured_seconds'] / 60:.1f} min wall, "
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
+            fill = [r for r in report.get("paper", {}).get("by_experiment", [])
+                    if r.get("experiment") == "exp12"]
+            if fill:  # the paper build's fill table times Exp 12 too: say why they differ
+                in_fill = sum(r["cpu_seconds"] for r in fill) / 60
+                line += (f"; the paper build's fill table above shows {in_fill:.1f} CPU-minutes "
+                         f"for it, from another run (the whole book's fill, timed entry by "
+                         f"entry with `--times`), not this one")
         out["closed_loop"] = line + "."
     if "cluster" in report:
         c = report["cluster"]
