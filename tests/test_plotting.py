@@ -206,3 +206,15 @@ def test_loop_and_iteration_axes_are_ticked_at_whole_numbers():
         plt.close(fig)
     with pytest.raises(ValueError, match="axis must be"):
         plotting.integer_ticks(None, axis="z")
+
+
+def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
+    """Table 4's bars and Exp 10's: the legend below the axes (a figure legend), and a bar
+    of 0 labelled '0' so a case that scored 0 does not look unrun (issue 44)."""
+    table = pd.DataFrame({"paper_max": [90.0, 80.0], "max": [0.0, 85.0],
+                          "paper_mean": [70.0, 60.0], "mean": [0.0, 65.0]}, index=["S1", "S2"])
+    fig = plotting.paper_vs_replication(table)
+    ax = fig.axes[0]
+    assert ax.get_legend() is None and len(fig.legends) == 1
+    assert [t.get_text() for t in ax.texts].count("0") == 2  # S1's replication max and mean
+    plt.close(fig)

@@ -206,6 +206,15 @@ def integer_ticks(ax, axis: str = "x") -> None:
     (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(MaxNLocator(integer=True))
 
 
+def _mark_zero_bars(ax, bars) -> None:
+    """A "0" beside every bar of ``bars`` (a horizontal ``BarContainer``) whose value is 0,
+    so a case that ran and scored 0 does not look like a case that did not run."""
+    for patch in bars.patches:
+        if patch.get_width() == 0:
+            ax.text(0.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
+                    fontsize=6, color=patch.get_facecolor())
+
+
 def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
     loops = np.arange(1, len(scores) + 1)
     ax.plot(loops, scores, marker="o", ms=2.5, lw=0.8, color="tab:blue", label="score")
@@ -332,11 +341,12 @@ def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
                                          ("paper_mean", "0.8", "paper mean"),
                                          ("mean", "tab:blue", "replication mean"))):
         if col in table:
-            ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c, label=label)
+            _mark_zero_bars(ax, ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c,
+                                        label=label))
     ax.set_yticks(y, [str(i) for i in table.index], fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
-    ax.legend(fontsize=7, loc="lower right")
+    fig.legend(fontsize=7, loc="outside lower center", ncol=4)  # below the axes, off the bars
     return fig
 
 
@@ -500,12 +510,12 @@ def vehicle_scores(table) -> Figure:
     for j, v in enumerate(vehicles):
         s = table[table["vehicle"] == v].set_index("scenario").reindex(scen)
         err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
-        ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h, xerr=err, capsize=2,
-                label=v)
+        _mark_zero_bars(ax, ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h,
+                                    xerr=err, capsize=2, label=v))
     ax.set_yticks(y, scen, fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
-    ax.legend(fontsize=7, loc="lower right")
+    fig.legend(fontsize=7, loc="outside lower center", ncol=2)  # below the axes, off the bars
     return fig
 
 
