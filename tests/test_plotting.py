@@ -218,3 +218,17 @@ def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
     assert ax.get_legend() is None and len(fig.legends) == 1
     assert [t.get_text() for t in ax.texts].count("0") == 2  # S1's replication max and mean
     plt.close(fig)
+
+
+def test_closed_loop_lines_stay_distinguishable():
+    """Two policies with the same curve: each line keeps its own marker, the open-loop one
+    drawn on top, and the legend sits below the panels (issue 44: exp12's open-loop line hid)."""
+    t = np.arange(0.5, 12.5, 0.5)
+    rows = [{"scenario": "S", "vehicle": "V", "policy": p, "time": x, "accuracy": 0.9,
+             "accuracy_low": 0.8, "accuracy_high": 1.0} for p in ("best", "greedy") for x in t]
+    fig = plotting.closed_loop_curves(pd.DataFrame(rows))
+    lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines() if not ln.get_label().startswith("_")}
+    best, greedy = lines["open-loop best"], lines["closed-loop greedy"]
+    assert best.get_marker() != greedy.get_marker() and best.get_zorder() > greedy.get_zorder()
+    assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
+    plt.close(fig)

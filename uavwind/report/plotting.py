@@ -581,6 +581,9 @@ def flyable_scores(table) -> Figure:
 # --------------------------------------------------------------------------- #
 POLICY_STYLES = {"random": ("0.45", ":"), "best": ("tab:blue", "--"),
                  "greedy": ("tab:green", "-"), "receding": ("tab:red", "-")}
+#: Exp 12: each policy's marker and drawing order (the open-loop lines on top), so a line
+#: that coincides with another stays visible.
+POLICY_MARKERS = {"random": ("v", 5), "best": ("s", 4), "greedy": ("o", 3), "receding": ("^", 2)}
 
 
 def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
@@ -600,7 +603,9 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             sub = curves[(curves["scenario"] == s) & (curves["vehicle"] == v)]
             for pol, d in sub.groupby("policy", sort=False):
                 colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-                ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4,
+                marker, z = POLICY_MARKERS.get(pol, ("", 2))
+                ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4, marker=marker,
+                        ms=4, markevery=(z % 4, 4), mfc="none", zorder=z,
                         label=POLICY_NAMES.get(pol, pol))
                 ax.fill_between(d["time"], d[f"{value}_low"] * scale,
                                 d[f"{value}_high"] * scale, color=colour, alpha=0.12, lw=0)
@@ -612,7 +617,8 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
                 ax.set_xlabel("flight time (s)")
             if j == 0:
                 ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
-    axes[0, 0].legend(fontsize=7, loc="lower right" if value == "accuracy" else "upper right")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=len(labels))
     return fig
 
 
