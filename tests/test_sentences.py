@@ -42,14 +42,14 @@ def test_interval_text_shows_no_interval_for_one_loop_or_a_zero_width_one():
 
 
 def test_grouping_phrase_takes_each_branch():
-    what = "every zero-mean reading"
-    assert grouping_phrase({"a": 1.0, "b": 1.0}, what) == f"{what} groups every loop correctly"
+    what = "the zero-mean readings"
+    assert grouping_phrase({"a": 1.0, "b": 1.0}, what) == f"{what}: every loop grouped correctly"
     assert grouping_phrase({"a": 0.1, "b": 0.3}, what) == \
-        f"{what} misgroups most loops (at most 30% grouped correctly)"
-    assert grouping_phrase({"a": 0.64}, what) == f"{what} groups 64% of its loops correctly"
+        f"{what}: most loops misgrouped (at most 30% grouped correctly)"
+    assert grouping_phrase({"a": 0.64}, what) == f"{what}: 64% of the loops grouped correctly"
     # the case: one zero-mean row at 100%, another at 64%: neither "all wrong" nor "all right"
     assert grouping_phrase({"a": 0.64, "b": 1.0}, what) == \
-        f"{what} groups between 64% and 100% of its loops correctly"
+        f"{what}: from 64% to 100% of the loops grouped correctly, case by case"
     with pytest.raises(ValueError, match="^correct_rates must hold"):
         grouping_phrase({}, what)
     with pytest.raises(ValueError, match=r"^correct_rates must lie in \[0, 1\]"):

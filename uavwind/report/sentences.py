@@ -64,9 +64,10 @@ def interval_text(mean: float, low: float, high: float, n: int, digits: int = 1)
 
 
 def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
-    """How often the loops of several cases (``what``: "every zero-mean reading") grouped the
-    environments correctly, from each case's correct rate in [0, 1]: all of them always,
-    all of them mostly wrongly, or the range between."""
+    """How often the loops of several cases (``what``, a noun phrase: "the zero-mean
+    readings") grouped the environments correctly, from each case's correct rate in [0, 1]:
+    ``"<what>: every loop grouped correctly"``, most loops misgrouped, one rate, or the range
+    between the cases."""
     rates = {k: float(v) for k, v in dict(correct_rates).items()}
     if not rates:
         raise ValueError("correct_rates must hold at least one case")
@@ -74,13 +75,13 @@ def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
         raise ValueError(f"correct_rates must lie in [0, 1], got {rates}")
     lo, hi = min(rates.values()), max(rates.values())
     if lo == 1.0:
-        return f"{what} groups every loop correctly"
+        return f"{what}: every loop grouped correctly"
     if hi < 0.5:
-        return (f"{what} misgroups most loops (at most {100 * hi:.0f}% grouped "
-                f"correctly)")
+        return f"{what}: most loops misgrouped (at most {100 * hi:.0f}% grouped correctly)"
     if lo == hi:
-        return f"{what} groups {100 * lo:.0f}% of its loops correctly"
-    return f"{what} groups between {100 * lo:.0f}% and {100 * hi:.0f}% of its loops correctly"
+        return f"{what}: {100 * lo:.0f}% of the loops grouped correctly"
+    return (f"{what}: from {100 * lo:.0f}% to {100 * hi:.0f}% of the loops grouped correctly, "
+            f"case by case")
 
 
 def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str:
