@@ -209,7 +209,7 @@ def test_loop_and_iteration_axes_are_ticked_at_whole_numbers():
 
 
 def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
-    """Table 4's bars and Exp 10's: the legend below the axes (a figure legend), and a bar
+    """Table 4's bars and Exp 10's: the legend outside the axes (a figure legend), and a bar
     of 0 labelled '0' so a case that scored 0 does not look unrun (issue 44)."""
     table = pd.DataFrame({"paper_max": [90.0, 80.0], "max": [0.0, 85.0],
                           "paper_mean": [70.0, 60.0], "mean": [0.0, 65.0]}, index=["S1", "S2"])
@@ -222,7 +222,7 @@ def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
 
 def test_closed_loop_lines_stay_distinguishable():
     """Two policies with the same curve: each line keeps its own marker, the open-loop one
-    drawn on top, and the legend sits below the panels (issue 44: exp12's open-loop line hid)."""
+    drawn on top, and the legend sits outside the panels (issue 44: exp12's open-loop line hid)."""
     t = np.arange(0.5, 12.5, 0.5)
     rows = [{"scenario": "S", "vehicle": "V", "policy": p, "time": x, "accuracy": 0.9,
              "accuracy_low": 0.8, "accuracy_high": 1.0} for p in ("best", "greedy") for x in t]

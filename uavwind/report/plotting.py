@@ -212,7 +212,7 @@ def _mark_zero_bars(ax, bars) -> None:
     for patch in bars.patches:
         if patch.get_width() == 0:
             ax.text(0.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
-                    fontsize=6, color=patch.get_facecolor())
+                    fontsize=7, color="0.2")
 
 
 def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
@@ -346,7 +346,7 @@ def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
     ax.set_yticks(y, [str(i) for i in table.index], fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
-    fig.legend(fontsize=7, loc="outside lower center", ncol=4)  # below the axes, off the bars
+    fig.legend(fontsize=7, loc="outside upper center", ncol=4)  # above the axes, off the bars
     return fig
 
 
@@ -515,7 +515,7 @@ def vehicle_scores(table) -> Figure:
     ax.set_yticks(y, scen, fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
-    fig.legend(fontsize=7, loc="outside lower center", ncol=2)  # below the axes, off the bars
+    fig.legend(fontsize=7, loc="outside upper center", ncol=2)  # above the axes, off the bars
     return fig
 
 
@@ -618,7 +618,7 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             if j == 0:
                 ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=len(labels))
+    fig.legend(handles, labels, fontsize=7, loc="outside upper center", ncol=len(labels))
     return fig
 
 
