@@ -88,11 +88,13 @@ def test_pretty_shows_no_interval_for_one_loop():
     import uavwind as uw
     df = pd.DataFrame({"mean": [85.0, 80.0], "ci_low": [85.0, 70.0], "ci_high": [85.0, 90.0],
                        "correct_rate": [1.0, 0.5], "correct_low": [1.0, 0.0],
-                       "correct_high": [1.0, 1.0], "n_loops": [1, 2]})
+                       "correct_high": [1.0, 1.0], "runner_up_low": [2.0, -1.0],
+                       "runner_up_high": [2.0, 3.0], "n_loops": [1, 2]})
     out = uw.pretty(df)
     one, two = out.iloc[0], out.iloc[1]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
     assert two["95% CI low"] == 70.0 and two["95% CI high"] == 90.0 and one["mean"] == 85.0
+    assert one["runner up low"] == "–" and two["runner up high"] == 3.0  # a paired difference's CI
 
 
 def test_channel_names_read_as_words():

@@ -57,13 +57,13 @@ SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate"
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     """A display copy of ``df``: shares as percentages, columns and index levels renamed
     by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``; a row
-    of one loop (``n_loops`` 1) shows no interval (its bounds as :data:`MISSING`), since one
-    value has none."""
+    of one loop (``n_loops`` 1) shows no interval (its bounds, ``ci_low``/``ci_high`` and
+    any ``*_low``/``*_high``, as :data:`MISSING`), since one value has none."""
     out = df.copy()
     if "n_loops" in out.columns:
         one = (out["n_loops"] == 1).to_numpy()
-        for col in _INTERVAL_BOUNDS:
-            if col in out.columns and one.any():
+        for col in out.columns:
+            if (col in _INTERVAL_BOUNDS or str(col).endswith(("_low", "_high"))) and one.any():
                 out[col] = out[col].astype(float).where(~one)
     for col in out.columns:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level

@@ -540,8 +540,8 @@ def future_grid(table) -> Figure:
             for (r, c), v in np.ndenumerate(grid.to_numpy()):
                 ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
-            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ") for s in scen],
-                          fontsize=8)
+            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ").replace(" (", "\n(")
+                                             for s in scen], fontsize=8)
             ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
