@@ -148,3 +148,26 @@ def test_a_page_that_would_compute_fails_naming_what(tmp_path, monkeypatch):
     from uavwind.analysis import memo as page_analyses
     with pytest.raises(RuntimeError, match="the analysis model_example"):
         page_analyses.model_example(results=tmp_path)
+
+
+def test_only_an_exercise_computes_cell_may_compute_on_a_read_only_page(tmp_path, monkeypatch):
+    """A cell tagged exercise-computes runs with the read-only flag lifted, and the cells
+    after it run read-only again; the hidden cells around it are not shown."""
+    import nbformat
+
+    from uavwind.core.io import READ_ONLY_ENV
+    from uavwind.report.pages import COMPUTES, run_page
+
+    monkeypatch.setenv(READ_ONLY_ENV, "1")
+    src = tmp_path / "page.md"
+    probe = "import os\nprint(repr(os.environ.get('%s')))\n" % READ_ONLY_ENV
+    src.write_text("---\njupytext:\n  text_representation:\n    extension: .md\n"
+                   "    format_name: myst\n---\n\n# A page\n\n"
+                   f"```{{code-cell}} ipython3\n{probe}```\n\n"
+                   f"```{{code-cell}} ipython3\n:tags: [{COMPUTES}]\n\n{probe}```\n\n"
+                   f"```{{code-cell}} ipython3\n{probe}```\n")
+    nb = nbformat.read(run_page(src, tmp_path / "page.ipynb", "quick", 1, execution_timeout=60,
+                                cwd=tmp_path), as_version=4)
+    shown = [c for c in nb.cells if c.cell_type == "code"
+             and "remove-cell" not in c.metadata.get("tags", [])]
+    assert [c.outputs[0]["text"] for c in shown] == ["'1'\n", "None\n", "'1'\n"]

@@ -92,6 +92,13 @@ def test_the_closed_loop_section_shows_flights_and_the_measured_run():
                                  measured_command="python -m uavwind run exp12")
     line = summary_lines(report)["closed_loop"]
     assert "4.3 min wall" in line and "8.5 CPU-minutes" in line
+    assert "fill table" not in line  # no paper fill on file: nothing to reconcile
+    report["paper"] = {"by_experiment": [  # the paper fill times Exp 12 too, under one reading
+        {"experiment": "exp12", "reading": "halves", "entries": 6, "rows": 10, "share": 3.0,
+         "cpu_seconds": 258.0}]}
+    line = summary_lines(report)["closed_loop"]
+    assert ("8.5 CPU-minutes (target: " in line and "the paper build's fill table above shows "
+            "4.3 CPU-minutes for it, from another run" in line), line
 
 
 def test_the_cluster_sentence_gives_both_ways_their_medians_spread_and_ratio():
@@ -117,11 +124,15 @@ def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
               "ns_per_cell_costs": {"squared distance": 0.25, "sqrt(.) ** 2": 0.95}}
     line = summary_lines({"time_shares": shares})["cells"]
     # 20 series in 5 vectors of 4 lanes: no lane idle, 2.9 ns a lane-cell, 2.1 over the value
-    assert "20 series in one call, 5 vectors of 4 lanes) takes 2.90 ns" in line
+    assert "20 series in one call, 5 vectors of 4 lanes) takes 2.90 ns for the value with its gradient, " in line
+    assert "idle" not in line  # the table's 2.90 is the same figure: nothing to explain
     assert "2.10 ns more than a value; 0.70 ns of that (33%)" in line
     shares["lanes"] = 8  # 3 vectors of 8: 4 of 24 lanes idle, 2.9 * 20 / 24 a lane-cell
     line = summary_lines({"time_shares": shares})["cells"]
     assert "3 vectors of 8 lanes) takes 2.42 ns" in line and "1.62 ns more" in line
+    # the cells table shows 2.90 for the same run: the sentence says why it reads 2.42
+    assert "(the table's 2.90 ns counts all 24 lanes, 4 of them idle in the last vector; " \
+           "this figure counts the 20 in use)" in line
     del shares["ns_per_cell_costs"]  # a record from before the split: no such sentence
     assert "square root" not in summary_lines({"time_shares": shares})["cells"]
 

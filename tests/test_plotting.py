@@ -155,7 +155,7 @@ def _figure_functions():
 
 
 def test_every_figure_function_has_a_smoke_call():
-    assert _figure_functions() == set(CALLS) | {"panel_grid"}
+    assert _figure_functions() == set(CALLS) | {"panel_grid", "integer_ticks"}  # helpers
 
 
 def test_panel_grid_shows_n_axes_and_hides_the_rest():
@@ -187,3 +187,48 @@ def test_stamp_writes_the_provenance_under_the_figure():
         assert "experiment exp7" in text and "'inferred' reading" in text and "Note." in text
     finally:
         plt.close(fig)
+
+
+def test_loop_and_iteration_axes_are_ticked_at_whole_numbers():
+    """Two loops or two CEM iterations: ticks at 1 and 2, never 1.2 or 1.4 (issue 44)."""
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from uavwind.report import plotting
+
+    for fig in (plotting.fig3_loop(np.zeros((2, 5, 3)), np.array([0, 1]), [50.0, 60.0]),
+                plotting.fig9_cem(pd.DataFrame({"max": [50.0, 60.0], "mean": [40.0, 45.0]},
+                                               index=[1, 2]))):
+        fig.canvas.draw()
+        ax = fig.axes[-1]
+        ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
+        assert ticks and all(float(t).is_integer() for t in ticks), ticks
+        plt.close(fig)
+    with pytest.raises(ValueError, match="axis must be"):
+        plotting.integer_ticks(None, axis="z")
+
+
+def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
+    """Table 4's bars and Exp 10's: the legend outside the axes (a figure legend), and a bar
+    of 0 labelled '0' so a case that scored 0 does not look unrun (issue 44)."""
+    table = pd.DataFrame({"paper_max": [90.0, 80.0], "max": [0.0, 85.0],
+                          "paper_mean": [70.0, 60.0], "mean": [0.0, 65.0]}, index=["S1", "S2"])
+    fig = plotting.paper_vs_replication(table)
+    ax = fig.axes[0]
+    assert ax.get_legend() is None and len(fig.legends) == 1
+    assert [t.get_text() for t in ax.texts].count("0") == 2  # S1's replication max and mean
+    plt.close(fig)
+
+
+def test_closed_loop_lines_stay_distinguishable():
+    """Two policies with the same curve: each line keeps its own marker, the open-loop one
+    drawn on top, and the legend sits outside the panels (issue 44: exp12's open-loop line hid)."""
+    t = np.arange(0.5, 12.5, 0.5)
+    rows = [{"scenario": "S", "vehicle": "V", "policy": p, "time": x, "accuracy": 0.9,
+             "accuracy_low": 0.8, "accuracy_high": 1.0} for p in ("best", "greedy") for x in t]
+    fig = plotting.closed_loop_curves(pd.DataFrame(rows))
+    lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines() if not ln.get_label().startswith("_")}
+    best, greedy = lines["open-loop best"], lines["closed-loop greedy"]
+    assert best.get_marker() != greedy.get_marker() and best.get_zorder() > greedy.get_zorder()
+    assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
+    plt.close(fig)

@@ -79,3 +79,29 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
     out = uw.pretty(df)
     col = [c for c in out.columns if c != "mean"][0]
     assert out[col].tolist() == [MISSING, 0.25] and out["mean"].tolist() == [1.0, 2.0]
+
+
+def test_pretty_shows_no_interval_for_one_loop():
+    """n = 1 has no interval: not '95% CI 85.0-85.0' (issue 44); n = 2 keeps its bounds."""
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.DataFrame({"mean": [85.0, 80.0], "ci_low": [85.0, 70.0], "ci_high": [85.0, 90.0],
+                       "correct_rate": [1.0, 0.5], "correct_low": [1.0, 0.0],
+                       "correct_high": [1.0, 1.0], "runner_up_low": [2.0, -1.0],
+                       "runner_up_high": [2.0, 3.0], "n_loops": [1, 2]})
+    out = uw.pretty(df)
+    one, two = out.iloc[0], out.iloc[1]
+    assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
+    assert two["95% CI low"] == 70.0 and two["95% CI high"] == 90.0 and one["mean"] == 85.0
+    assert one["runner up low"] == "–" and two["runner up high"] == 3.0  # a paired difference's CI
+
+
+def test_channel_names_read_as_words():
+    import pytest
+
+    from uavwind.report.display import channel_name
+    assert channel_name("body_rates") == "body rates" and channel_name("imu") == "IMU"
+    assert channel_name("position") == "position" and channel_name("a_b") == "a b"
+    with pytest.raises(ValueError, match="name must be"):
+        channel_name(None)

@@ -262,17 +262,21 @@ LESSONS = {
           "shear behaves the same way for a pair of one kind. Light pairs score lowest only "
           "where their groups sit closer together, so under the inferred reading the claim "
           "holds by construction of the fit, not as an independent finding.",
-    "C2": "The verdict depends entirely on what 'strong turbulence' means: zero-mean gusts "
-          "(MIL-F-8785C) leave the turbulent group among the light winds and every loop "
-          "misgroups; a strong base wind with the cited code's gusts separates the groups.",
-    "C3": "The maximum is set by the layout geometry, not found by search: more loops of "
-          "random thrusts cannot raise it much under either reading.",
+    "C2": "The verdict depends on what 'strong turbulence' means: zero-mean gusts "
+          "(MIL-F-8785C) leave the turbulent group among the light winds, where loops can "
+          "misgroup; a strong base wind with the cited code's gusts carries the group away "
+          "from them.",
+    "C3": "Under eqs 2-8 a constant pair's score is mostly its layout's geometry, so more "
+          "loops of random thrusts can raise the maximum only by finding the rare thrust that "
+          "moves the groups apart; how much they did is the evidence's gain, per reading.",
     "C4": "Removing the closest environments widens the gap in both readings, so the trend "
           "survives; the level depends on where the groups start.",
     "C5": "With adjacent halves the median-removal keeps the groups touching; with a gap the "
           "score falls as environments go, as the paper reports.",
-    "C6": "Constant and shear differences hardly depend on the thrust sequence, so the "
-          "number of thrust changes barely matters under either reading.",
+    "C6": "The differences between a pair's trajectories depend on the thrust only through "
+          "the heights it reaches (shear) or not at all (constant wind), but soft-DTW aligns "
+          "whole paths, so the still-air path the thrust draws can still move the score where "
+          "the groups touch (halves); the evidence says by how much, per reading.",
     "C7": "Reversing one group's wind turns a gap of a few spacings into one of the whole "
           "speed range: separation follows geometry again.",
     "C9": "Noise acts on the gap between the groups' drifts: pairs whose winds differ by a "

@@ -11,14 +11,13 @@ recomputed (the latter two moved aside, with a warning naming the file), and und
 computes and :func:`page_analyses` hands them to it as tasks, each with the experiments it
 reads (``make results``: ``python -m uavwind run all --reading all``, one pool).
 
-The exercises' small runs live here too: a solution shows the code a student would write
-and reads its result from the function of the same name, which runs that code in the fill
-(a page under ``UAVWIND_PAGES_READ_ONLY`` cannot score a loop or fly an episode).
+An exercise's solution is the page's own executed cell (tagged ``exercise-computes``, see
+:mod:`uavwind.report.pages`); only those that fly minutes of episodes (Exp 12's) are run here
+by the fill, their complete code shown on the page, and read back.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Mapping
 from dataclasses import replace
 
@@ -27,14 +26,11 @@ import pandas as pd
 from ..core.store import content_digest, get_or_compute
 from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
 from ..method.clustering import score_loop
-from ..method.search import cem, random_search
-from ..sim.actions import PAPER_EXAMPLE, ThrustSequence
-from ..sim.dryden import CitedDryden
+from ..sim.actions import PAPER_EXAMPLE
 from ..sim.observation import Noise
-from ..study.builders import direction_settings, make_setting
+from ..study.builders import make_setting
 from ..study.conditions import table3_setting
 from ..study.fill import Analysis
-from ..study.layouts import Layout
 from ..study.readings import DEFAULT_READING
 from ..study.registry import EXPERIMENTS
 from ..study.runner import run_experiment
@@ -45,9 +41,7 @@ from .closed_loop import accuracy_over_time, closing_the_loop, time_to_confidenc
 __all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "page_analyses",
            "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary",
            "exp12_summaries",
-           "model_example", "model_vertical_exercise", "exp1_line_exercise",
-           "exp1_scale_exercise", "exp6_rank_by_exercise", "exp7_noise_exercise",
-           "inference_gusts_exercise"]
+           "model_example"]
 
 #: Bump when an analysis routed through :func:`memo` changes its numbers.
 MEMO_VERSION = "1"
@@ -242,98 +236,6 @@ def model_example(results=None) -> pd.DataFrame:
     return memo("model_example", {}, compute, results)
 
 
-def model_vertical_exercise(results=None) -> pd.DataFrame:
-    """The model page's exercise: light constant vs light shear (5 environments per group)
-    under a climb (40 N along +z for 12 s) and a level thrust (the weight upward plus 15 N
-    along +x); each one loop's score and whether it grouped correctly, cached."""
-    def compute():
-        s = make_setting("light constant", "light shear", 5)
-        up = 2.0 * 9.81
-        thrusts = {"climb": ThrustSequence([0.0], [40.0], [[0, 0, 1]]),
-                   "level": ThrustSequence([0.0], [float(math.hypot(15.0, up))], [[15.0, 0.0, up]])}
-        rows = []
-        for name, thrust in thrusts.items():
-            res = score_loop(s.simulate(thrust), s.groups)
-            rows.append({"thrust": name, "score": res.score, "correct": res.correct})
-        return pd.DataFrame(rows)
-    return memo("model_vertical_exercise", {}, compute, results)
-
-
-def exp1_line_exercise(results=None) -> pd.DataFrame:
-    """Exp 1's exercise: light constant vs light constant, 5 environments per group, an even
-    layout with a gap of 4 spacings; the silhouette of the wind speeds on a line (``kind``
-    "prediction") beside four loops' scores (seed 1, "simulated"), cached."""
-    def compute():
-        s = make_setting("light constant", "light constant", 5,
-                         layout=Layout("gap 4", gap_ratio=4.0))
-        scores = random_search(s, n_loops=4, seed=1, n_jobs=1, progress=False)["score"]
-        return pd.DataFrame({"kind": ["prediction"] + ["simulated"] * len(scores),
-                             "score": [100 * inference.line_silhouette(s), *scores]})
-    return memo("exp1_line_exercise", {}, compute, results)
-
-
-def exp1_scale_exercise(results=None) -> pd.DataFrame:
-    """Exp 1's exercise: light constant vs light constant (5 environments per group), four
-    loops (seed 2) with the winds as they are and multiplied by 10
-    (:func:`uavwind.analysis.inference.scale_invariance`), cached."""
-    def compute():
-        s = make_setting("light constant", "light constant", 5)
-        return inference.scale_invariance(s, factor=10.0, n_loops=4, seed=2)
-    return memo("exp1_scale_exercise", {}, compute, results)
-
-
-def exp6_rank_by_exercise(results=None) -> pd.DataFrame:
-    """Exp 6's exercise: a CEM of 6 samples, 2 elites, 2 iterations (seed 3) on Exp 5's
-    similar-direction setting, ranked by the floored score and by the raw silhouette; the
-    first iteration's samples with their score and whether each became an elite, cached."""
-    def compute():
-        s, _ = direction_settings("light constant", "light shear", 5)
-        frames = []
-        for rank_by in ("score", "silhouette"):
-            r = cem(s, n_samples=6, n_elite=2, max_iter=2, seed=3, n_jobs=1, progress=False,
-                    rank_by=rank_by)
-            first = r.samples[r.samples["iteration"] == 1]
-            frames.append(pd.DataFrame({"rank_by": rank_by, "sample": first.index,
-                                        "score": first["score"].to_numpy(float),
-                                        "elite": first["elite"].to_numpy(bool)}))
-        return pd.concat(frames, ignore_index=True)
-    return memo("exp6_rank_by_exercise", {}, compute, results)
-
-
-def exp7_noise_exercise(results=None) -> pd.DataFrame:
-    """Exp 7's exercise: two light constant winds 0.1 m/s apart (2 environments per group),
-    2 loops (seed 5) at position noise 0.1 and 2 m; whether each loop grouped correctly,
-    cached."""
-    def compute():
-        base = make_setting("light constant", "light constant", 2,
-                            layout=Layout("t", gap_ratio=1.0, spacing=0.1))
-        frames = []
-        for sigma in (0.1, 2.0):
-            df = random_search(replace(base, noise=Noise(position=sigma)), n_loops=2, seed=5,
-                               n_jobs=1, progress=False)
-            frames.append(pd.DataFrame({"sigma": sigma, "loop": range(len(df)),
-                                        "correct": df["correct"].to_numpy(bool)}))
-        return pd.concat(frames, ignore_index=True)
-    return memo("exp7_noise_exercise", {}, compute, results)
-
-
-def inference_gusts_exercise(results=None) -> pd.DataFrame:
-    """The inference page's exercise: light constant vs strong turbulence (5 environments
-    per group) with the cited gusts alone and with their base wind, 3 loops each (seed 4);
-    the scores, cached."""
-    def compute():
-        frames = []
-        for name, kw in (("gusts only", {}), ("gusts + base wind",
-                                              {"base_direction": (1, 1, 0)})):
-            t = CitedDryden(turbulence_level=None, seeds=None, **kw)
-            s = make_setting("light constant", "strong turbulence", 5, turbulence=t)
-            df = random_search(s, n_loops=3, seed=4, n_jobs=1, progress=False)
-            frames.append(pd.DataFrame({"wind": name, "loop": range(len(df)),
-                                        "score": df["score"].to_numpy(float)}))
-        return pd.concat(frames, ignore_index=True)
-    return memo("inference_gusts_exercise", {}, compute, results)
-
-
 def _seed_only(f):
     def fill(profile, seed, results):
         return f(seed, results)
@@ -359,13 +261,7 @@ PAGE_ANALYSES = {"claims": _fill_claims,
                  "exp12_inferred_exercise": _seed_only(exp12_inferred_exercise),
                  "exp12_noise_exercise": _seed_only(exp12_noise_exercise),
                  "exp12_horizon_exercise": _seed_only(exp12_horizon_exercise),
-                 "model_example": _fixed(model_example),
-                 "model_vertical_exercise": _fixed(model_vertical_exercise),
-                 "exp1_line_exercise": _fixed(exp1_line_exercise),
-                 "exp1_scale_exercise": _fixed(exp1_scale_exercise),
-                 "exp6_rank_by_exercise": _fixed(exp6_rank_by_exercise),
-                 "exp7_noise_exercise": _fixed(exp7_noise_exercise),
-                 "inference_gusts_exercise": _fixed(inference_gusts_exercise)}
+                 "model_example": _fixed(model_example)}
 
 
 #: The experiments a page analysis reads (the others compute their own small runs).

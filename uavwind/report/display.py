@@ -22,7 +22,19 @@ from ..study.registry import column_names
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name"]
+__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name",
+           "channel_name"]
+
+#: Observation channel (its code name) -> display name, where the code name does not read.
+CHANNEL_NAMES = {"imu": "IMU", "body_rates": "body rates", "position_velocity": "position + velocity"}
+
+
+def channel_name(name: str) -> str:
+    """The display name of an observation channel: ``"body_rates"`` -> ``"body rates"``,
+    ``"imu"`` -> ``"IMU"`` (:data:`CHANNEL_NAMES`, else underscores as spaces)."""
+    if not isinstance(name, str):
+        raise ValueError(f"name must be a channel name (str), got {name!r}")
+    return CHANNEL_NAMES.get(name, name.replace("_", " "))
 
 #: Column name -> display name.
 PRETTY = {
@@ -44,8 +56,15 @@ SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate"
 
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     """A display copy of ``df``: shares as percentages, columns and index levels renamed
-    by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``."""
+    by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``; a row
+    of one loop (``n_loops`` 1) shows no interval (its bounds, ``ci_low``/``ci_high`` and
+    any ``*_low``/``*_high``, as :data:`MISSING`), since one value has none."""
     out = df.copy()
+    if "n_loops" in out.columns:
+        one = (out["n_loops"] == 1).to_numpy()
+        for col in out.columns:
+            if (col in _INTERVAL_BOUNDS or str(col).endswith(("_low", "_high"))) and one.any():
+                out[col] = out[col].astype(float).where(~one)
     for col in out.columns:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
         if name in SHARES or str(name).startswith("correct_rate"):
@@ -57,6 +76,9 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
     return show_missing(out.round(precision))
 
+
+#: The columns holding a 95% interval's bounds.
+_INTERVAL_BOUNDS = ("ci_low", "ci_high", "correct_low", "correct_high")
 
 #: What a table shows where a value does not apply (a point mass's motor limits, a
 #: measurement a section does not take): never a bare "NaN".

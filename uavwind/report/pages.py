@@ -5,7 +5,11 @@ jupytext, executed by papermill with the build's parameters (profile, workers) u
 per-cell timeout, its injected parameter cell hidden (the page's provenance lines say the
 same, readably), written to ``output`` only when every cell ran. A cell tagged
 ``needs-env:VAR`` is left out of the page (not run, not shown) when the environment variable
-``VAR`` is unset or empty: a page whose data the build does not have shows only what it can. The Makefile wraps it in
+``VAR`` is unset or empty: a page whose data the build does not have shows only what it can.
+A cell tagged ``exercise-computes`` (an exercise's solution: a few loops a reader would run
+themselves) may compute although the page is read-only: hidden cells around it lift
+``UAVWIND_PAGES_READ_ONLY`` for that cell alone, so the solution a reader sees is the code
+that ran, with its output under it. The Makefile wraps it in
 the page timeout and names the page when it fails; papermill names the cell. Before, the
 same three steps were three programs per page (jupytext's, papermill's and a small
 script), each paying its own start-up: about 2 CPU-s a page.
@@ -24,10 +28,13 @@ from pathlib import Path
 
 from ..core.store import atomic_write
 
-__all__ = ["run_page", "KERNEL", "NEEDS_ENV", "main"]
+__all__ = ["run_page", "KERNEL", "NEEDS_ENV", "COMPUTES", "main"]
 
 #: The tag prefix of a cell that needs an environment variable (``needs-env:VAR``).
 NEEDS_ENV = "needs-env:"
+
+#: The tag of a cell that may compute on a read-only page (an exercise's solution).
+COMPUTES = "exercise-computes"
 
 #: The kernel every page runs on.
 KERNEL = {"name": "python3", "display_name": "Python 3", "language": "python"}
@@ -55,6 +62,7 @@ def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str,
     nb.cells = [c for c in nb.cells if all(
         os.environ.get(t[len(NEEDS_ENV):]) for t in c.metadata.get("tags", [])
         if t.startswith(NEEDS_ENV))]
+    nb.cells = _lift_read_only(nb.cells, nbformat)
     nb = papermill.execute_notebook(
         nb, None, parameters={"profile": profile, "n_jobs": n_jobs}, kernel_name=KERNEL["name"],
         execution_timeout=execution_timeout, start_timeout=start_timeout, log_output=True,
@@ -64,6 +72,24 @@ def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str,
         if "injected-parameters" in tags and "remove-cell" not in tags:
             tags.append("remove-cell")
     return atomic_write(output, lambda tmp: nbformat.write(nb, str(tmp)), name="output")
+
+
+def _lift_read_only(cells: list, nbformat) -> list:
+    """``cells`` with a hidden cell before each :data:`COMPUTES` cell that lifts the
+    read-only flag, and one after it that restores it (pages run read-only: see the Makefile)."""
+    from ..core.io import READ_ONLY_ENV
+
+    def hidden(source):
+        return nbformat.v4.new_code_cell(source, metadata={"tags": ["remove-cell"]})
+    out = []
+    for cell in cells:
+        if cell.cell_type == "code" and COMPUTES in cell.metadata.get("tags", []):
+            out.append(hidden(f"import os as _os\n_read_only = _os.environ.pop({READ_ONLY_ENV!r}, None)"))
+            out.append(cell)
+            out.append(hidden(f"if _read_only is not None:\n    _os.environ[{READ_ONLY_ENV!r}] = _read_only"))
+        else:
+            out.append(cell)
+    return out
 
 
 def main(argv: list[str] | None = None) -> int:

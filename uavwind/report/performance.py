@@ -303,6 +303,13 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                     f"empty cache): {c['measured_seconds'] / 60:.1f} min wall, "
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
+            fill = [r for r in report.get("paper", {}).get("by_experiment", [])
+                    if r.get("experiment") == "exp12"]
+            if fill:  # the paper build's fill table times Exp 12 too: say why they differ
+                in_fill = sum(r["cpu_seconds"] for r in fill) / 60
+                line += (f"; the paper build's fill table above shows {in_fill:.1f} CPU-minutes "
+                         f"for it, from another run (the whole book's fill, timed entry by "
+                         f"entry with `--times`), not this one")
         out["closed_loop"] = line + "."
     if "cluster" in report:
         c = report["cluster"]
@@ -391,12 +398,17 @@ def _gradient_split(t: Mapping[str, Any]) -> str:
     idle in the last one, so its figure is scaled to the lanes used."""
     lanes, k = t["lanes"], 2 * t.get("cluster_series", 10)
     slots = -(-k // lanes) * lanes
-    both = t["ns_per_cell_value_and_gradient_both_clusters"] * k / slots
+    raw = t["ns_per_cell_value_and_gradient_both_clusters"]
+    both = raw * k / slots
     added = both - t["ns_per_cell_value"]
+    # the cells table shows ``raw`` (every lane counted, idle ones too): say why the two differ
+    footing = ("" if slots == k else
+               f" (the table's {raw:.2f} ns counts all {slots} lanes, {slots - k} of them idle "
+               f"in the last vector; this figure counts the {k} in use)")
     costs = t["ns_per_cell_costs"]
     root = costs["sqrt(.) ** 2"] - costs["squared distance"]
     return (f"Per lane of a vector at one cell, a k-means round (both clusters' {k} series in "
-            f"one call, {slots // lanes} vectors of {lanes} lanes) takes {both:.2f} ns for the value with its gradient, "
+            f"one call, {slots // lanes} vectors of {lanes} lanes) takes {both:.2f} ns for the value with its gradient{footing}, "
             f"{added:.2f} ns more than a value; {root:.2f} ns of that ({100 * root / added:.0f}%) "
             "is the square root the forward pass takes at every cell: tslearn's barycentre "
             "objective has its costs as `cdist(Z, X) ** 2`, the square of the square root of "

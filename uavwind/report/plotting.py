@@ -30,6 +30,7 @@ from ..analysis.closed_loop import POLICY_NAMES
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.dryden import dryden_psd
+from .display import channel_name
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -45,7 +46,7 @@ __all__ = ["flyable_scores", "fig1_trajectory_and_wind", "fig1_velocity_projecti
            "reliability_diagram", "manoeuvre_plot", "silhouette_vs_ratio",
            "predicted_vs_paper", "noise_curves", "observation_bars", "baseline_vs_clustering",
            "vehicle_trajectories", "vehicle_scores", "future_grid", "stamp",
-           "twin_validation", "wind_estimates", "channel_pair_heatmap"]
+           "twin_validation", "wind_estimates", "channel_pair_heatmap", "integer_ticks"]
 
 GROUP_COLOURS = ("tab:blue", "tab:orange")
 
@@ -195,15 +196,35 @@ def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
     return fig
 
 
+def integer_ticks(ax, axis: str = "x") -> None:
+    """Ticks at whole numbers only on ``axis`` ("x" or "y") of ``ax``: a loop or an iteration
+    is counted, so 1.0, 1.2, ... 2.0 would show values it cannot take."""
+    from matplotlib.ticker import MaxNLocator
+
+    if axis not in ("x", "y"):
+        raise ValueError(f"axis must be 'x' or 'y', got {axis!r}")
+    (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(MaxNLocator(integer=True))
+
+
+def _mark_zero_bars(ax, bars) -> None:
+    """A "0" beside every bar of ``bars`` (a horizontal ``BarContainer``) whose value is 0,
+    so a case that ran and scored 0 does not look like a case that did not run."""
+    for patch in bars.patches:
+        if patch.get_width() == 0:
+            ax.text(0.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
+                    fontsize=7, color="0.2")
+
+
 def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
     loops = np.arange(1, len(scores) + 1)
     ax.plot(loops, scores, marker="o", ms=2.5, lw=0.8, color="tab:blue", label="score")
     ax.axhline(scores.max(), color="tab:red", ls="--", lw=1, label=f"max {scores.max():.2f}")
     ax.axhline(scores.mean(), color="tab:green", ls=":", lw=1.2, label=f"mean {scores.mean():.2f}")
     ax.set(xlabel="loop", ylabel="silhouette score", ylim=ylim)
+    integer_ticks(ax)
     if title:
         ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=7, loc="best")
 
 
 def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
@@ -273,7 +294,8 @@ def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
         v = dict(zip(paper["quantity"], paper["value"]))
         ax.axhline(v["cem_maximum"], color="0.5", ls="--", lw=0.8, label="paper CEM max")
     ax.set(xlabel="iteration", ylabel="silhouette score", ylim=(-2, 102))
-    ax.legend(fontsize=7, loc="lower right")
+    integer_ticks(ax)
+    ax.legend(fontsize=7, loc="best")
     return fig
 
 
@@ -319,11 +341,12 @@ def paper_vs_replication(table: pd.DataFrame, ncols: int = 1,
                                          ("paper_mean", "0.8", "paper mean"),
                                          ("mean", "tab:blue", "replication mean"))):
         if col in table:
-            ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c, label=label)
+            _mark_zero_bars(ax, ax.barh(y + (k - 1.5) * h, table[col], height=h, color=c,
+                                        label=label))
     ax.set_yticks(y, [str(i) for i in table.index], fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="silhouette score", xlim=(0, 100), title=title)
-    ax.legend(fontsize=7, loc="lower right")
+    fig.legend(fontsize=7, loc="outside upper center", ncol=4)  # above the axes, off the bars
     return fig
 
 
@@ -487,12 +510,12 @@ def vehicle_scores(table) -> Figure:
     for j, v in enumerate(vehicles):
         s = table[table["vehicle"] == v].set_index("scenario").reindex(scen)
         err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
-        ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h, xerr=err, capsize=2,
-                label=v)
+        _mark_zero_bars(ax, ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h,
+                                    xerr=err, capsize=2, label=v))
     ax.set_yticks(y, scen, fontsize=8)
     ax.invert_yaxis()
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
-    ax.legend(fontsize=7, loc="lower right")
+    fig.legend(fontsize=7, loc="outside upper center", ncol=2)  # above the axes, off the bars
     return fig
 
 
@@ -515,11 +538,11 @@ def future_grid(table) -> Figure:
                                    sort=False).reindex(index=obs, columns=scen)
             im = ax.imshow(grid.to_numpy(), vmin=0, vmax=100, cmap="viridis", aspect="auto")
             for (r, c), v in np.ndenumerate(grid.to_numpy()):
-                ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=7,
+                ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
-            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ") for s in scen],
-                          fontsize=6)
-            ax.set_yticks(range(len(obs)), obs, fontsize=7)
+            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ").replace(" (", "\n(")
+                                             for s in scen], fontsize=8)
+            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
     return fig
@@ -558,6 +581,9 @@ def flyable_scores(table) -> Figure:
 # --------------------------------------------------------------------------- #
 POLICY_STYLES = {"random": ("0.45", ":"), "best": ("tab:blue", "--"),
                  "greedy": ("tab:green", "-"), "receding": ("tab:red", "-")}
+#: Exp 12: each policy's marker and drawing order (the open-loop lines on top), so a line
+#: that coincides with another stays visible.
+POLICY_MARKERS = {"random": ("v", 5), "best": ("s", 4), "greedy": ("o", 3), "receding": ("^", 2)}
 
 
 def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
@@ -577,7 +603,9 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             sub = curves[(curves["scenario"] == s) & (curves["vehicle"] == v)]
             for pol, d in sub.groupby("policy", sort=False):
                 colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-                ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4,
+                marker, z = POLICY_MARKERS.get(pol, ("", 2))
+                ax.plot(d["time"], d[value] * scale, color=colour, ls=ls, lw=1.4, marker=marker,
+                        ms=4, markevery=(z % 4, 4), mfc="none", zorder=z,
                         label=POLICY_NAMES.get(pol, pol))
                 ax.fill_between(d["time"], d[f"{value}_low"] * scale,
                                 d[f"{value}_high"] * scale, color=colour, alpha=0.12, lw=0)
@@ -589,7 +617,8 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
                 ax.set_xlabel("flight time (s)")
             if j == 0:
                 ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
-    axes[0, 0].legend(fontsize=7, loc="lower right" if value == "accuracy" else "upper right")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside upper center", ncol=len(labels))
     return fig
 
 

@@ -1,0 +1,192 @@
+"""A number in a page's prose comes from the results, or says it is the paper's.
+
+The rule (issue 44, "numbers in prose come from the results"). In a page's Markdown -- the
+Markdown cells of ``notebooks/*.md`` and the hand-written pages ``book/*.md`` -- a
+**decimal number** (digits, a point, digits: ``94.55``, ``0.1``) must be one of:
+
+* **produced from the page's data**: a glue role (``{glue:text}`key:.2f```, also across
+  pages as ``generated/<page>.ipynb::key``), or text printed by a code cell (a sentence
+  function of ``uavwind``, tested there, whose output the page shows as Markdown). Code
+  cells are not read here: what they print is computed;
+* **marked as the paper's**: the ``{abbr}`` role with the source in parentheses,
+  ``{abbr}`94.55 (paper)```. It renders as the number with a tooltip naming the source. Two
+  sources are allowed: ``paper`` (a value the paper prints: a table cell, a constant of its
+  model, the NWS ranges it quotes) and ``input`` (a value that is *given*, not computed
+  here: a published vehicle's mass, a setting of a cited implementation, a setting of this
+  project or of an exercise). A result this project computed is never ``input``: it is
+  glued, and so is a setting the library holds as a constant (``uw.CONSUMER_NOISE``), so
+  the prose follows the constant;
+* **not prose**: inside math (``$...$``, ``$$...$$``, a ``{math}`` block: the model's
+  equations, their constants and what they give at stated inputs, such as
+  $0.1 \times 12 = 1.2$), inline code or a code block, a link's target, a
+  directive's option lines (``:label:``), a version string (``rotorpy 3.0.0``: a name).
+
+**Integers are not checked.** A whole number in prose is usually a label or a count the
+page sets (section 4, Table 4, Exp 13, eq 9, 2024, 50 loops, 12 s): the test cannot tell
+those from results, so the rule for an integer *result* (a count of loops that grouped
+correctly, a rounded percentage) is the same -- glue it -- but it is held by review, not here.
+
+A Markdown cell that breaks the rule fails this test with the page, the line and the
+number; ``test_a_planted_bare_number_is_caught`` shows the checker catching one.
+"""
+from __future__ import annotations
+
+import re
+import shutil
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.md"))
+BOOK_PAGES = sorted((ROOT / "book").glob("*.md"))
+
+#: The sources a marked number may name: ``{abbr}`94.55 (paper)```.
+SOURCES = ("paper", "input")
+
+_DECIMAL = re.compile(r"(?<![\w.])\d+\.\d+(?!\w|\.\d)")  # not a version: 3.0.0
+_FENCE = re.compile(r"^(\s*)(`{3,}|~{3,}|:{3,})\s*(\{(?P<name>[\w:-]+)\})?")
+# directives whose body is code or math, not prose
+_CODE_DIRECTIVES = {"code-cell", "code-block", "code", "math", "raw", "eval-rst"}
+_ABBR = re.compile(r"\{abbr\}`([^`]*)`")
+_ROLE = re.compile(r"\{[\w:.-]+\}`[^`]*`")
+_INLINE_CODE = re.compile(r"(`+)(?:(?!\1).)+?\1", re.S)
+_DISPLAY_MATH = re.compile(r"\$\$.+?\$\$", re.S)
+_INLINE_MATH = re.compile(r"(?<!\\)\$(?:[^$\n]|\n(?!\s*\n))+?(?<!\\)\$")
+_LINK_TARGET = re.compile(r"\]\([^)]*\)|<https?://[^>]*>|https?://\S+")
+_COMMENT = re.compile(r"<!--.*?-->", re.S)
+
+
+def _blank(match: re.Match) -> str:
+    """A removed span keeps its line breaks, so line numbers stay right."""
+    return re.sub(r"[^\n]", " ", match.group(0))
+
+
+def _prose(markdown: str) -> str:
+    """``markdown`` with everything that is not prose blanked: code and math blocks,
+    directive headers and options, roles (a marked ``{abbr}`` too), inline code and math,
+    link targets and comments."""
+    out, stack = [], []  # stack of (fence, is_code)
+    for line in markdown.splitlines():
+        m = _FENCE.match(line)
+        if m and stack and m.group(2)[0] == stack[-1][0][0] and len(m.group(2)) >= len(stack[-1][0]) \
+                and not line.strip()[len(m.group(2)):].strip():
+            stack.pop()
+            out.append("")
+            continue
+        if m and (m.group(3) or not stack or not stack[-1][1]) and (m.group(3) or m.group(2)[0] != ":"):
+            name = m.group("name")
+            stack.append((m.group(2), name is None or name in _CODE_DIRECTIVES))
+            out.append("")
+            continue
+        if stack and stack[-1][1]:
+            out.append("")
+            continue
+        if stack and re.match(r"^\s*:[\w-]+:", line):  # a directive's option line
+            out.append("")
+            continue
+        out.append(line)
+    text = "\n".join(out)
+    text = _COMMENT.sub(_blank, text)
+    text = _DISPLAY_MATH.sub(_blank, text)
+
+    def abbr(m: re.Match) -> str:
+        inner = re.match(r"(.*)\(([^()]*)\)\s*$", m.group(1), re.S)
+        if inner and inner.group(2).strip() in SOURCES:
+            return _blank(m)
+        return " " + m.group(1) + " "  # not a mark: its numbers are read
+    text = _ABBR.sub(abbr, text)
+    text = _ROLE.sub(_blank, text)
+    text = _INLINE_CODE.sub(_blank, text)
+    text = _INLINE_MATH.sub(_blank, text)
+    text = _LINK_TARGET.sub(_blank, text)
+    return text
+
+
+def bare_numbers(markdown: str) -> list[tuple[int, str, str]]:
+    """Every decimal number in the prose of ``markdown`` that is neither computed (glue)
+    nor marked (``{abbr}`x (paper)```), as (line number from 1, number, line)."""
+    if not isinstance(markdown, str):
+        raise ValueError(f"markdown must be a str, got {type(markdown).__name__}")
+    lines = markdown.splitlines()
+    return [(i + 1, m.group(0), lines[i].strip())
+            for i, line in enumerate(_prose(markdown).splitlines())
+            for m in _DECIMAL.finditer(line)]
+
+
+def markdown_cells(path: Path) -> list[str]:
+    """The Markdown of a page: each Markdown cell of a notebook, or a book page whole."""
+    if path.parent.name != "notebooks":
+        return [path.read_text()]
+    import jupytext
+    return [c.source for c in jupytext.read(path).cells if c.cell_type == "markdown"]
+
+
+def page_bare_numbers(path: Path) -> list[str]:
+    return [f"{path.relative_to(path.parents[1])}: {num!r} in {line!r}"
+            for cell in markdown_cells(path) for _, num, line in bare_numbers(cell)]
+
+
+# -- the checker itself ---------------------------------------------------------------
+
+@pytest.mark.parametrize("text", [
+    "The mean score is 94.12 over five loops.",
+    "light 0.45-1.34 m/s",
+    "a spike of about 6.0 nats",
+    "the score ends the sentence at 94.55.",
+    "{abbr}`94.55 (the authors)` is not a source the rule knows",
+    "```{exercise}\n:label: ex-a\n\nScores 83.2 here.\n```",
+    ":::{note}\nA note that says 1.5 m.\n:::",
+])
+def test_the_checker_flags_a_bare_decimal(text):
+    assert bare_numbers(text), text
+
+
+@pytest.mark.parametrize("text", [
+    "The paper reports {abbr}`94.55 (paper)`.",
+    "NWS ranges ({abbr}`0.45-1.34 m/s (paper)`), a data sheet's {abbr}`2.1 m (input)`.",
+    "mean {glue:text}`fit_mean_1:.2f` and {glue:text}`generated/inference.ipynb::x:.1f`",
+    "with $\\alpha = 0.143$ and $$U = 1.5 z$$",
+    "call `uw.Noise(position=0.21)` first",
+    "```python\nx = 0.5\n```",
+    "```{code-cell} ipython3\nprint(0.5)\n```",
+    "```{math}\n\\sigma = 0.1 W_{20}\n```",
+    "see [v1.2](https://example.org/v1.2.3) and section 4, Table 4, Exp 13, 2024, 50 loops",
+    "```{exercise}\n:label: ex-0.5\n:class: 1.5\n\nNo decimal here.\n```",
+    "RotorPy 3.0.0's quadrotor",
+])
+def test_the_checker_passes_what_the_rule_allows(text):
+    assert bare_numbers(text) == [], text
+
+
+def test_the_checker_names_the_line_and_number():
+    found = bare_numbers("one\n\nThe IMU scores 83.2,\nand $x = 1.5$ then 0.7.")
+    assert [(n, num) for n, num, _ in found] == [(3, "83.2"), (4, "0.7")]
+
+
+def test_the_checker_rejects_a_non_string():
+    with pytest.raises(ValueError, match="markdown"):
+        bare_numbers(None)
+
+
+def test_a_planted_bare_number_is_caught(tmp_path):
+    """A copy of a real page passes; the same copy with one hand-typed result fails."""
+    page = tmp_path / "notebooks" / "exp1_wind_speed.md"
+    page.parent.mkdir()
+    shutil.copy(ROOT / "notebooks" / "exp1_wind_speed.md", page)
+    assert page_bare_numbers(page) == []
+    text = page.read_text()
+    head, sep, tail = text.partition("\n## ")
+    assert sep, "the page has a section to plant the sentence in"
+    page.write_text(head + sep + tail.replace("\n", "\n\nThe mean score is 86.71 here.\n", 1))
+    found = page_bare_numbers(page)
+    assert len(found) == 1 and "86.71" in found[0], found
+
+
+# -- the book's own pages -------------------------------------------------------------
+
+@pytest.mark.parametrize("path", NOTEBOOKS + BOOK_PAGES, ids=lambda p: p.name)
+def test_no_bare_decimal_in_a_pages_prose(path):
+    found = page_bare_numbers(path)
+    assert found == [], ("a number typed into prose: glue it from the results, or mark it "
+                         "{abbr}`x (paper)` / {abbr}`x (input)`:\n" + "\n".join(found))

@@ -1,0 +1,102 @@
+"""Sentences that choose between answers, as functions of the numbers they are about.
+
+This module owns the book's *verdict words* in prose: a sentence that says one thing is
+higher, loses first, takes something away or groups the environments is computed here from
+the numbers it describes, so it cannot contradict them when a profile, a count or a sizing
+changes (issue 44). A verdict word is given only where the 95% intervals carry it: two
+intervals that overlap *cannot decide*, and the sentence says so.
+
+Each function raises a ``ValueError`` naming the parameter on input it cannot judge (an
+interval whose low end lies above its high end, a NaN, an empty set of rates).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+__all__ = ["interval_order", "compare_phrase", "interval_text", "grouping_phrase",
+           "first_to_lose"]
+
+
+def _interval(low: float, high: float, name: str) -> tuple[float, float]:
+    low, high = float(low), float(high)
+    if math.isnan(low) or math.isnan(high):
+        raise ValueError(f"{name} must be a finite interval, got [{low}, {high}]")
+    if low > high:
+        raise ValueError(f"{name} must have low <= high, got [{low}, {high}]")
+    return low, high
+
+
+def interval_order(a: Sequence[float], b: Sequence[float]) -> int:
+    """``+1`` when interval ``a`` = (low, high) lies wholly above ``b``, ``-1`` wholly below,
+    ``0`` when they overlap: the intervals cannot decide which is higher."""
+    a_lo, a_hi = _interval(*a, "a")
+    b_lo, b_hi = _interval(*b, "b")
+    if a_lo > b_hi:
+        return 1
+    if a_hi < b_lo:
+        return -1
+    return 0
+
+
+def compare_phrase(a: Sequence[float], b: Sequence[float], higher: str, lower: str,
+                   undecided: str) -> str:
+    """``higher`` when ``a``'s interval lies above ``b``'s, ``lower`` when below, else
+    ``undecided`` (:func:`interval_order`)."""
+    return {1: higher, -1: lower, 0: undecided}[interval_order(a, b)]
+
+
+def interval_text(mean: float, low: float, high: float, n: int, digits: int = 1) -> str:
+    """``"85.0 [80.1, 89.9]"``: a mean with its 95% interval; a mean of one loop (``n`` = 1)
+    or a zero-width interval has none to show, so only ``"85.0 (one loop)"`` or the mean."""
+    n = int(n)
+    if n < 1:
+        raise ValueError(f"n must be at least 1, got {n}")
+    if math.isnan(float(mean)):
+        raise ValueError(f"mean must be a number, got {mean}")
+    if n == 1:
+        return f"{mean:.{digits}f} (one loop)"
+    lo, hi = _interval(low, high, "interval")
+    if round(lo, digits) == round(hi, digits):
+        return f"{mean:.{digits}f}"
+    return f"{mean:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
+
+
+def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
+    """How often the loops of several cases (``what``, a noun phrase: "the zero-mean
+    readings") grouped the environments correctly, from each case's correct rate in [0, 1]:
+    ``"<what>: every loop grouped correctly"``, most loops misgrouped, one rate, or the range
+    between the cases."""
+    rates = {k: float(v) for k, v in dict(correct_rates).items()}
+    if not rates:
+        raise ValueError("correct_rates must hold at least one case")
+    if any(math.isnan(v) or not 0.0 <= v <= 1.0 for v in rates.values()):
+        raise ValueError(f"correct_rates must lie in [0, 1], got {rates}")
+    lo, hi = min(rates.values()), max(rates.values())
+    if lo == 1.0:
+        return f"{what}: every loop grouped correctly"
+    if hi < 0.5:
+        return f"{what}: most loops misgrouped (at most {100 * hi:.0f}% grouped correctly)"
+    if lo == hi:
+        return f"{what}: {100 * lo:.0f}% of the loops grouped correctly"
+    return (f"{what}: from {100 * lo:.0f}% to {100 * hi:.0f}% of the loops grouped correctly, "
+            f"case by case")
+
+
+def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str:
+    """Which channel loses most of its score when noise is added, from each channel's score
+    without (``clean``) and with noise (``noisy``), keyed alike: ``"<name> loses most"``, or a
+    sentence saying which already scored nothing without noise (they have nothing to lose)."""
+    if set(clean) != set(noisy) or not clean:
+        raise ValueError(f"clean and noisy must name the same channels, got {sorted(clean)} "
+                         f"and {sorted(noisy)}")
+    loss = {k: float(clean[k]) - float(noisy[k]) for k in clean}
+    if any(math.isnan(v) for v in loss.values()):
+        raise ValueError(f"clean and noisy must be numbers, got {dict(clean)}, {dict(noisy)}")
+    top = max(loss.values())
+    losers = sorted(k for k, v in loss.items() if v == top)
+    if top <= 0:
+        return "no channel loses score to the noise"
+    return f"{' and '.join(losers)} {'loses' if len(losers) == 1 else 'lose'} most ({top:.1f} points)"
+
