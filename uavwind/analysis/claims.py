@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from ..core.stats import bootstrap_ci, correct_share, paired_difference
+from ..core.stats import bootstrap_ci, correct_share, difference_ci, paired_difference
 from ..study.registry import EXPERIMENTS
 from .beyond import breaking_level, noise_table
 
@@ -211,40 +211,64 @@ def claim_c8(r: Mapping[str, pd.DataFrame]) -> Verdict:
     final = best.iloc[-1]
     reached = int(best.index[np.argmax(best.to_numpy() >= final - 1.0)])
     beats = final > rand.max()
-    mean_gain = g.mean().iloc[-1] - rand.mean()
+    last = df6[df6["iteration"] == df6["iteration"].max()]["score"].to_numpy()
+    gain, lo, hi = difference_ci(last, rand)
     plateau_ok = 8 <= reached <= 16
     n_it = len(best)
-    verdict = ("reproduced" if beats and mean_gain > 0 and plateau_ok else
-               "partly" if beats or mean_gain > 0 else "not reproduced")
-    ev = (f"CEM best {final:.2f} vs random-search max {rand.max():.2f} (Exp 5, similar "
-          f"direction, {rand.size} loops); last-iteration CEM mean {g.mean().iloc[-1]:.2f} vs "
-          f"random mean {rand.mean():.2f}; best within 1 point of its final value from "
-          f"iteration {reached} of {n_it}")
+    # one CEM run: its best against random search's maximum is two numbers, no interval,
+    # so the verdict rests on the last iteration's population against random search's,
+    # whose interval can exclude 0 (issue 44: 86.84 against 86.76 read as 'beats')
+    verdict = ("cannot decide" if lo <= 0 <= hi or last.size < 2 else
+               "not reproduced" if hi < 0 else
+               "reproduced" if beats and plateau_ok else "partly")
+    ev = (f"last-iteration CEM mean minus random mean {gain:.2f} [{lo:.2f}, {hi:.2f}] "
+          f"({last.size} and {rand.size} loops, Exp 5 similar direction); one CEM run's best "
+          f"{final:.2f} vs random-search max {rand.max():.2f} (single values, no interval); "
+          f"best within 1 point of its final value from iteration {reached} of {n_it}")
     return Verdict("C8", "CEM beats random search and plateaus after about 12 iterations "
-                   "(Exp 6).", "reproduced: CEM's best exceeds the random-search maximum, its "
-                   "last-iteration mean exceeds the random mean, and its best is within 1 point "
-                   "of final from an iteration in 8-16; partly: it beats random search on "
-                   "maximum or mean", ev, verdict)
+                   "(Exp 6).", "reproduced: the last CEM iteration's mean score exceeds random "
+                   "search's (95% CI of the difference above 0), its best exceeds the random "
+                   "maximum and is within 1 point of final from an iteration in 8-16; partly: "
+                   "the mean difference's CI above 0 alone; not reproduced: below 0; cannot "
+                   "decide: the CI contains 0", ev, verdict)
 
 
 def claim_c9(r: Mapping[str, pd.DataFrame]) -> Verdict:
-
+    """Sub-metre accuracy is every noise condition under 1 m: white noise and bias alike (a
+    0.5 m bias is sub-metre accuracy too; the verdict read white noise only, issue 44).
+    A condition works when its 95% CI of the correctly grouped share lies at or above 90%,
+    fails when it lies below."""
     df = r["exp7"]
     t = noise_table(df)
-    sub = t[(t["noise_bias"] == 0) & (t["noise_sigma"] < 1.0)]
-    ok = sub.groupby("scenario", sort=False)["correct_rate"].min() >= 0.9
+    sub = t[(t["noise_bias"] < 1.0) & (t["noise_sigma"] < 1.0)]
+    by = sub.groupby("scenario", sort=False)
+    works = by["correct_low"].min() >= 0.9          # every condition's CI at or above 90%
+    fails = by["correct_high"].min() < 0.9          # some condition's CI below 90%
     brk = breaking_level(df)
-    verdict = "reproduced" if ok.all() else "partly" if ok.any() else "not reproduced"
-    ev = ("lowest share of correctly grouped loops below 1 m of white noise: "
-          + ", ".join(f"{s} {100 * v:.0f}%" for s, v in
-                      sub.groupby("scenario", sort=False)["correct_rate"].min().items())
+    if works.all():
+        verdict = "reproduced"
+    elif fails.all():
+        verdict = "not reproduced"
+    elif fails.any() and (works | fails).all():
+        verdict = "partly"
+    else:
+        verdict = "cannot decide"
+    worst = sub.loc[sub.groupby("scenario", sort=False)["correct_rate"].idxmin()]
+    ev = ("lowest share of correctly grouped loops below 1 m of noise (white noise or bias), "
+          "95% CI: "
+          + ", ".join(f"{row.scenario} {100 * row.correct_rate:.0f}% "
+                      f"[{100 * row.correct_low:.0f}, {100 * row.correct_high:.0f}] "
+                      f"(sigma {row.noise_sigma:g} m, bias {row.noise_bias:g} m)"
+                      for row in worst.itertuples())
           + "; correct grouping first below 50% at: "
           + ", ".join(f"{s} {'beyond ' + format(row.last_ok, 'g') if np.isnan(row.first_broken) else format(row.first_broken, 'g')} m"
                       for s, row in brk.iterrows()))
     return Verdict("C9", "The method works with sub-metre position accuracy (Exp 7, beyond the "
-                   "paper's experiments).", "reproduced: in every scenario at least 90% of the "
-                   "loops are grouped correctly at every white-noise level below 1 m; partly: "
-                   "in some scenarios", ev, verdict)
+                   "paper's experiments).", "reproduced: in every scenario, at every white-noise "
+                   "and bias level below 1 m, the 95% CI of the correctly grouped share lies at "
+                   "or above 90%; partly: in some scenarios, the others' CI below; not "
+                   "reproduced: below in every scenario; cannot decide: a CI straddles 90%",
+                   ev, verdict)
 
 
 #: Claim id -> (experiments it needs, function).
