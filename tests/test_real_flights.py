@@ -324,3 +324,14 @@ def test_the_fill_computes_exp13_in_its_pool_when_the_flights_are_there(folder, 
     assert back.fill.func is cli._exp13_fill and back.fill.args == (str(folder),)
     monkeypatch.setenv("UAVWIND_NEURALFLY", str(folder))
     assert "exp13" in [a.name for a in cli._book_analyses(None)]
+
+
+def test_an_interval_of_shares_stays_within_0_and_1_and_of_scores_within_0_and_100():
+    """Five controllers' held-out accuracies near 1 gave a t interval up to 1.10 on the
+    Exp 13 page (issue 44's reader): a share's interval is cut to [0, 1], a score's to
+    [0, 100]; an unbounded quantity (a difference) keeps its t interval."""
+    m, lo, hi = rf._ci([1.0, 1.0, 0.8, 1.0, 0.9], (0.0, 1.0))
+    assert hi == 1.0 and 0.0 < lo < m < 1.0
+    m, lo, hi = rf._ci([99.0, 100.0, 97.0], (0.0, 100.0))
+    assert hi == 100.0 and lo < m
+    assert rf._ci([1.0, 1.0, 0.8])[2] > 1.0  # without bounds: the t interval itself
