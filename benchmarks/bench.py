@@ -728,12 +728,7 @@ def host_cpu():
 def _heldout_loop(i):
     """Loop ``i`` of the held-out check: Table 2 scenario ``i % 7 + 1``, 5 or 10 environments
     a group (alternately), 120 steps, seed 20_000 + i (no other section's loops)."""
-    from uavwind.study.conditions import PAPER_SCENARIOS
-
-    a, b = list(PAPER_SCENARIOS.values())[i % 7]
-    s = uw.make_setting(a.label, b.label, (5, 10)[i % 2])
-    thrust = s.sample_thrust(np.random.default_rng(20_000 + i))
-    return s.simulate(thrust, seed=20_000 + i), s.groups
+    return _loop_inputs(2 * (5, 10)[i % 2], 20_000 + i, scenario=i % 7 + 1)
 
 
 def heldout_times(engines=("fast", "tslearn"), n_loops=12):

@@ -90,7 +90,7 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     out = {}
     if "heldout" in report:
         h = report["heldout"]
-        host = h.get("host", {})  # the line above the table names its model
+        host = h.get("host", {})  # its model is named in the line above the table
         out["heldout"] = pd.DataFrame(
             {"vectors": [f"{host.get('lanes', '?')} lanes, native code",
                          f"{host.get('lanes', '?')} lanes, AVX2 code (NUMBA_CPU_NAME=haswell)"],

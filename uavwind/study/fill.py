@@ -77,9 +77,11 @@ class Analysis:
         object.__setattr__(self, "reads", tuple(self.reads))
 
 
-def _run_analysis(analysis, profile, seed, results):
-    """A task: ``analysis`` computed on one thread of a worker, and the CPU seconds it took."""
-    pin_threads()
+def _run_analysis(analysis, profile, seed, results, pin=True):
+    """A task: ``analysis`` computed (``pin``: in a worker process, on one thread), and the
+    CPU seconds it took."""
+    if pin:
+        pin_threads()
     cpu0 = time.process_time()
     analysis.fill(profile, seed, results)
     return None, time.process_time() - cpu0
@@ -656,9 +658,8 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
     by_path = {e.path: e for e in missing}
     if not missing and not analyses:
         return out
-    prof_name, results_arg = get_profile(profile).name, results
     # an analysis waits for the missing entries of the experiments it reads
-    tasks = [(a, (prof_name, seed, results_arg),
+    tasks = [(a, (get_profile(profile).name, seed, results),
               [e.path for e in missing if any(x in a.reads for x, _ in users[e])])
              for a in analyses]
     bar = None
@@ -737,9 +738,7 @@ def _then(done, tasks):
     other, as :func:`_run_tasks` yields them (a generator: closing it closes ``done``)."""
     yield from done
     for a, args, _ in tasks:
-        cpu0 = time.process_time()
-        a.fill(*args)
-        yield ("analysis", a.name), 0, False, time.process_time() - cpu0, 0, 1
+        yield ("analysis", a.name), 0, False, _run_analysis(a, *args, pin=False)[1], 0, 1
 
 
 class _Watcher:
