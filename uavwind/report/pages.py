@@ -26,6 +26,7 @@ import os
 import sys
 from pathlib import Path
 
+from ..core.io import READ_ONLY_ENV
 from ..core.store import atomic_write
 
 __all__ = ["run_page", "KERNEL", "NEEDS_ENV", "COMPUTES", "main"]
@@ -77,8 +78,6 @@ def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str,
 def _lift_read_only(cells: list, nbformat) -> list:
     """``cells`` with a hidden cell before each :data:`COMPUTES` cell that lifts the
     read-only flag, and one after it that restores it (pages run read-only: see the Makefile)."""
-    from ..core.io import READ_ONLY_ENV
-
     def hidden(source):
         return nbformat.v4.new_code_cell(source, metadata={"tags": ["remove-cell"]})
     out = []

@@ -86,8 +86,9 @@ def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
 
 def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str:
     """Which channel loses most of its score when noise is added, from each channel's score
-    without (``clean``) and with noise (``noisy``), keyed alike: ``"<name> loses most"``, or a
-    sentence saying which already scored nothing without noise (they have nothing to lose)."""
+    without (``clean``) and with noise (``noisy``), keyed alike: ``"<name> loses most (<points>
+    points)"`` (ties named together), or ``"no channel loses score to the noise"`` when none
+    scores lower with it."""
     if set(clean) != set(noisy) or not clean:
         raise ValueError(f"clean and noisy must name the same channels, got {sorted(clean)} "
                          f"and {sorted(noisy)}")
