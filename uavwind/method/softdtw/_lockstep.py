@@ -32,8 +32,8 @@ the corner (-1, -1) = 0 / -gamma, column -1 is -inf), so the borders run the sam
 The same lanes serve the barycentre objective (N series, each against its own centre, so
 k-means' clusters share the vectors: value, gradient matrix by the backward recursion over
 the union of the lanes' bands, row by row, and the Jacobian product on every lane with the
-fused multiply-add the scalar kernel compiles to, where it does) and DTW (N pairs of the silhouette's matrix;
-min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
+fused multiply-add the scalar kernel compiles to, where it does) and DTW (N pairs of the
+silhouette's matrix; min and add only, no exp/log). Only :mod:`._dispatch` calls the entry points;
 :mod:`._kernels` stays the scalar reference.
 """
 
@@ -333,12 +333,12 @@ def _backward(Rf, x, y, d, m, n, gamma, E, rlo, rhi):
     whose e is 0 on every lane is not evaluated, and a cell inside the union band but
     outside a lane's own band gets exactly +0.0 on that lane, as in tslearn.
 
-    Rows bottom to top, columns right to left in a row. A cell depends on the cells below, to its right and below-right only, so any order
-    that visits those first gives every cell the same doubles (each still ``(p1 + p2) + p3``
-    with p1 the cell below, p2 the one to the right, p3 the diagonal, as tslearn adds
-    them); this one walks E and Rf along their rows, which lie contiguous in memory, where
-    tslearn's column order strides a whole row (``n * N`` doubles) per cell. ``rlo[r] ..
-    rhi[r]`` receive the columns computed in row r (what :func:`_clear_rows` resets and
+    Rows bottom to top, columns right to left in a row (tslearn walks columns). A cell
+    depends on the cells below, to its right and below-right only, so any order that visits
+    those first gives every cell the same doubles (each still ``(p1 + p2) + p3`` with p1
+    the cell below, p2 the one to the right, p3 the diagonal, as tslearn adds them). Rows
+    are walked because the Jacobian product sums row by row: ``rlo[r] .. rhi[r]`` receive
+    the columns computed in row r (what :func:`_clear_rows` resets and
     :func:`_jacobian_vec` sums over)."""
     pow2 = _is_pow2(gamma)
     inv_gamma = 1.0 / gamma
