@@ -402,7 +402,7 @@ def _ci(values, bounds=None):
     cut to it -- a t interval of five shares near 1 reached 1.10 on the Exp 13 page."""
     m, lo, hi = t_ci(np.asarray(values, dtype=float))
     if bounds is not None:
-        lo, hi = (float(np.clip(b, *bounds)) if np.isfinite(b) else b for b in (lo, hi))
+        lo, hi = (float(np.clip(b, *bounds)) for b in (lo, hi))  # NaN stays NaN
     return m, lo, hi
 
 
