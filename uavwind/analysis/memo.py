@@ -12,22 +12,20 @@ computes and :func:`page_analyses` hands them to it as tasks, each with the expe
 reads (``make results``: ``python -m uavwind run all --reading all``, one pool).
 
 An exercise's solution is the page's own executed cell (tagged ``exercise-computes``, see
-:mod:`uavwind.report.pages`); only those that fly minutes of episodes (Exp 12's) are run here
-by the fill, their complete code shown on the page, and read back.
+:mod:`uavwind.report.pages`), its output printed under it. Exp 12's first exercise is
+:func:`uavwind.run_experiment` on cache entries of the experiment itself, which the fill
+stores (:func:`exp12_inferred_exercise`) and the page's cell reads back.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import replace
 
 import pandas as pd
 
 from ..core.store import content_digest, get_or_compute
-from ..method.closed_loop import ClosedLoop, Greedy, RecedingCEM, run_episodes
 from ..method.clustering import score_loop
 from ..sim.actions import PAPER_EXAMPLE
-from ..sim.observation import Noise
 from ..study.builders import make_setting
 from ..study.conditions import table3_setting
 from ..study.fill import Analysis
@@ -181,49 +179,11 @@ def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
                 lambda: manoeuvres.zero_thrust_sensitivity(20, seed=seed), results)
 
 
-def _exp12_case(labels=None):
-    exp = EXPERIMENTS["exp12"]
-    cases = exp.cases(exp.readings[0])
-    return cases[0] if labels is None else next(c for c in cases if c.labels == labels)
-
-
 def exp12_inferred_exercise(seed: int, results=None) -> pd.DataFrame:
     """Exp 12's exercise: its first two cases under the inferred reading, quick profile
     (cache entries of the experiment itself)."""
     return run_experiment("exp12", profile="quick", seed=seed, n_jobs=1, reading="inferred",
                           cases=[0, 1], results=results, progress=False)
-
-
-def exp12_noise_exercise(seed: int, results=None) -> pd.DataFrame:
-    """Exp 12's exercise: the greedy policy on its first case with GNSS noise of 2.1 and
-    0.21 m, 20 episodes each: per noise level the median time to 95% confidence [s] and the
-    share of flights that reach it, cached."""
-    def compute():
-        case = _exp12_case()
-        rows = []
-        for sigma in (2.1, 0.21):
-            prob = ClosedLoop(setting=replace(case.setting, noise=Noise(position=sigma)),
-                              report_interval=0.5)
-            df = run_episodes(prob, "greedy", 0, 20, seed=seed).assign(**case.labels)
-            t = time_to_confidence(df)
-            rows.append({"sigma": sigma, "median_time": float(t["median_time"].iloc[0]),
-                         "reached": float(t["reached"].iloc[0]), "episodes": 20})
-        return pd.DataFrame(rows)
-    return memo("exp12_noise_exercise", {"seed": seed}, compute, results)
-
-
-def exp12_horizon_exercise(seed: int, results=None) -> pd.DataFrame:
-    """Exp 12's exercise: greedy beside a one-segment receding-horizon CEM on light constant
-    vs light shear for the multirotor, 10 episodes: the accuracy of each at 4 s, cached."""
-    def compute():
-        case = _exp12_case({"scenario": "Light constant vs light shear",
-                            "vehicle": "multirotor, RotorPy drag, hover"})
-        prob = ClosedLoop(setting=case.setting, report_interval=0.5)
-        df = run_episodes(prob, [Greedy(), RecedingCEM(horizon=1)], 0, 10, seed=seed)
-        acc = df[df["time"] == 4.0].groupby("policy")["correct"].mean()
-        return pd.DataFrame({"policy": acc.index.astype(str), "accuracy_at_4s": acc.to_numpy(float),
-                             "episodes": 10})
-    return memo("exp12_horizon_exercise", {"seed": seed}, compute, results)
 
 
 # ---- the exercises' small runs: the code each solution shows, run by the fill ----------- #
@@ -259,8 +219,6 @@ PAGE_ANALYSES = {"claims": _fill_claims,
                  "exp10_drift_offsets": _seed_only(drift_offsets),
                  "exp10_zero_thrust_sensitivity": _seed_only(zero_thrust_sensitivity),
                  "exp12_inferred_exercise": _seed_only(exp12_inferred_exercise),
-                 "exp12_noise_exercise": _seed_only(exp12_noise_exercise),
-                 "exp12_horizon_exercise": _seed_only(exp12_horizon_exercise),
                  "model_example": _fixed(model_example)}
 
 
