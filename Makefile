@@ -31,6 +31,7 @@ EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py uavwind/*/*.py uavwind/*/*/*.py uavwind/study/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
 PLOTLYJS  := $(BOOK)/_vendor/plotly/plotly.min.js
+CSS       := $(BOOK)/_vendor/uavwind.css
 HTML      := $(BOOK)/_build/html/index.html
 
 export PYTHONPATH := $(CURDIR)
@@ -113,6 +114,11 @@ $(PLOTLYJS): $(STAMP)
 	mkdir -p $(dir $@)
 	cp $$($(BIN)/python -c 'import plotly, pathlib; print(pathlib.Path(plotly.__file__).parent / "package_data" / "plotly.min.js")') $@
 
+# the book's own style sheet (wide tables scroll in the text column), beside the vendored files
+$(CSS): $(BOOK)/uavwind.css
+	mkdir -p $(dir $@)
+	cp $< $@
+
 # the landing page says which profile this build shows (a quick build: provisional verdicts)
 $(GEN)/build_note.md: $(GEN)/.profile
 	@if [ "$(PROFILE)" = paper ]; then \
@@ -121,7 +127,7 @@ $(GEN)/build_note.md: $(GEN)/.profile
 	  echo "**This build shows the *$(PROFILE)* profile, a few loops per setting: every verdict in it is provisional** (each page says its counts; \`make book\` builds the paper profile)." > $@; \
 	fi
 
-$(HTML): $(EXECUTED) $(GEN)/build_note.md $(MATHJAX) $(PLOTLYJS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
+$(HTML): $(EXECUTED) $(GEN)/build_note.md $(MATHJAX) $(PLOTLYJS) $(CSS) $(wildcard $(BOOK)/*.md) $(BOOK)/references.bib \
          $(BOOK)/_config.yml $(BOOK)/_toc.yml
 	$(TIMEOUT) $(HTML_TIMEOUT) $(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
 	touch $@

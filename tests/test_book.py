@@ -59,6 +59,14 @@ def test_model_notes_claims_and_other_pages(built_book):
         _html(built_book, page)
 
 
+def test_wide_tables_scroll_inside_the_text_column(built_book):
+    """The book's style sheet is served and linked: a result table wider than the text column
+    (inference's has 14 columns) scrolls inside it instead of spilling over the margin."""
+    css = built_book / "_build" / "html" / "_static" / "uavwind.css"
+    assert "overflow-x: auto" in css.read_text()
+    assert '_static/uavwind.css' in _html(built_book, "generated/inference")
+
+
 def test_no_cell_errored_and_no_network_assets(built_book):
     for nb_path in (built_book / "generated").glob("*.ipynb"):
         nb = nbformat.read(nb_path, as_version=4)
