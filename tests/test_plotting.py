@@ -220,6 +220,14 @@ def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():
     plt.close(fig)
 
 
+def test_the_cem_history_keeps_its_legend_off_the_lines():
+    """Exp 6's raw-silhouette CEM: the search's lines crossed the legend inside the axes
+    (issue 44); it sits above them, a figure legend."""
+    fig = plotting.fig9_cem(_cem_history(), random_scores=[1.0, 20.0])
+    assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
+    plt.close(fig)
+
+
 def test_closed_loop_lines_stay_distinguishable():
     """Two policies with the same curve: each line keeps its own marker, the open-loop one
     drawn on top, and the legend sits outside the panels (issue 44: exp12's open-loop line hid)."""

@@ -295,7 +295,8 @@ def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
         ax.axhline(v["cem_maximum"], color="0.5", ls="--", lw=0.8, label="paper CEM max")
     ax.set(xlabel="iteration", ylabel="silhouette score", ylim=(-2, 102))
     integer_ticks(ax)
-    ax.legend(fontsize=7, loc="best")
+    # above the axes: inside, the search's lines pass under it wherever it is put
+    fig.legend(fontsize=7, loc="outside upper center", ncol=3)
     return fig
 
 
