@@ -206,6 +206,12 @@ def test_loop_and_iteration_axes_are_ticked_at_whole_numbers():
         plt.close(fig)
     with pytest.raises(ValueError, match="axis must be"):
         plotting.integer_ticks(None, axis="z")
+    fig, ax = plt.subplots()  # one iteration drawn (a quick CEM of Exp 14): a whole tick only
+    ax.plot([1], [50.0], marker="o")
+    plotting.integer_ticks(ax)
+    fig.canvas.draw()
+    assert [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]] == [1.0]
+    plt.close(fig)
 
 
 def test_bar_charts_keep_their_legend_off_the_bars_and_mark_zero_bars():

@@ -203,7 +203,11 @@ def integer_ticks(ax, axis: str = "x") -> None:
 
     if axis not in ("x", "y"):
         raise ValueError(f"axis must be 'x' or 'y', got {axis!r}")
-    (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(MaxNLocator(integer=True))
+    (ax.xaxis if axis == "x" else ax.yaxis).set_major_locator(MaxNLocator(integer=True, min_n_ticks=1))
+    lo, hi = ax.get_xlim() if axis == "x" else ax.get_ylim()
+    if abs(hi - lo) < 1.0:  # one count drawn (one iteration): the view is a sliver around it,
+        mid = round((lo + hi) / 2)  # where the locator would tick 0.945, 0.960, ...
+        (ax.set_xlim if axis == "x" else ax.set_ylim)(mid - 0.5, mid + 0.5)
 
 
 def _mark_zero_bars(ax, bars) -> None:
