@@ -43,8 +43,9 @@ from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
 from .sim.manoeuvres import (FLYABLE, FLYABLE_IN_WIND, FlyableLimits, check_flyable,  # noqa: E402
                              sample_waypoints)
-from .sim.multirotor import Multirotor, PositionControl  # noqa: E402
+from .sim.multirotor import Multirotor  # noqa: E402
 from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
+from .sim.rotor_params import PositionControl  # noqa: E402
 from .sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, OBSERVATIONS, Noise  # noqa: E402
 from .sim.setting import EnvironmentGroup, Setting  # noqa: E402
 from .sim.vehicle import PAPER_UAV, UAV  # noqa: E402

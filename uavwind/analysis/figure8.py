@@ -53,8 +53,9 @@ from ..core.seeding import child_rng, child_seed, root_seed
 from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight
 from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
-from ..sim.multirotor import NEURAL_FLY_CONTROL, Multirotor
+from ..sim.multirotor import Multirotor
 from ..sim.references import Lemniscate
+from ..sim.rotor_params import NEURAL_FLY_CONTROL
 from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
 from .real_flights import STUDIES, compute_rows, flight_summaries, noise_columns

@@ -16,8 +16,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 
 from ..sim.manoeuvres import FLYABLE_IN_WIND
-from ..sim.multirotor import NEURAL_FLY_CONTROL, Multirotor
+from ..sim.multirotor import Multirotor
 from ..sim.observation import CONSUMER_NOISE, CONSUMER_SENSORS, POINT_MASS_OBSERVATIONS, Noise
+from ..sim.rotor_params import NEURAL_FLY_CONTROL
 from ..sim.setting import Setting
 from ..sim.vehicle import UAV
 from .builders import (direction_settings, environment_count_settings, make_setting,
