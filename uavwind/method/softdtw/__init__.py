@@ -9,6 +9,7 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
 ``_k_means_*`` kernels:
 
 * :mod:`._libm` -- bit-exact replicas of glibc's ``exp``/``log`` and their self-check;
+* :mod:`._scalar_forward` -- the soft-DTW forward recursion the kernels start from;
 * :mod:`._kernels` -- the numba kernels (soft-DTW value, gradient, barycentre
   objective, DTW), each tslearn's arithmetic in a faster schedule;
 * :mod:`.metrics` -- the kernels as functions of series and batches;
