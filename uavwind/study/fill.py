@@ -36,7 +36,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..core.checks import check_instance
 from ..core.parallel import check_jobs, pin_threads, stop_workers
-from ..method.clustering import ClusteringParams
+from ..method.clustering import ClusteringParams, softdtw_engine
 from ..method.search import CEMRun, evaluate
 # PROBE_SECONDS and _probe_scheduler are named here too (fill_cache's text, the tests)
 from ._dask_probe import PROBE_SECONDS, _check_scheduler, _probe_scheduler  # noqa: F401
@@ -454,7 +454,7 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # checkout, workers that each compiled them at once would spend a core-minute on
             # copies of the same work; now they load what one of them wrote (imported here:
             # a page that only reads results needs neither the kernels nor scikit-learn)
-            from ..method import softdtw
+            softdtw = softdtw_engine()
             if isinstance(get_active_backend()[0], LokyBackend):
                 # one task per chunk and per CEM sample, dispatched in priority order as
                 # workers free up (closed-loop entries fly while the kernels compile)
