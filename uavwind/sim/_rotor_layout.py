@@ -33,7 +33,9 @@ _N_STATE, _N_STATE_PI = 20, 23
 def _kernels():
     """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
     1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
-    flies none). This module's one lazy import."""
+    flies none). The multirotor and its rollouts reach the kernels through here only."""
+    # the package's one import of the rotor kernels: kept in a function so that importing
+    # uavwind, which builds multirotors but flies none, does not load numba
     from . import _rotor_kernels
     return _rotor_kernels
 
