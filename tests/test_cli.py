@@ -203,3 +203,25 @@ def test_run_exp13_asked_for_without_neural_fly_fails_naming_the_variable(monkey
     code = main(["run", "exp13", "--no-progress"])
     err = capsys.readouterr().err
     assert code != 0 and "UAVWIND_NEURALFLY" in err and "exp13" in err
+
+
+@pytest.mark.parametrize("reading", [[], ["--reading", "all"]])
+def test_run_all_skips_exp13_without_its_flights_saying_so(reading, monkeypatch, capsys):
+    """`run all` (and the book's `run all --reading all`) without $UAVWIND_NEURALFLY fills the
+    other experiments and skips Exp 13 with a message, exit 0; asked for by name it fails."""
+    import uavwind.cli as cli
+
+    asked = []
+
+    def fill(ids, *args, analyses=(), **kwargs):
+        asked.append((list(ids), [a.name for a in analyses]))
+        return {"entries": 0, "cached": 0, "computed": 0, "rows_computed": 0, "times": []}
+    monkeypatch.setattr(cli, "fill_cache", fill)
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    assert main(["run", "all", "--no-tables", "--no-progress", *reading]) == 0
+    err = capsys.readouterr().err
+    assert "exp13: no Neural-Fly folder ($UAVWIND_NEURALFLY); Experiment 13 is skipped" in err
+    (ids, analyses), = asked
+    assert ids == list(ex.EXPERIMENTS) and "exp13" not in ids + analyses
+    assert main(["run", "exp13", "exp5", "--no-progress"]) == 2  # asked for: an error, first
+    assert len(asked) == 1 and "UAVWIND_NEURALFLY" in capsys.readouterr().err

@@ -57,6 +57,10 @@ from .study.conditions import (PAPER_SCENARIOS, SPEED_RANGES, WindCondition,  # 
                                scenario_table, table3_setting)
 from .study.layouts import INFERRED_GAP_RATIOS, LAYOUTS, Layout, group_speeds, resolve_layout  # noqa: E402
 from .study.readings import READINGS, Reading, get_reading  # noqa: E402
+from .study.runner import run_experiment  # noqa: E402
+# Exp 13's rows are the analysis layer's: importing its module registers them with the
+# study's registry, so run_experiment("exp13") works in every process that imports uavwind
+from .analysis import exp13 as _exp13  # noqa: E402, F401
 
 __all__ = [
     # sim
@@ -79,7 +83,7 @@ __all__ = [
     "SPEED_RANGES", "WindCondition", "PAPER_SCENARIOS", "scenario_table", "table3_setting",
     "Layout", "LAYOUTS", "INFERRED_GAP_RATIOS", "resolve_layout", "group_speeds", "Reading",
     "READINGS", "get_reading", "make_group", "make_setting", "range_similarity_settings",
-    "environment_count_settings", "direction_settings",
+    "environment_count_settings", "direction_settings", "run_experiment",
     # report
     "pretty",
     "__version__",

@@ -25,17 +25,24 @@ import threading
 import time
 import warnings
 from collections.abc import Sequence
+from functools import partial
 
+from .analysis.exp13 import run_exp13
+from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
+from .analysis.filters import filter_table
+from .analysis.memo import page_analyses
+from .analysis.real_flights import channel_table, real_flight_rows
 from .analysis.tables import summary_table
 from .core.io import check_target
 from .core.parallel import check_jobs, cores
 from .core.store import atomic_write
-from .data.neuralfly import ENV_VAR as NEURALFLY_ENV
+from .data.neuralfly import ENV_VAR as NEURALFLY_ENV, neuralfly_folder
 from .method.clustering import ENGINES
-from .study.fill import fill_cache, time_by_experiment
+from .report.explore import fill_grid
+from .study.fill import Analysis, fill_cache, time_by_experiment
 from .study.profiles import PROFILES
 from .study.readings import READINGS
-from .study.registry import EXPERIMENTS, get_experiment
+from .study.registry import EXPERIMENTS, MEASURED, get_experiment
 from .study.runner import run_experiment
 
 
@@ -86,7 +93,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     real.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     real.add_argument("--jobs", type=_jobs, default=-1)
     run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
-    run.add_argument("experiments", nargs="+", help=f"ids ({', '.join(EXPERIMENTS)}) or 'all'")
+    run.add_argument("experiments", nargs="+",
+                     help=f"ids ({', '.join([*EXPERIMENTS, *MEASURED])}) or 'all'")
     run.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     run.add_argument("--jobs", type=_jobs, default=-1,
                      help=f"worker processes, 1-{_CORES} (-1 = all cores)")
@@ -113,23 +121,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         for e in EXPERIMENTS.values():
             print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
                   f"{e.notebook}")
-        print(f"{'exp13':14s} {'Real flights (Neural-Fly)':36s} {'beyond the paper':32s} "
-              f"{'':3s}       exp13_real_flights.md (needs $UAVWIND_NEURALFLY)")
+        for m in MEASURED.values():
+            print(f"{m.id:14s} {m.title:36s} {m.paper_table:32s} {'':3s}       {m.notebook} "
+                  f"(needs ${m.data})")
         return 0
     if "all" in args.experiments and len(args.experiments) > 1:
         parser.error(f"'all' means every experiment: give it alone, not with "
                      f"{', '.join(e for e in args.experiments if e != 'all')}")
-    ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
-    # Experiment 13 reads real flights, not settings: it is filled by its own analysis
-    real = "exp13" in ids or args.experiments == ["all"]
-    ids = [i for i in ids if i != "exp13"]
+    everything = args.experiments == ["all"]
+    ids = list(EXPERIMENTS) if everything else [i for i in args.experiments if i not in MEASURED]
+    # the experiments on measured flights (Exp 13) run by name after the fill: asked for by
+    # name they need their flights; `run all` runs them when the flights are there
+    measured = list(MEASURED) if everything else [i for i in args.experiments if i in MEASURED]
     try:
         for i in ids:  # validate every name before any work starts
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
-    if not ids or ("exp13" in args.experiments and not os.environ.get(NEURALFLY_ENV)):
-        return _exp13(args, asked=True)  # asked for without its flights: fails before any work
+    for i in ([] if everything else measured):
+        try:  # asked for by name without its flights: fails before any work
+            MEASURED[i].check_data()
+        except ValueError as exc:
+            print(f"python -m uavwind run {i}: error: {exc} (or fill its analysis with "
+                  f"`python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
+            return 2
     times = None
     if args.times is not None:
         try:
@@ -148,7 +163,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # the book's whole fill (`make results`: every experiment under both readings) computes
     # what the pages read beside the experiments, in the same pool: their analyses, Exp 11's
     # filter table, the explorer's grid and Exp 13's real flights (when they are there)
-    book = args.experiments == ["all"] and args.reading == "all" and args.seed is None
+    book = everything and args.reading == "all" and args.seed is None
     try:
         analyses = _book_analyses(None) if book else []
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
@@ -188,8 +203,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if book and not os.environ.get(NEURALFLY_ENV):
         print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
               file=sys.stderr)
-    if real and not book and _exp13(args, asked="exp13" in args.experiments):
-        return 2
+    if not book:  # the book's fill ran Exp 13 among its analyses
+        for i in measured:  # Exp 13, the one experiment on measured flights
+            if _exp13(args):
+                return 2
     if args.no_tables:
         return 0
     for reading in readings:
@@ -203,30 +220,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def _exp13(args, asked: bool) -> int:
-    """``run exp13``: Experiment 13's rows into the cache (the flights from
+def _exp13(args) -> int:
+    """``run exp13`` (and ``run all``): Experiment 13 through the registry
+    (:func:`~uavwind.study.runner.run_experiment`: its rows into the cache, the flights from
     ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's validation.
-    Without the flights, ``run all`` skips it, saying so (exit 0); asked for by name
-    (``asked``), it is an error naming the variable (exit 2)."""
-    from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
-    from .analysis.real_flights import channel_table, real_flight_rows
-    from .data.neuralfly import ENV_VAR
-    if not os.environ.get(ENV_VAR):
-        if asked:
-            print(f"python -m uavwind run exp13: error: Experiment 13 reads Neural-Fly's real "
-                  f"flights and ${ENV_VAR} is not set: set it to the folder of the flights "
-                  f"(or use `python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
-            return 2
-        print(f"exp13: no Neural-Fly folder (${ENV_VAR}); Experiment 13 is skipped",
+    Without the flights it is skipped, saying so (asked for by name, :func:`main` refused it
+    first)."""
+    if not os.environ.get(NEURALFLY_ENV):
+        print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
               file=sys.stderr)
         return 0
     try:
-        real = real_flight_rows(profile=args.profile, n_jobs=args.jobs)
-        sim = sim_rows(real, profile=args.profile, n_jobs=args.jobs)
+        real = run_experiment("exp13", profile=args.profile, n_jobs=args.jobs)
+        sim = sim_rows(real, profile=args.profile)  # computed beside it: read from the cache
     except (ValueError, TypeError) as exc:
         print(f"python -m uavwind run exp13: error: {exc}", file=sys.stderr)
         return 2
-    if getattr(args, "no_tables", False):
+    if args.no_tables:
         return 0
     real_ch, sim_ch = channel_table(real), channel_table(sim)
     print(f"exp13 ({args.profile} profile): real flights, mean score over controllers "
@@ -245,16 +255,13 @@ def _exp13(args, asked: bool) -> int:
 
 
 def _exp13_fill(folder, profile, seed, results):
-    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's."""
-    from .analysis.figure8 import sim_rows
-    from .analysis.real_flights import real_flight_rows
-    real = real_flight_rows(folder, profile=profile, results=results, n_jobs=1)
-    sim_rows(real, profile=profile, results=results, n_jobs=1)
+    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's
+    (:func:`~uavwind.analysis.exp13.run_exp13`, on one worker)."""
+    run_exp13(profile, results=results, n_jobs=1, folder=folder)
 
 
 def _filter_fill(profile, seed, results):
     """The fill's task for Experiment 11's filter table."""
-    from .analysis.filters import filter_table
     filter_table(profile=profile, results=results, n_jobs=1)
 
 
@@ -263,15 +270,9 @@ def _book_analyses(folder) -> list:
     filter table and Exp 13's real flights (first: long, and reading no experiment), then
     :func:`~uavwind.analysis.memo.page_analyses` (each once what it reads is stored).
     Exp 13 only with its flights: ``folder``, else ``$UAVWIND_NEURALFLY`` (else left out)."""
-    from functools import partial
-
-    from .analysis.memo import page_analyses
-    from .data.neuralfly import ENV_VAR, neuralfly_folder
-    from .report.explore import fill_grid
-    from .study.fill import Analysis
     out = [Analysis("explore_grid", fill_grid, long=True),
            Analysis("exp11_filter_table", _filter_fill, long=True)]
-    if folder is not None or os.environ.get(ENV_VAR):
+    if folder is not None or os.environ.get(NEURALFLY_ENV):
         out.append(Analysis("exp13", partial(_exp13_fill, str(neuralfly_folder(folder))),
                             long=True))
     return out + page_analyses()
@@ -283,11 +284,8 @@ def _analyses(args) -> int:
     summaries and exercises), in one pool: what ``run all --reading all`` computes beside
     the experiments, for a cache whose experiments were filled another way. Exp 13 is
     skipped, saying so, without Neural-Fly's folder."""
-    from .analysis.figure8 import calibration_of, sim_rows
-    from .analysis.real_flights import real_flight_rows
-    from .data.neuralfly import ENV_VAR, neuralfly_folder
     try:
-        have = args.folder is not None or bool(os.environ.get(ENV_VAR))
+        have = args.folder is not None or bool(os.environ.get(NEURALFLY_ENV))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
         done = fill_cache([], profile=args.profile, n_jobs=args.jobs, progress=False,
@@ -296,8 +294,8 @@ def _analyses(args) -> int:
         print(f"analyses: {', '.join(f'{k} ({v:.1f} CPU-s)' for k, v in cpu.items())}, in "
               f"{time.perf_counter() - t0:.1f} s")
         if folder is None:
-            print(f"analyses: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
-                  f"skipped")
+            print(f"analyses: no Neural-Fly folder (--folder or ${NEURALFLY_ENV}); Experiment 13 "
+                  f"is skipped")
             return 0
         real = real_flight_rows(folder, profile=args.profile)  # read from the cache
         sim = sim_rows(real, profile=args.profile)
@@ -338,7 +336,6 @@ def _write_times(path, args, t0, records, complete, error=None):
 
 
 def _in_main_thread():
-    import threading
     return threading.current_thread() is threading.main_thread()
 
 

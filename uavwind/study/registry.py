@@ -3,11 +3,14 @@ inferred reading.
 
 This module owns :class:`Experiment` (id, title, question, notebook, the paper's table it
 regenerates, how its loops are searched, how it is summarised) and the registry
-:data:`EXPERIMENTS`, with the look-ups on it. What each experiment flies -- :class:`Case` (one
-row of an experiment: a :class:`~uavwind.sim.setting.Setting` and its labels in the paper's
-table), the case builders and the constants they use (the vehicles, channels and noise
-levels of the experiments beyond the paper) -- is :mod:`uavwind.study.cases`'; the case
-and the constants are also importable from here. Running an experiment is :mod:`uavwind.study.runner`'s; summarising it,
+:data:`EXPERIMENTS`, with the look-ups on it, and beside them the experiments on measured
+flights (:class:`MeasuredExperiment`, :data:`MEASURED`: Exp 13), whose rows the layer that
+reads the flights registers (:func:`register_measured`). What each experiment flies --
+:class:`Case` (one row of an experiment: a :class:`~uavwind.sim.setting.Setting` and its
+labels in the paper's table), the case builders and the constants they use (the vehicles,
+channels and noise levels of the experiments beyond the paper) -- is
+:mod:`uavwind.study.cases`'; the case and the constants are also importable from here.
+Running an experiment is :mod:`uavwind.study.runner`'s; summarising it,
 :mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and its builder, one
 notebook and one line in the book's ``_toc.yml``.
 
@@ -20,11 +23,13 @@ stream, not their shape); cases are compared pairwise, loop by loop.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
+from ..data.neuralfly import ENV_VAR as NEURALFLY_ENV
 # the constants are re-exported (this module's names before the cases had a module)
 from .cases import (BIAS_LEVELS, BIAS_TIME, CLOSED_LOOP_POLICIES,  # noqa: F401
                     CLOSED_LOOP_VEHICLES, FIT_RATIOS, FLYABLE_CEM_SCALE, FLYABLE_CHANNELS,
@@ -38,9 +43,12 @@ from .cases import (BIAS_LEVELS, BIAS_TIME, CLOSED_LOOP_POLICIES,  # noqa: F401
 from .readings import DEFAULT_READING, get_reading
 
 if TYPE_CHECKING:
+    import pandas as pd
+
     from .readings import Reading
 
-__all__ = ["Experiment", "EXPERIMENTS", "get_experiment", "label_columns", "column_names"]
+__all__ = ["Experiment", "EXPERIMENTS", "get_experiment", "label_columns", "column_names",
+           "MeasuredExperiment", "MEASURED", "register_measured"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -252,12 +260,95 @@ EXPERIMENTS = {e.id: e for e in [
 ]}
 
 
+@dataclass(frozen=True, kw_only=True)
+class MeasuredExperiment:
+    """An experiment on measured flights instead of simulated settings, as data.
+
+    It has no cases and no loops of its own, so no cache entries of the runner's: the fill
+    of :data:`EXPERIMENTS` does not plan it, and :func:`get_experiment` does not return it.
+    Its rows are an analysis of the flights in the folder the environment variable ``data``
+    names, computed by the layer that reads them (:mod:`uavwind.analysis`, above this one),
+    which hands the registry that computation with :func:`register_measured` when it is
+    imported (``import uavwind`` imports it). :meth:`run` runs it, and
+    :func:`~uavwind.study.runner.run_experiment` runs it by name.
+
+    Attributes
+    ----------
+    id, title, question, notebook, paper_table : str
+        As :class:`Experiment`'s.
+    source : str
+        What the flights are, for the messages.
+    data : str
+        The environment variable that names the folder of the flights.
+    """
+
+    id: str
+    title: str
+    question: str
+    notebook: str
+    paper_table: str
+    source: str
+    data: str
+
+    def check_data(self) -> None:
+        """``ValueError`` naming :attr:`data` if that variable is not set."""
+        if not os.environ.get(self.data):
+            raise ValueError(f"experiment {self.id!r}, {self.title}, reads {self.source}, and "
+                             f"${self.data} is not set: set it to the folder of the flights")
+
+    def run(self, profile: str, results: os.PathLike | str | None = None,
+            n_jobs: int | None = None) -> pd.DataFrame:
+        """The experiment's rows under ``profile`` (a profile's name), read from the result
+        cache ``results`` or computed there over ``n_jobs`` workers, as the function
+        registered for it computes them. ``ValueError`` naming :attr:`data` when that
+        variable is not set (before any work, :meth:`check_data`); ``RuntimeError`` if
+        nothing registered it."""
+        self.check_data()
+        run = _MEASURED_RUNS.get(self.id)
+        if run is None:
+            raise RuntimeError(f"experiment {self.id!r}: nothing registered how its rows are "
+                               f"computed (uavwind.analysis does, when uavwind is imported)")
+        return run(profile, results=results, n_jobs=n_jobs)
+
+
+#: The experiments on measured flights, by id (beside :data:`EXPERIMENTS`, the simulated
+#: ones): Experiment 13, Neural-Fly's wind-tunnel flights.
+MEASURED = {m.id: m for m in [
+    MeasuredExperiment(
+        id="exp13", title="Real flights (Neural-Fly)", notebook="exp13_real_flights.md",
+        question="Does causal curiosity's clustering tell the winds apart on Neural-Fly's "
+                 "wind-tunnel flights, and through which channel?",
+        paper_table="beyond the paper", source="Neural-Fly's wind-tunnel flights",
+        data=NEURALFLY_ENV),
+]}
+#: How each measured experiment's rows are computed: ``run(profile, results=, n_jobs=)``,
+#: registered by the layer that reads its flights.
+_MEASURED_RUNS: dict = {}
+
+
+def register_measured(exp_id: str, run: Callable) -> None:
+    """Register how the rows of the measured experiment ``exp_id`` (an id of
+    :data:`MEASURED`) are computed: ``run(profile, results=None, n_jobs=None)`` returns them,
+    read from the result cache or computed and stored there. The layer that reads the
+    flights calls this when it is imported; a second registration replaces the first."""
+    if exp_id not in MEASURED:
+        raise ValueError(f"unknown measured experiment {exp_id!r}; valid: {', '.join(MEASURED)}")
+    if not callable(run):
+        raise TypeError(f"run must be callable, got {type(run).__name__}")
+    _MEASURED_RUNS[exp_id] = run
+
+
 def get_experiment(exp_id: str) -> Experiment:
-    """The :class:`Experiment` called ``exp_id``; ``ValueError`` naming the valid ids."""
+    """The :class:`Experiment` called ``exp_id``; ``ValueError`` naming the valid ids (and
+    saying so when ``exp_id`` is a :class:`MeasuredExperiment`, which has no cases)."""
     if not isinstance(exp_id, str):
         raise TypeError(f"experiment id must be a string, got {type(exp_id).__name__}")
+    if exp_id in MEASURED:
+        raise ValueError(f"experiment {exp_id!r} runs on measured flights: it has no cases "
+                         f"or cache entries to plan (run it with run_experiment({exp_id!r}))")
     if exp_id not in EXPERIMENTS:
-        raise ValueError(f"unknown experiment {exp_id!r}; valid: {', '.join(EXPERIMENTS)}")
+        raise ValueError(f"unknown experiment {exp_id!r}; valid: {', '.join(EXPERIMENTS)}, "
+                         f"and on measured flights {', '.join(MEASURED)}")
     return EXPERIMENTS[exp_id]
 
 
