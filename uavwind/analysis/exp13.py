@@ -7,9 +7,10 @@ the result cache) their rows (:func:`uavwind.analysis.real_flights.real_flight_r
 calibrated twin's (:func:`uavwind.analysis.figure8.sim_rows`), and returns the real ones.
 
 The study's registry lists Exp 13 (:data:`uavwind.study.registry.MEASURED`) but cannot
-import this layer, which sits above it: this module registers :func:`run_exp13` with it
-(:func:`~uavwind.study.registry.register_measured`) when it is imported, and the package's
-face imports it, so every process that imports uavwind runs Exp 13 by name.
+import this layer, which sits above it: the package's face registers :func:`run_exp13` with
+it (:func:`~uavwind.study.registry.register_measured`), importing this module only when Exp
+13 runs, so every process that imports uavwind runs Exp 13 by name without loading the
+analysis layer first.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
-from ..study.registry import register_measured
 from .figure8 import sim_rows
 from .real_flights import real_flight_rows
 
@@ -39,6 +39,3 @@ def run_exp13(profile: str = "quick", results: os.PathLike | str | None = None,
     real = real_flight_rows(folder, profile=profile, results=results, n_jobs=n_jobs)
     sim_rows(real, profile=profile, results=results, n_jobs=n_jobs)
     return real
-
-
-register_measured("exp13", run_exp13)

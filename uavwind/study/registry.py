@@ -4,15 +4,15 @@ inferred reading.
 This module owns :class:`Experiment` (id, title, question, notebook, the paper's table it
 regenerates, how its loops are searched, how it is summarised) and the registry
 :data:`EXPERIMENTS`, with the look-ups on it, and beside them the experiments on measured
-flights (:class:`MeasuredExperiment`, :data:`MEASURED`: Exp 13), whose rows the layer that
-reads the flights registers (:func:`register_measured`). What each experiment flies --
-:class:`Case` (one row of an experiment: a :class:`~uavwind.sim.setting.Setting` and its
-labels in the paper's table), the case builders and the constants they use (the vehicles,
-channels and noise levels of the experiments beyond the paper) -- is
-:mod:`uavwind.study.cases`'; the case and the constants are also importable from here.
-Running an experiment is :mod:`uavwind.study.runner`'s; summarising it,
-:mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and its builder, one
-notebook and one line in the book's ``_toc.yml``.
+flights (:class:`MeasuredExperiment`, :data:`MEASURED`: Exp 13), whose rows the analysis
+layer computes and the package's face registers (:func:`register_measured`). What each
+experiment flies -- :class:`Case` (one row of an experiment: a
+:class:`~uavwind.sim.setting.Setting` and its labels in the paper's table), the case
+builders and the constants they use (the vehicles, channels and noise levels of the
+experiments beyond the paper) -- is :mod:`uavwind.study.cases`'; the case and the constants
+are also importable from here. Running an experiment is :mod:`uavwind.study.runner`'s;
+summarising it, :mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and
+its builder, one notebook and one line in the book's ``_toc.yml``.
 
 Every experiment is built under a *reading* (:data:`~uavwind.study.readings.READINGS`),
 which fixes the group layout and the turbulence variant. Common random numbers: every case
@@ -267,9 +267,9 @@ class MeasuredExperiment:
     It has no cases and no loops of its own, so no cache entries of the runner's: the fill
     of :data:`EXPERIMENTS` does not plan it, and :func:`get_experiment` does not return it.
     Its rows are an analysis of the flights in the folder the environment variable ``data``
-    names, computed by the layer that reads them (:mod:`uavwind.analysis`, above this one),
-    which hands the registry that computation with :func:`register_measured` when it is
-    imported (``import uavwind`` imports it). :meth:`run` runs it, and
+    names, computed by the layer that reads them (:mod:`uavwind.analysis`, above this one);
+    the package's face hands the registry that computation with :func:`register_measured`
+    when uavwind is imported. :meth:`run` runs it, and
     :func:`~uavwind.study.runner.run_experiment` runs it by name.
 
     Attributes
@@ -307,7 +307,8 @@ class MeasuredExperiment:
         run = _MEASURED_RUNS.get(self.id)
         if run is None:
             raise RuntimeError(f"experiment {self.id!r}: nothing registered how its rows are "
-                               f"computed (uavwind.analysis does, when uavwind is imported)")
+                               f"computed (the package's face does, when uavwind is "
+                               f"imported)")
         return run(profile, results=results, n_jobs=n_jobs)
 
 
@@ -329,8 +330,9 @@ _MEASURED_RUNS: dict = {}
 def register_measured(exp_id: str, run: Callable) -> None:
     """Register how the rows of the measured experiment ``exp_id`` (an id of
     :data:`MEASURED`) are computed: ``run(profile, results=None, n_jobs=None)`` returns them,
-    read from the result cache or computed and stored there. The layer that reads the
-    flights calls this when it is imported; a second registration replaces the first."""
+    read from the result cache or computed and stored there. The package's face calls this
+    for the analysis layer, which this layer cannot import; a second registration replaces
+    the first."""
     if exp_id not in MEASURED:
         raise ValueError(f"unknown measured experiment {exp_id!r}; valid: {', '.join(MEASURED)}")
     if not callable(run):
