@@ -203,3 +203,65 @@ def test_run_exp13_asked_for_without_neural_fly_fails_naming_the_variable(monkey
     code = main(["run", "exp13", "--no-progress"])
     err = capsys.readouterr().err
     assert code != 0 and "UAVWIND_NEURALFLY" in err and "exp13" in err
+
+
+@pytest.mark.parametrize("reading", [[], ["--reading", "all"]])
+def test_run_all_skips_exp13_without_its_flights_saying_so(reading, monkeypatch, capsys):
+    """`run all` (and the book's `run all --reading all`) without $UAVWIND_NEURALFLY fills the
+    other experiments and skips Exp 13 with a message, exit 0; asked for by name it fails."""
+    import uavwind.cli as cli
+
+    asked = []
+
+    def fill(ids, *args, analyses=(), **kwargs):
+        asked.append((list(ids), [a.name for a in analyses]))
+        return {"entries": 0, "cached": 0, "computed": 0, "rows_computed": 0, "times": []}
+    monkeypatch.setattr(cli, "fill_cache", fill)
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    assert main(["run", "all", "--no-tables", "--no-progress", *reading]) == 0
+    err = capsys.readouterr().err
+    assert "exp13: no Neural-Fly folder ($UAVWIND_NEURALFLY); Experiment 13 is skipped" in err
+    (ids, analyses), = asked
+    assert ids == list(ex.EXPERIMENTS) and "exp13" not in ids + analyses
+    assert main(["run", "exp13", "exp5", "--no-progress"]) == 2  # asked for: an error, first
+    assert len(asked) == 1 and "UAVWIND_NEURALFLY" in capsys.readouterr().err
+
+
+def test_signals_again_while_a_serial_run_stops_end_it_at_once_with_the_record(tmp_path):
+    """SIGTERM while `run exp2 --jobs 1` computes an entry in its own process, then SIGINT
+    and SIGTERM again every 0.1 s until it ends (a user pressing Ctrl-C again, or `make`
+    and `timeout` both passing a signal on): it ends with exit 130, one line per signal and
+    no traceback, and its --times record lists the entries that finished, each stored.
+    (Before: the handler raised KeyboardInterrupt wherever the process was -- inside a
+    threaded numba kernel that is `SystemError: CPUDispatcher(...) returned a result with an
+    exception set`, inside the writing of the record a traceback and no record -- and once
+    the fill had returned, a signal met the default handlers: killed, or a traceback.)"""
+    import signal
+    import subprocess
+    import sys
+
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "r")}
+    out = tmp_path / "t.json"
+    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "exp2", "--profile",
+                             "quick", "--jobs", "1", "--times", str(out)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        deadline = time.time() + 120
+        while time.time() < deadline and not list((tmp_path / "r").rglob("*.parquet")):
+            time.sleep(0.05)  # the first entry is stored, the next one is being computed
+        sigs = [signal.SIGTERM, signal.SIGINT]
+        for k in range(600):
+            if proc.poll() is not None:
+                break
+            proc.send_signal(sigs[k % 2])
+            time.sleep(0.1)
+        _, err = proc.communicate(timeout=120)
+    finally:
+        _group_kill(proc)
+    assert proc.returncode == 130, err[-3000:]
+    assert "Traceback" not in err and "SystemError" not in err, err[-3000:]
+    rec = json.loads(out.read_text())
+    assert rec["complete"] is False and rec["error"] == "interrupted"
+    stored = {p.name for p in (tmp_path / "r").rglob("*.parquet")}
+    assert len(rec["entries"]) >= 1 and len(stored) >= len(rec["entries"])

@@ -15,7 +15,7 @@ from matplotlib.figure import Figure  # noqa: E402
 import uavwind as uw  # noqa: E402
 from uavwind.analysis import beyond, closed_loop, inference  # noqa: E402
 from uavwind.analysis.tables import cem_table  # noqa: E402
-from uavwind.report import plotting  # noqa: E402
+from uavwind.report import beyond_figures, plotting  # noqa: E402
 
 
 def _loops(**labels_by_case):
@@ -149,8 +149,9 @@ CALLS = {
 
 
 def _figure_functions():
-    return {name for name, obj in vars(plotting).items()
-            if inspect.isfunction(obj) and obj.__module__ == plotting.__name__
+    """Every public function of the two figure modules (the paper's, and those beyond it)."""
+    return {name for mod in (plotting, beyond_figures) for name, obj in vars(mod).items()
+            if inspect.isfunction(obj) and obj.__module__ == mod.__name__
             and not name.startswith("_")}
 
 

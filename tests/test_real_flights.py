@@ -1,6 +1,7 @@
 """Experiment 13: the real-flight analysis on small flights the tests write (its rows, its
 CIs over controllers, its verified cache), the simulated twin (wind, drag fit, flights in
 the real flights' format) and the ranking verdict."""
+import os
 import subprocess
 import sys
 
@@ -13,7 +14,7 @@ from uavwind.analysis import figure8, real_flights as rf
 from uavwind.data import load_neuralfly
 from uavwind.sim.multirotor import Multirotor
 
-from test_neuralfly import write_flight
+from test_neuralfly import SHARED, write_flight
 
 FORCES = {"nowind": 0.5, "35wind": -3.0, "100wind": -15.0}
 TILTS = {"nowind": 0.08, "35wind": 0.13, "100wind": 0.5}
@@ -335,3 +336,63 @@ def test_an_interval_of_shares_stays_within_0_and_1_and_of_scores_within_0_and_1
     m, lo, hi = rf._ci([99.0, 100.0, 97.0], (0.0, 100.0))
     assert hi == 100.0 and lo < m
     assert rf._ci([1.0, 1.0, 0.8])[2] > 1.0  # without bounds: the t interval itself
+
+
+def test_run_experiment_exp13_without_its_flights_fails_naming_the_variable(monkeypatch):
+    """Experiment 13 is in the registry path (issue 45: run_experiment("exp13") raised
+    "unknown experiment"): without $UAVWIND_NEURALFLY it is a ValueError naming the variable,
+    before any work; it takes no seed, engine, cases or reading (its rows are the flights')."""
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    assert uw.run_experiment is uw.study.run_experiment
+    for run in (uw.run_experiment, uw.study.run_experiment):
+        with pytest.raises(ValueError, match=r"exp13.*\$UAVWIND_NEURALFLY is not set"):
+            run("exp13")
+    with pytest.raises(ValueError, match="takes no seed, reading"):
+        uw.run_experiment("exp13", seed=5, reading="halves")
+    with pytest.raises(ValueError, match="runs on measured flights"):
+        uw.study.get_experiment("exp13")  # no cases for a fill to plan
+    assert uw.study.registry.MEASURED["exp13"].notebook == "exp13_real_flights.md"
+
+
+def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, tmp_path,
+                                                                      monkeypatch):
+    """run_experiment("exp13") on the flights $UAVWIND_NEURALFLY names (small ones here):
+    the real-flight rows, as real_flight_rows caches them, then the simulated twin's rows
+    from them (recorded here: these small flights have no 70wind flight to fit the twin on;
+    the test below and tests/test_twin.py fly it)."""
+    from uavwind.analysis import exp13
+    from uavwind.core.io import READ_ONLY_ENV
+
+    twins = []
+    monkeypatch.setattr(exp13, "sim_rows", lambda real, **kw: twins.append((real, kw)))
+    monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
+    monkeypatch.setenv("UAVWIND_NEURALFLY", str(folder))
+    df = uw.run_experiment("exp13", profile="quick", results=tmp_path, n_jobs=1)
+    assert df.attrs["experiment"] == "exp13" and df.attrs["profile"] == "quick"
+    monkeypatch.setenv(READ_ONLY_ENV, "1")  # the rows are cached: reading them computes nothing
+    real = rf.real_flight_rows(folder, profile="quick", results=tmp_path)
+    assert df.equals(real) and list(df.columns) == list(real.columns)
+    (twin_of, kw), = twins
+    assert twin_of.equals(real) and kw == {"profile": "quick", "results": tmp_path, "n_jobs": 1}
+
+
+@pytest.mark.skipif(not SHARED.is_dir() and not os.environ.get("UAVWIND_NEURALFLY"),
+                    reason="Neural-Fly's flights are not on this machine (set UAVWIND_NEURALFLY)")
+def test_run_exp13_on_the_real_flights_through_the_command_line(tmp_path, monkeypatch):
+    """`python -m uavwind run exp13` with Neural-Fly's flights: exit 0, its channel table and
+    the twin's validation printed; run_experiment("exp13") then reads the same rows from the
+    cache (the quick profile: about 90 CPU-s)."""
+    from uavwind.core.io import READ_ONLY_ENV
+
+    data = os.environ.get("UAVWIND_NEURALFLY") or str(SHARED)
+    env = {**os.environ, "UAVWIND_NEURALFLY": data, "UAVWIND_RESULTS": str(tmp_path)}
+    p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick",
+                        "--no-progress"], env=env, capture_output=True, text=True, timeout=1800)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "exp13 (quick profile): real flights" in p.stdout
+    assert "does the simulation rank the channels" in p.stdout
+    monkeypatch.setenv("UAVWIND_NEURALFLY", data)
+    monkeypatch.setenv(READ_ONLY_ENV, "1")  # read what the command computed, never compute
+    df = uw.run_experiment("exp13", profile="quick", results=tmp_path)
+    assert df.equals(rf.real_flight_rows(data, profile="quick", results=tmp_path))
+    assert set(df["controller"].dropna()) >= {"baseline", "indi", "L1", "NF-C", "NF-T"}

@@ -19,6 +19,9 @@ import types
 import warnings
 from dataclasses import dataclass
 
+from .core.checks import check_scalar
+from .sim.vehicle import n_steps
+
 #: old dotted name -> the module(s) that now own its names, first one first
 MOVED = {
     "uavwind.config": ("uavwind.sim.vehicle", "uavwind.core.checks"),
@@ -117,9 +120,6 @@ class SimulationSettings:
     start_altitude: float = 10.0
 
     def __post_init__(self):
-        from .core.checks import check_scalar
-        from .sim.vehicle import n_steps
-
         object.__setattr__(self, "dt", check_scalar(self.dt, "dt", low=0, low_inclusive=False))
         object.__setattr__(self, "duration", check_scalar(self.duration, "duration", low=0,
                                                           low_inclusive=False))
@@ -130,7 +130,6 @@ class SimulationSettings:
     @property
     def n_steps(self) -> int:
         """Number of recorded samples, duration / dt (120 for the paper)."""
-        from .sim.vehicle import n_steps
         return n_steps(self.dt, self.duration)
 
 

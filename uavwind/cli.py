@@ -25,17 +25,24 @@ import threading
 import time
 import warnings
 from collections.abc import Sequence
+from functools import partial
 
+from .analysis.exp13 import run_exp13
+from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
+from .analysis.filters import filter_table
+from .analysis.memo import page_analyses
+from .analysis.real_flights import channel_table, real_flight_rows
 from .analysis.tables import summary_table
 from .core.io import check_target
-from .core.parallel import check_jobs, cores
+from .core.parallel import check_jobs, cores, stop_workers
 from .core.store import atomic_write
-from .data.neuralfly import ENV_VAR as NEURALFLY_ENV
+from .data.neuralfly import ENV_VAR as NEURALFLY_ENV, neuralfly_folder
 from .method.clustering import ENGINES
-from .study.fill import fill_cache, time_by_experiment
+from .report.explore import fill_grid
+from .study.fill import Analysis, fill_cache, time_by_experiment
 from .study.profiles import PROFILES
 from .study.readings import READINGS
-from .study.registry import EXPERIMENTS, get_experiment
+from .study.registry import EXPERIMENTS, MEASURED, get_experiment
 from .study.runner import run_experiment
 
 
@@ -73,7 +80,13 @@ def _seed(text):
     return n
 
 
-def main(argv: Sequence[str] | None = None) -> int:
+def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
+    """The command line on ``argv`` (default ``sys.argv[1:]``); its exit code. ``program``:
+    this process is the command (``python -m uavwind``), so once a run is over, its record
+    written, SIGINT and SIGTERM are ignored while the interpreter shuts down (a Ctrl-C
+    pressed again then has nothing left to stop; with the default handlers back it would be
+    a traceback or a death by signal instead of the run's exit code). Called as a function,
+    the handlers it replaced are restored."""
     parser = argparse.ArgumentParser(prog="python -m uavwind", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
@@ -86,7 +99,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     real.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     real.add_argument("--jobs", type=_jobs, default=-1)
     run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
-    run.add_argument("experiments", nargs="+", help=f"ids ({', '.join(EXPERIMENTS)}) or 'all'")
+    run.add_argument("experiments", nargs="+",
+                     help=f"ids ({', '.join([*EXPERIMENTS, *MEASURED])}) or 'all'")
     run.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     run.add_argument("--jobs", type=_jobs, default=-1,
                      help=f"worker processes, 1-{_CORES} (-1 = all cores)")
@@ -113,23 +127,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         for e in EXPERIMENTS.values():
             print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
                   f"{e.notebook}")
-        print(f"{'exp13':14s} {'Real flights (Neural-Fly)':36s} {'beyond the paper':32s} "
-              f"{'':3s}       exp13_real_flights.md (needs $UAVWIND_NEURALFLY)")
+        for m in MEASURED.values():
+            print(f"{m.id:14s} {m.title:36s} {m.paper_table:32s} {'':3s}       {m.notebook} "
+                  f"(needs ${m.data})")
         return 0
     if "all" in args.experiments and len(args.experiments) > 1:
         parser.error(f"'all' means every experiment: give it alone, not with "
                      f"{', '.join(e for e in args.experiments if e != 'all')}")
-    ids = list(EXPERIMENTS) if args.experiments == ["all"] else args.experiments
-    # Experiment 13 reads real flights, not settings: it is filled by its own analysis
-    real = "exp13" in ids or args.experiments == ["all"]
-    ids = [i for i in ids if i != "exp13"]
+    everything = args.experiments == ["all"]
+    ids = list(EXPERIMENTS) if everything else [i for i in args.experiments if i not in MEASURED]
+    # the experiments on measured flights (Exp 13) run by name after the fill: asked for by
+    # name they need their flights; `run all` runs them when the flights are there
+    measured = list(MEASURED) if everything else [i for i in args.experiments if i in MEASURED]
     try:
         for i in ids:  # validate every name before any work starts
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
-    if not ids or ("exp13" in args.experiments and not os.environ.get(NEURALFLY_ENV)):
-        return _exp13(args, asked=True)  # asked for without its flights: fails before any work
+    for i in ([] if everything else measured):
+        try:  # asked for by name without its flights: fails before any work
+            MEASURED[i].check_data()
+        except ValueError as exc:
+            print(f"python -m uavwind run {i}: error: {exc} (or fill its analysis with "
+                  f"`python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
+            return 2
     times = None
     if args.times is not None:
         try:
@@ -139,94 +160,116 @@ def main(argv: Sequence[str] | None = None) -> int:
         if not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
             parser.error(f"--times must name a file in an existing, writable folder, got "
                          f"{args.times!r}")
+    record = _TimesRecord(times, args)
     stop = threading.Event()
-    previous = _on_signals(stop) if _in_main_thread() else {}
+
+    def stop_now(signum):
+        """A second signal: the record of what finished, one line, and out at once (the
+        entry under way is dropped; the workers with it)."""
+        if not record.written:
+            try:
+                record.write(complete=False, error="interrupted")
+            except Exception:  # pragma: no cover - its own warning met a busy stderr
+                pass
+        _say(f"{signal.Signals(signum).name} again: stopped now; finished entries are kept, "
+             f"a rerun resumes")
+        if "joblib" in sys.modules:  # a pool of workers may be running: they go too
+            stop_workers()
+        _exit(130)
+
+    # for the whole run, fill, Exp 13 and tables: a signal asks it to stop, never raises
+    previous = _on_signals(stop, stop_now) if _in_main_thread() else {}
+    try:
+        return _run(args, ids, measured, everything, record, stop)
+    finally:
+        # a program exiting ignores them: CPython resets a Python handler to the default
+        # one as it finalises, where a late signal would kill it, but it leaves SIG_IGN
+        for sig, handler in previous.items():
+            signal.signal(sig, signal.SIG_IGN if program else handler)
+
+
+def _run(args, ids, measured, everything, record, stop) -> int:
+    """``run``, its arguments checked: the fill of ``ids`` (the book's whole fill when
+    ``everything`` under both readings, with the pages' analyses), the experiments on
+    measured flights of ``measured``, then the tables; ``record`` keeps the ``--times``
+    record, ``stop`` is set by a signal (checked between entries, after the fill, between
+    experiments and between tables: each one ends the run with exit 130)."""
     kw = {} if args.seed is None else {"seed": args.seed}
     readings = list(READINGS) if args.reading == "all" else [args.reading]
-    t0 = time.perf_counter()
-    records = []
     # the book's whole fill (`make results`: every experiment under both readings) computes
     # what the pages read beside the experiments, in the same pool: their analyses, Exp 11's
     # filter table, the explorer's grid and Exp 13's real flights (when they are there)
-    book = args.experiments == ["all"] and args.reading == "all" and args.seed is None
+    book = everything and args.reading == "all" and args.seed is None
     try:
         analyses = _book_analyses(None) if book else []
         done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                           readings="all" if args.reading == "all" else args.reading,
-                          progress=not args.no_progress, times=records, stop=stop,
+                          progress=not args.no_progress, times=record.records, stop=stop,
                           scheduler=args.scheduler, analyses=analyses, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
-        if times is not None:
-            _write_times(times, args, t0, records, complete=False, error="interrupted")
+        record.write(complete=False, error="interrupted")
         return 130
     except ValueError as exc:  # e.g. a results folder that cannot be written
         print(f"python -m uavwind run: error: {exc}", file=sys.stderr)
-        if times is not None:
-            _write_times(times, args, t0, records, complete=False, error=str(exc))
+        record.write(complete=False, error=str(exc))
         return 2
     except Exception as exc:  # a full disk, a killed worker: say so, keep the record
         print(f"python -m uavwind run: error: {type(exc).__name__}: {exc}; finished chunks are "
               f"kept, a rerun resumes", file=sys.stderr)
-        if times is not None:
-            _write_times(times, args, t0, records, complete=False,
-                         error=f"{type(exc).__name__}: {exc}")
+        record.write(complete=False, error=f"{type(exc).__name__}: {exc}")
         return 1
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+    record.write(complete=True)
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
           f"{done['computed']} computed ({done['rows_computed']} rows: loops, CEM samples or "
           f"closed-loop reports) in "
-          f"{time.perf_counter() - t0:.1f} s")
+          f"{time.perf_counter() - record.t0:.1f} s")
     if done["times"]:
         by_exp = time_by_experiment(done["times"])
         print("CPU seconds of the computed entries, by experiment and reading:")
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
-    if times is not None:
-        _write_times(times, args, t0, records, complete=True)
     if book and not os.environ.get(NEURALFLY_ENV):
         print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
               file=sys.stderr)
-    if real and not book and _exp13(args, asked="exp13" in args.experiments):
-        return 2
-    if args.no_tables:
-        return 0
+    if not book:  # the book's fill ran Exp 13 among its analyses
+        for i in measured:  # Exp 13, the one experiment on measured flights
+            if stop.is_set():
+                break
+            if _exp13(args):
+                return 2
     for reading in readings:
-        for i in ids:
+        for i in ([] if args.no_tables else ids):
+            if stop.is_set():
+                break
             if args.reading == "all" and reading not in get_experiment(i).readings:
                 continue  # the book runs it under its own readings only
             df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                                 progress=False, reading=reading, **kw)
             print(f"{i} ({df.attrs['reading']} reading): {len(df)} rows")
             print(summary_table(df).round(2).to_string(), "\n")
+    if stop.is_set():  # after the fill: what it computed is complete, and recorded
+        print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
+        return 130
     return 0
 
 
-def _exp13(args, asked: bool) -> int:
-    """``run exp13``: Experiment 13's rows into the cache (the flights from
+def _exp13(args) -> int:
+    """``run exp13`` (and ``run all``): Experiment 13 through the registry
+    (:func:`~uavwind.study.runner.run_experiment`: its rows into the cache, the flights from
     ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's validation.
-    Without the flights, ``run all`` skips it, saying so (exit 0); asked for by name
-    (``asked``), it is an error naming the variable (exit 2)."""
-    from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
-    from .analysis.real_flights import channel_table, real_flight_rows
-    from .data.neuralfly import ENV_VAR
-    if not os.environ.get(ENV_VAR):
-        if asked:
-            print(f"python -m uavwind run exp13: error: Experiment 13 reads Neural-Fly's real "
-                  f"flights and ${ENV_VAR} is not set: set it to the folder of the flights "
-                  f"(or use `python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
-            return 2
-        print(f"exp13: no Neural-Fly folder (${ENV_VAR}); Experiment 13 is skipped",
+    Without the flights it is skipped, saying so (asked for by name, :func:`main` refused it
+    first)."""
+    if not os.environ.get(NEURALFLY_ENV):
+        print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
               file=sys.stderr)
         return 0
     try:
-        real = real_flight_rows(profile=args.profile, n_jobs=args.jobs)
-        sim = sim_rows(real, profile=args.profile, n_jobs=args.jobs)
+        real = run_experiment("exp13", profile=args.profile, n_jobs=args.jobs)
+        sim = sim_rows(real, profile=args.profile)  # computed beside it: read from the cache
     except (ValueError, TypeError) as exc:
         print(f"python -m uavwind run exp13: error: {exc}", file=sys.stderr)
         return 2
-    if getattr(args, "no_tables", False):
+    if args.no_tables:
         return 0
     real_ch, sim_ch = channel_table(real), channel_table(sim)
     print(f"exp13 ({args.profile} profile): real flights, mean score over controllers "
@@ -245,16 +288,13 @@ def _exp13(args, asked: bool) -> int:
 
 
 def _exp13_fill(folder, profile, seed, results):
-    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's."""
-    from .analysis.figure8 import sim_rows
-    from .analysis.real_flights import real_flight_rows
-    real = real_flight_rows(folder, profile=profile, results=results, n_jobs=1)
-    sim_rows(real, profile=profile, results=results, n_jobs=1)
+    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's
+    (:func:`~uavwind.analysis.exp13.run_exp13`, on one worker)."""
+    run_exp13(profile, results=results, n_jobs=1, folder=folder)
 
 
 def _filter_fill(profile, seed, results):
     """The fill's task for Experiment 11's filter table."""
-    from .analysis.filters import filter_table
     filter_table(profile=profile, results=results, n_jobs=1)
 
 
@@ -263,15 +303,9 @@ def _book_analyses(folder) -> list:
     filter table and Exp 13's real flights (first: long, and reading no experiment), then
     :func:`~uavwind.analysis.memo.page_analyses` (each once what it reads is stored).
     Exp 13 only with its flights: ``folder``, else ``$UAVWIND_NEURALFLY`` (else left out)."""
-    from functools import partial
-
-    from .analysis.memo import page_analyses
-    from .data.neuralfly import ENV_VAR, neuralfly_folder
-    from .report.explore import fill_grid
-    from .study.fill import Analysis
     out = [Analysis("explore_grid", fill_grid, long=True),
            Analysis("exp11_filter_table", _filter_fill, long=True)]
-    if folder is not None or os.environ.get(ENV_VAR):
+    if folder is not None or os.environ.get(NEURALFLY_ENV):
         out.append(Analysis("exp13", partial(_exp13_fill, str(neuralfly_folder(folder))),
                             long=True))
     return out + page_analyses()
@@ -283,11 +317,8 @@ def _analyses(args) -> int:
     summaries and exercises), in one pool: what ``run all --reading all`` computes beside
     the experiments, for a cache whose experiments were filled another way. Exp 13 is
     skipped, saying so, without Neural-Fly's folder."""
-    from .analysis.figure8 import calibration_of, sim_rows
-    from .analysis.real_flights import real_flight_rows
-    from .data.neuralfly import ENV_VAR, neuralfly_folder
     try:
-        have = args.folder is not None or bool(os.environ.get(ENV_VAR))
+        have = args.folder is not None or bool(os.environ.get(NEURALFLY_ENV))
         folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
         t0 = time.perf_counter()
         done = fill_cache([], profile=args.profile, n_jobs=args.jobs, progress=False,
@@ -296,8 +327,8 @@ def _analyses(args) -> int:
         print(f"analyses: {', '.join(f'{k} ({v:.1f} CPU-s)' for k, v in cpu.items())}, in "
               f"{time.perf_counter() - t0:.1f} s")
         if folder is None:
-            print(f"analyses: no Neural-Fly folder (--folder or ${ENV_VAR}); Experiment 13 is "
-                  f"skipped")
+            print(f"analyses: no Neural-Fly folder (--folder or ${NEURALFLY_ENV}); Experiment 13 "
+                  f"is skipped")
             return 0
         real = real_flight_rows(folder, profile=args.profile)  # read from the cache
         sim = sim_rows(real, profile=args.profile)
@@ -309,19 +340,65 @@ def _analyses(args) -> int:
     return 0
 
 
-def _on_signals(stop: threading.Event) -> dict:
-    """SIGINT and SIGTERM ask the fill to stop: worker processes are stopped at once (the
+def _on_signals(stop: threading.Event, now) -> dict:
+    """SIGINT and SIGTERM ask the run to stop: worker processes are stopped at once (the
     entries they were computing are dropped, the finished ones are on disk), an entry
     computed in this process finishes first (the fill checks between entries, never inside
-    a kernel); a second signal stops at once. Returns the handlers they replace."""
+    a kernel); a second signal calls ``now(signum)``, which ends the process at once.
+    Returns the handlers they replace.
+
+    The handlers never raise. An exception raised in a handler surfaces wherever the main
+    thread happens to be: inside a threaded numba kernel it becomes ``SystemError:
+    CPUDispatcher(...) returned a result with an exception set``; inside the writing of the
+    ``--times`` record it loses the record. For the same reason the notice goes straight to
+    the file descriptor (:func:`_say`), not through ``print``."""
     def request(signum, frame):
         if stop.is_set():
-            raise KeyboardInterrupt
+            now(signum)
+            return
         stop.set()
-        print(f"\n{signal.Signals(signum).name}: stopping; finished entries are kept, "
-              f"workers' entries under way are dropped, one computed in this process "
-              f"finishes first (again to stop now)", file=sys.stderr)
+        _say(f"\n{signal.Signals(signum).name}: stopping; finished entries are kept, workers' "
+             f"entries under way are dropped, one computed in this process finishes first "
+             f"(again to stop now)")
     return {sig: signal.signal(sig, request) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+
+def _exit(code: int) -> None:
+    """End the process now with ``code``, what is printed flushed first (no interpreter
+    shutdown: a signal handler calls it to stop at once)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, RuntimeError, ValueError):  # closed, or inside a write
+            pass
+    os._exit(code)
+
+
+def _say(text: str) -> None:
+    """``text`` and a newline on stderr, written straight to its file descriptor: a signal
+    handler may run while the main thread is inside a write to ``sys.stderr`` (the progress
+    bar), where ``print`` would raise "reentrant call" into the interrupted code."""
+    try:
+        os.write(2, (text + "\n").encode())
+    except OSError:  # stderr closed (the terminal gone): nothing to tell
+        pass
+
+
+class _TimesRecord:
+    """The ``--times`` file of one run (``path``, or ``None`` for none): the records of the
+    entries computed, appended by the fill as each finishes, written once the fill is over
+    (``complete``) or when the run stops early; ``written`` says whether it has been."""
+
+    def __init__(self, path, args):
+        self.path, self.args = path, args
+        self.t0 = time.perf_counter()
+        self.records = []
+        self.written = False
+
+    def write(self, complete: bool, error: str | None = None) -> None:
+        if self.path is not None:
+            _write_times(self.path, self.args, self.t0, self.records, complete, error)
+        self.written = True
 
 
 def _write_times(path, args, t0, records, complete, error=None):
@@ -338,7 +415,6 @@ def _write_times(path, args, t0, records, complete, error=None):
 
 
 def _in_main_thread():
-    import threading
     return threading.current_thread() is threading.main_thread()
 
 

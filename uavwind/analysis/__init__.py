@@ -5,6 +5,8 @@
   multirotor, the future work);
 * :mod:`.filters` -- RotorPy's wind filters, calibrated and compared (Exp 11);
 * :mod:`.closed_loop` -- Exp 12's accuracy against time, calibration and manoeuvres;
+* :mod:`.exp13` -- Exp 13 as one run (the real flights, then their twin), registered with the
+  study's registry;
 * :mod:`.inference` -- the paper's unstated setup, recovered from its Table 4 and tested;
 * :mod:`.claims` -- the paper's claims, judged with uncertainty.
 

@@ -45,7 +45,6 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy.spatial.transform import Rotation
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
@@ -53,8 +52,9 @@ from ..core.seeding import child_rng, child_seed, root_seed
 from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight
 from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
-from ..sim.multirotor import NEURAL_FLY_CONTROL, Multirotor
+from ..sim.multirotor import Multirotor
 from ..sim.references import Lemniscate
+from ..sim.rotor_params import NEURAL_FLY_CONTROL
 from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
 from .real_flights import STUDIES, compute_rows, flight_summaries, noise_columns
@@ -181,6 +181,10 @@ def _wind(condition, seed, gust_scale):
 def _offset_attitude(q, offset_deg):
     """The attitude (quaternions, rotations) of a body axis leaning ``offset_deg`` towards
     +x (about body y) from the thrust axis."""
+    # scipy.spatial here and below: importing this module (the command line, the package
+    # face) should not pay its 0.5 s; only a simulated flight needs it
+    from scipy.spatial.transform import Rotation
+
     rot = Rotation.from_quat(q) * Rotation.from_euler("y", offset_deg, degrees=True)
     return rot.as_quat(), rot.as_matrix()
 
@@ -194,6 +198,8 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
     the commanded thrust over the full-speed thrust (the real set-point is normalised the
     same way), ``hover_throttle`` the weight over it, ``fa`` the aerodynamic force as the
     authors compute it from the recorded attitude, ``pwm`` the rotor speeds [rad/s]."""
+    from scipy.spatial.transform import Rotation
+
     check_instance(vehicle, "vehicle", Multirotor)
     if condition not in CONDITIONS:
         raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
@@ -228,6 +234,8 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
 def _add_noise(arrays, noise, rng, hover):
     """White noise on the recorded channels, in place, each axis with the standard deviation
     whose part above the noise cutoff is ``noise``'s (``{column: std}``)."""
+    from scipy.spatial.transform import Rotation
+
     n = len(arrays["t"])
 
     def draw(column):

@@ -31,7 +31,8 @@ import pandas as pd
 from ..core.checks import check_instance, check_scalar
 from ..core.seeding import child_rng, child_seed
 from ..core.stats import summarise
-from ..sim.actions import ThrustSequence
+from ..sim.actions import ThrustSequence, sample_paper
+from ..sim.dynamics import simulate, simulate_flight
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
 from ..sim.vehicle import n_steps
@@ -224,9 +225,6 @@ def drift_offsets(n_loops: int = 20, seed: int = 0, wind=(3.0, -2.0, 0.0),
         ``motor_limited`` (share of control steps with a motor clipped, in the wind),
         ``deviation`` [m].
     """
-    from ..sim.actions import sample_paper
-    from ..sim.dynamics import simulate_flight
-
     uav = Multirotor(preset="rotorpy", start="drifting") if uav is None else uav
     check_instance(uav, "uav", Multirotor)
     if uav.start != "drifting":
@@ -255,8 +253,6 @@ def wind_sensitivity(thrust: ThrustSequence, wind=(0.5, 0.5, 0.0), delta: float 
     quadrotor from a hover) through the constant ``wind`` (3,) [m/s]. Of the order of ``delta
     t`` for a smooth flight; metres' worth of chaos when a segment commands zero thrust and
     the vehicle tumbles."""
-    from ..sim.dynamics import simulate
-
     check_instance(thrust, "thrust", ThrustSequence)
     uav = Multirotor(preset="rotorpy", start="hover") if uav is None else uav
     check_instance(uav, "uav", Multirotor)
@@ -276,8 +272,6 @@ def zero_thrust_sensitivity(n_loops: int = 20, seed: int = 0, wind=(0.5, 0.5, 0.
     :func:`uavwind.random_search` draws them with ``seed``): one row per loop with
     ``zero_thrust`` (a segment commands no thrust) and ``shift``, how far [m] the end of the
     flight moves for a change of ``delta`` [m/s] in the wind."""
-    from ..sim.actions import sample_paper
-
     uav = Multirotor(preset="rotorpy", start="hover") if uav is None else uav
     check_instance(uav, "uav", Multirotor)
     n_loops = check_scalar(n_loops, "n_loops", low=1, high=10 ** 5, integer=True)

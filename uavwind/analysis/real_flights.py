@@ -41,7 +41,6 @@ from itertools import combinations
 
 import numpy as np
 import pandas as pd
-from joblib import Parallel, delayed
 
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
@@ -50,8 +49,7 @@ from ..core.stats import t_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, files_digest,
                               flight_files, flight_laps, lap_starts, pitch_degrees, read_flights,
                               split_noise)
-from ..method.clustering import ClusteringParams, score_loop
-from ..method.softdtw import dtw_pdist
+from ..method.clustering import ClusteringParams, score_loop, softdtw_engine
 from .memo import memo
 from .wind_estimates import estimation_rows
 
@@ -209,7 +207,7 @@ def _pair_task(laps, controllers, a, b, channel, params):
     rows.append({**base, "kind": "cluster", "controller": "pooled", "score": r.score,
                  "silhouette": r.silhouette, "correct": bool(r.correct), "n_windows": len(X)})
     if len(controllers) > 1:
-        D = dtw_pdist(X)
+        D = softdtw_engine().dtw_pdist(X)
         for k in controllers:
             held, train = owner == k, owner != k
             nearest = np.flatnonzero(train)[np.argmin(D[np.ix_(held, train)], axis=1)]
@@ -266,6 +264,8 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
         conditions = [c for c in conditions if c in study.conditions]
     raw = _laps(flights, study)
     laps, _ = _windows({k: w for k, w in raw.items() if k[1] in conditions}, study)
+    from joblib import Parallel, delayed  # here: importing this module stays cheap
+
     tasks = [delayed(_pair_task)(laps, controllers, a, b, ch, params)
              for a, b in combinations(conditions, 2) for ch in study.channels]
     if len(controllers) > 1:

@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from ..sim.actions import ThrustSequence
 
 __all__ = ["score_loop", "LoopResult", "ClusteringParams", "ENGINES", "DEFAULT_PARAMS",
-           "check_groups", "check_engine", "default_engine"]
+           "check_groups", "check_engine", "default_engine", "softdtw_engine"]
 
 #: Fewest trajectories a loop can score: two clusters, one of them with two members.
 MIN_TRAJECTORIES = 3
@@ -198,8 +198,20 @@ def _tslearn_engine(p):
     return km, silhouette
 
 
+def softdtw_engine():
+    """:mod:`uavwind.method.softdtw`, the ``"fast"`` engine, imported when first asked for:
+    it loads numba and scikit-learn (about 1.9 s), which ``import uavwind`` and a page that
+    only reads results never need. Every module that clusters, compares laps by DTW or warms
+    the kernels reaches the engine through here."""
+    # the package's one import of the engine: kept in a function so that importing uavwind
+    # (or any module that only names the engine) does not load numba and scikit-learn
+    from . import softdtw
+    return softdtw
+
+
 def _fast_engine(p):
-    from .softdtw import SoftDTWKMeans, silhouette_score
+    engine = softdtw_engine()
+    SoftDTWKMeans, silhouette_score = engine.SoftDTWKMeans, engine.silhouette_score
 
     # serial kernels: parallelism comes from running loops in separate processes,
     # and a fixed order of operations keeps results independent of the machine

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from ..data.neuralfly import RealFlight, flight_laps
+from .clustering import softdtw_engine
 
 __all__ = ["WindEstimator", "ESTIMATORS", "training_wind", "UNRECORDED"]
 
@@ -254,8 +255,7 @@ class WindEstimator:
         return out
 
     def _predict_laps(self, flight):
-        from .softdtw import dtw  # the kernels load when a lap is compared, not on import
-
+        dtw = softdtw_engine().dtw  # the kernels load when a lap is compared, not on import
         laps, starts = self._lap_windows(flight)
         train, query = self.laps_ / self.scale_, laps / self.scale_
         D = np.array([[dtw(q, x) for x in train] for q in query])

@@ -1,7 +1,7 @@
 """Presentation: display names, figures, the static explorer and the performance page.
 
 * :mod:`.display` -- the project's vocabulary as display names;
-* :mod:`.plotting` -- every figure of the book;
+* :mod:`.plotting` -- the paper's figures; :mod:`.beyond_figures` -- the figures beyond it;
 * :mod:`.explore` -- the Explore page, live and static;
 * :mod:`.performance` -- the performance page's tables from a benchmark report.
 

@@ -3,6 +3,7 @@ observations, and the :class:`~uavwind.sim.setting.Setting` one loop flies.
 
 * :mod:`.vehicle` -- the point-mass UAV of the paper;
 * :mod:`.multirotor` -- RotorPy's quadrotor as a vehicle (its kernels in ``_rotor_kernels``);
+* :mod:`.rotor_params` -- the multirotor's parameters (the presets, the position controller);
 * :mod:`.actions` -- open-loop thrust sequences and their samplers;
 * :mod:`.references` -- position references a multirotor's position controller tracks;
 * :mod:`.manoeuvres` -- flyable waypoint references, the actions of a position-controlled

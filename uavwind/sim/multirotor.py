@@ -46,233 +46,41 @@ classical RK4 steps (2.5 ms) with the wind sampled at the step's start and posit
 structure of ``Multirotor.step`` with a fixed-step integrator (about ten times more accurate
 than RotorPy's default RK45 tolerances on the paper's flights). Positions are recorded every
 ``dt`` of the flight, as for the point mass.
+
+The vehicle's numbers (the presets, RotorPy's scaled parameters,
+:class:`~uavwind.sim.rotor_params.PositionControl`) are :mod:`uavwind.sim.rotor_params`' and
+are re-exported here; their packing into the kernels' parameter vector, the state columns
+read outside the kernels and what a recorded flight stores at each sample are
+``uavwind.sim._rotor_layout``'s.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
+from ._rotor_layout import (_K_ETA, _N_STATE, _N_STATE_PI, _SPEED_MAX, _SPEED_MIN,
+                            _aero_force, _body_z, _body_z_batch, _clipped_commands, _clipped_se3,
+                            _kernels, _packed, _record_state)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
-from .vehicle import PAPER_UAV
+# the vehicle's parameters, re-exported: this module's names before they had a module
+from .rotor_params import (BASE_MASS, DRAG_KEYS, EXTRA, GRAVITY, NEURAL_FLY,  # noqa: F401
+                           NEURAL_FLY_CONTROL, PRESETS, PX4_LIKE, SE3_KD_POS, SE3_KP_POS,
+                           PositionControl, default_mass, rotorpy_params)
 
 if TYPE_CHECKING:
     from .references import Reference
     from .wind import WindModel
 
-__all__ = ["Multirotor", "GroundContact", "PRESETS", "STARTS", "EXTRA", "rotorpy_params",
-           "force_command", "DRAG_KEYS", "NEURAL_FLY", "PositionControl", "PX4_LIKE",
-           "NEURAL_FLY_CONTROL"]
+__all__ = ["Multirotor", "GroundContact", "STARTS", "force_command"]
 
-#: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
-#: quadrotor with RotorPy's aerodynamics.
-PRESETS = ("rotorpy", "paper", "neuralfly")
 #: How a flight starts: at rest over the ground, or moving with the air mass.
 STARTS = ("hover", "drifting")
-#: The pip extra that installs RotorPy.
-EXTRA = "multirotor"
-#: The mass of RotorPy's hummingbird, the vehicle scaled [kg].
-BASE_MASS = 0.5
-#: RotorPy's gravity [m/s^2] (``Multirotor.g``).
-GRAVITY = 9.81
-#: The quadrotor of Neural-Fly's flights (O'Connell et al., "Neural-Fly enables rapid learning
-#: for agile flight in strong winds", Science Robotics 7(66), eabm6597, 2022; arXiv 2205.06908,
-#: "UAV Design"): "weighs 2.6 kg with a thrust to weight ratio of 2.2", "a wide-X configuration,
-#: measuring 85 cm in width, 75 cm in length, and 93 cm diagonally". Assumed here (the article
-#: gives no more): the 93 cm diagonal is hub to hub and the hubs lie on a rectangle of the
-#: footprint's 75 : 85 aspect, so at x = +-0.3077 m (length), y = +-0.3487 m (width).
-NEURAL_FLY = {"mass": 2.6, "thrust_to_weight": 2.2, "width": 0.85, "length": 0.75,
-              "diagonal": 0.93}
-#: ``SE3Control``'s position gains (``kp_pos`` [1/s^2], ``kd_pos`` [1/s]; RotorPy 3.0.0 fixes them).
-SE3_KP_POS = (6.5, 6.5, 15.0)
-SE3_KD_POS = (4.0, 4.0, 9.0)
-#: Slots of the parameter vector (``uavwind.sim._rotor_kernels``' layout) read here.
-_K_ETA, _SPEED_MIN, _SPEED_MAX = 23, 30, 31
-_KI, _TAN_TILT, _THRUST_LOW, _THRUST_HIGH, _INTEGRAL_ACC = slice(76, 79), 79, 80, 81, 82
-#: Length of the parameter vector.
-_N_PARAMS = 83
-#: State columns of a flight under :class:`PositionControl`: RotorPy's 20, then the integral
-#: of the position error (3) [m s].
-_N_STATE, _N_STATE_PI = 20, 23
-
-
-def _kernels():
-    """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
-    1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
-    flies none). This module's one lazy import."""
-    from . import _rotor_kernels
-    return _rotor_kernels
-
-
-@dataclass(frozen=True)
-class PositionControl:
-    """SE3's position law with an integral term and a thrust cone, as PX4's multicopter
-    position controller has them (``MPC_TILTMAX_AIR``, ``MPC_THR_MIN``, ``MPC_THR_MAX``, and an
-    integral that removes the steady error a steady wind leaves under a PD law).
-
-    The desired force is RotorPy's ``SE3Control``'s, ``m (-kp e - kd e_v + a_ref + g e_z)``
-    (its gains), plus ``-m ki I`` with ``I`` the integral of the position error; it is then
-    limited with vertical priority: its vertical part within ``[min_thrust, max_thrust]`` of
-    the rotors' full thrust, its horizontal part within the tilt cone and the rest of the
-    full thrust. The integral stops while the force is limited (anti-windup).
-
-    Parameters
-    ----------
-    ki : tuple of 3 float
-        Integral gains on x, y, z [1/s^3], each in [0, 100]; default (2, 2, 4): per axis the
-        loop ``s^3 + kd s^2 + kp s + ki`` with SE3's gains (kp 6.5, kd 4 on x, y; 15 and 9 on
-        z) has every root's real part below -0.35 1/s.
-    max_tilt : float
-        Largest tilt of the desired force from up [deg], in (0, 89]; PX4's default 45.
-    min_thrust, max_thrust : float
-        Least and most collective thrust as a share of the rotors' full thrust [-]; PX4's
-        defaults 0.12 and 1.
-    max_integral_acceleration : float
-        Bound on ``|ki I|`` per axis [m/s^2], in (0, 100]; default 10 (about g).
-    """
-
-    ki: tuple = (2.0, 2.0, 4.0)
-    max_tilt: float = 45.0
-    min_thrust: float = 0.12
-    max_thrust: float = 1.0
-    max_integral_acceleration: float = 10.0
-
-    def __post_init__(self):
-        ki = check_array(self.ki, "ki", shape=(3,))
-        if np.any(ki < 0) or np.any(ki > 100):
-            raise ValueError(f"ki must have every gain in [0, 100] [1/s^3], got {ki.tolist()}")
-        object.__setattr__(self, "ki", tuple(float(k) for k in ki))
-        object.__setattr__(self, "max_tilt", check_scalar(self.max_tilt, "max_tilt", low=0.0,
-                                                          low_inclusive=False, high=89.0))
-        object.__setattr__(self, "min_thrust", check_scalar(self.min_thrust, "min_thrust",
-                                                            low=0.0, high=1.0))
-        object.__setattr__(self, "max_thrust", check_scalar(self.max_thrust, "max_thrust",
-                                                            low=self.min_thrust, high=1.0,
-                                                            low_inclusive=False))
-        object.__setattr__(self, "max_integral_acceleration", check_scalar(
-            self.max_integral_acceleration, "max_integral_acceleration", low=0.0,
-            low_inclusive=False, high=100.0))
-
-
-#: PX4's defaults on RotorPy's SE3 gains.
-PX4_LIKE = PositionControl()
-#: The same with a 60 degree tilt cone, for the Neural-Fly quadrotor (Exps 13 and 14): its
-#: thrust-to-weight 2.2 allows acos(1 / 2.2) = 63 degrees in level flight, and PX4's default
-#: 45 would clip the lean that 12-14 m/s winds ask of it on top of a manoeuvre.
-NEURAL_FLY_CONTROL = PositionControl(max_tilt=60.0)
-
-#: Coefficients scaled by mass / BASE_MASS (mass similarity).
-_SCALED = ("mass", "Ixx", "Iyy", "Izz", "Ixy", "Iyz", "Ixz", "k_eta", "k_m", "c_Dx", "c_Dy",
-           "c_Dz", "k_d", "k_z", "k_h", "k_flap")
-
-
-def _hummingbird() -> dict:
-    try:
-        from rotorpy.vehicles.hummingbird_params import quad_params
-    except ImportError as exc:
-        raise ImportError(f"the multirotor flies RotorPy's physics: install it with "
-                          f"pip install 'uavwind[{EXTRA}]' (rotorpy==3.0.0)") from exc
-    return quad_params
-
-
-def _neural_fly_hubs() -> tuple[float, float]:
-    """Hub offsets (x along the length, y along the width) [m] of the Neural-Fly quadrotor."""
-    half = NEURAL_FLY["diagonal"] / 2
-    n = math.hypot(NEURAL_FLY["length"], NEURAL_FLY["width"])
-    return half * NEURAL_FLY["length"] / n, half * NEURAL_FLY["width"] / n
-
-
-def default_mass(preset: str) -> float:
-    """The mass a preset flies at unless told otherwise [kg]: 2 (the paper's UAV), or 2.6
-    for ``"neuralfly"`` (the article's)."""
-    return NEURAL_FLY["mass"] if preset == "neuralfly" else 2.0
-
-
-def rotorpy_params(preset: str = "rotorpy", mass: float | None = None) -> dict:
-    """The vehicle as a RotorPy ``quad_params`` dict (for ``rotorpy.vehicles.multirotor
-    .Multirotor``): ``hummingbird_params`` scaled to ``mass`` [kg] (default: the preset's,
-    :func:`default_mass`), with the ``preset``'s drag. ``"neuralfly"`` also moves the hubs to
-    the Neural-Fly quadrotor's (:data:`NEURAL_FLY`), scales each moment of inertia by the
-    square of its arm's growth (``I ~ m L^2``) and sets the top rotor speed to its
-    thrust-to-weight ratio 2.2. Needs RotorPy (``ImportError`` naming the extra otherwise)."""
-    check_choice(preset, "preset", PRESETS)
-    if mass is None:
-        mass = default_mass(preset)
-    mass = check_scalar(mass, "mass", low=0.0, low_inclusive=False, high=1e3)
-    base = _hummingbird()
-    f = mass / BASE_MASS
-    qp = {k: (v * f if k in _SCALED else v) for k, v in base.items()}
-    qp["rotor_pos"] = {k: np.array(v, dtype=float) for k, v in base["rotor_pos"].items()}
-    if preset == "neuralfly":
-        hx, hy = _neural_fly_hubs()
-        old = [float(abs(v[0])) for v in base["rotor_pos"].values()][0]  # hummingbird d / sqrt 2
-        qp["rotor_pos"] = {k: np.array([math.copysign(hx, v[0]), math.copysign(hy, v[1]), 0.0])
-                           for k, v in base["rotor_pos"].items()}
-        qp["Ixx"] = qp["Ixx"] * (hy / old) ** 2           # roll: arms along y
-        qp["Iyy"] = qp["Iyy"] * (hx / old) ** 2           # pitch: arms along x
-        qp["Izz"] = qp["Izz"] * (hx * hx + hy * hy) / (2 * old * old)
-        qp["rotor_speed_max"] = math.sqrt(NEURAL_FLY["thrust_to_weight"] * mass * GRAVITY
-                                          / (4 * qp["k_eta"]))
-    if preset == "paper":
-        c = PAPER_UAV.drag_factor  # 1/2 rho C_D S [kg/m], isotropic: the point mass's drag
-        qp.update(c_Dx=c, c_Dy=c, c_Dz=c, k_d=0.0, k_z=0.0, k_h=0.0, k_flap=0.0)
-    return qp
-
-
-#: The drag coefficients :attr:`Multirotor.drag_scale` multiplies: frame drag (``c_D``),
-#: rotor drag (``k_d``) and induced inflow (``k_z``).
-DRAG_KEYS = ("c_Dx", "c_Dy", "c_Dz", "k_d", "k_z")
-
-
-@lru_cache(maxsize=32)
-def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None):  # mass resolved
-    """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
-    qp = rotorpy_params(preset, mass)
-    if drag_scale != 1.0:
-        qp.update({k: qp.get(k, 0.0) * drag_scale for k in DRAG_KEYS})
-    if lift_scale != 1.0:
-        qp["k_h"] = qp.get("k_h", 0.0) * lift_scale
-    inertia = np.array([[qp["Ixx"], qp["Ixy"], qp["Ixz"]],
-                        [qp["Ixy"], qp["Iyy"], qp["Iyz"]],
-                        [qp["Ixz"], qp["Iyz"], qp["Izz"]]])
-    geometry = np.vstack([qp["rotor_pos"][k] for k in qp["rotor_pos"]])
-    direction = np.asarray(qp["rotor_directions"], dtype=float)
-    k = qp["k_m"] / qp["k_eta"]  # as Multirotor.__init__ builds f_to_TM
-    f_to_TM = np.vstack((np.ones((1, qp["num_rotors"])),
-                         np.hstack([np.cross(qp["rotor_pos"][key], np.array([0, 0, 1]))
-                                    .reshape(-1, 1)[0:2] for key in qp["rotor_pos"]]),
-                         (k * direction).reshape(1, -1)))
-    P = np.zeros(_N_PARAMS)
-    P[0], P[1] = qp["mass"], GRAVITY
-    P[2:11] = inertia.ravel()
-    P[11:20] = np.linalg.inv(inertia).ravel()
-    P[20:23] = [qp.get("c_Dx", 0.0), qp.get("c_Dy", 0.0), qp.get("c_Dz", 0.0)]
-    P[23:32] = [qp["k_eta"], qp["k_m"], qp.get("k_d", 0.0), qp.get("k_z", 0.0),
-                qp.get("k_h", 0.0), qp.get("k_flap", 0.0), qp["tau_m"], qp["rotor_speed_min"],
-                qp["rotor_speed_max"]]
-    P[32:44] = geometry.ravel()
-    P[44:48] = direction
-    P[48:64] = np.linalg.inv(f_to_TM).ravel()
-    P[64:67] = [qp.get("k_w", 1.0), qp.get("kp_att", 3000.0), qp.get("kd_att", 360.0)]
-    P[67] = 1.0
-    P[68:71] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
-    P[71:74] = SE3_KD_POS  # with its own defaults)
-    P[74:76] = [qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)]
-    if control is not None:
-        full = 4 * P[_K_ETA] * P[_SPEED_MAX] ** 2
-        P[_KI] = control.ki
-        P[_TAN_TILT] = math.tan(math.radians(control.max_tilt))
-        P[_THRUST_LOW] = control.min_thrust * full
-        P[_THRUST_HIGH] = control.max_thrust * full
-        P[_INTEGRAL_ACC] = control.max_integral_acceleration
-    P.setflags(write=False)
-    return P
 
 
 class GroundContact(ValueError):
@@ -351,14 +159,15 @@ class Multirotor:
     substeps : int
         RK4 steps per command update, in [1, 100]; default 4 (2.5 ms at 100 Hz).
     drag_scale : float
-        Factor on the drag coefficients :data:`DRAG_KEYS` [-], in (0, 100]; default 1 (the
-        preset's). Experiment 13 fits it to real flights.
+        Factor on the drag coefficients :data:`~uavwind.sim.rotor_params.DRAG_KEYS` [-], in
+        (0, 100]; default 1 (the preset's). Experiment 13 fits it to real flights.
     lift_scale : float
         Factor on the translational lift ``k_h`` [-], in [0, 100]; default 1 (the preset's).
         Experiment 13 fits it to the real flights' vertical force.
     position_control : PositionControl, optional
         How reference flights are flown: None (default) RotorPy's ``SE3Control`` as it is;
-        a :class:`PositionControl` adds an integral term and a thrust cone (:data:`PX4_LIKE`).
+        a :class:`~uavwind.sim.rotor_params.PositionControl` adds an integral term and a
+        thrust cone (:data:`~uavwind.sim.rotor_params.PX4_LIKE`).
 
     Examples
     --------
@@ -723,68 +532,3 @@ class Multirotor:
                                                  (n_env, n, 3)).copy(),
                       thrust_commands=commands,
                       aero_forces=rec["fa"])
-
-
-def _body_z(q) -> np.ndarray:
-    """The body's z axis in the world frame for the quaternion q [i, j, k, w]."""
-    x, y, z, w = np.asarray(q, dtype=float) / np.linalg.norm(q)
-    return np.array([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)])
-
-
-def _record_state(rec, j, P, S, u_held):
-    """Sample ``j`` of a recorded flight: velocities, winds, attitudes, body rates, rotor
-    speeds and the accelerometer's specific force under the held motor speeds."""
-    rec["v"][:, j] = S[:, 3:6]
-    rec["wind"][:, j] = S[:, 13:16]
-    rec["q"][:, j] = S[:, 6:10]
-    rec["w"][:, j] = S[:, 10:13]
-    rec["rotors"][:, j] = S[:, 16:20]
-    rec["f"][:, j] = _specific_force(P, S, u_held)
-
-
-def _clipped_commands(P, S, T, C):
-    motor_commands = _kernels().motor_commands
-    return np.clip(motor_commands(P, S, T, C, 0), P[30], P[31])
-
-
-def _specific_force(P, S, U):
-    """What an accelerometer at the centre of mass reads, body frame [m/s^2]: ``R^T (dv/dt -
-    g)`` at the states ``S`` under the held motor speeds ``U`` (RotorPy's IMU, no noise)."""
-    state_derivative = _kernels().state_derivative
-
-    vdot = state_derivative(P, S, U)[:, 3:6]
-    acc = vdot - np.array([0.0, 0.0, -GRAVITY])
-    q = S[:, 6:10] / np.linalg.norm(S[:, 6:10], axis=1, keepdims=True)
-    x, y, z, w = q.T
-    R = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
-                  np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
-                  np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)],
-                 axis=1)
-    return np.einsum("nji,nj->ni", R, acc)
-
-
-def _body_z_batch(Q) -> np.ndarray:
-    """The body's z axis (n, 3) in the world frame for quaternions Q (n, 4) [i, j, k, w]."""
-    Q = Q / np.linalg.norm(Q, axis=1, keepdims=True)
-    x, y, z, w = Q.T
-    return np.stack([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)], axis=1)
-
-
-def _clipped_se3(P, S, C, mode=2):
-    se3_commands, se3i_commands = _kernels().se3_commands, _kernels().se3i_commands
-    u = se3_commands(P, S, C)[0] if mode == 2 else se3i_commands(P, S, C)[0]
-    return np.clip(u, P[_SPEED_MIN], P[_SPEED_MAX])
-
-
-def _aero_force(P, S, U):
-    """World-frame aerodynamic force [N] on the vehicle at the states ``S``: ``m dv/dt`` less
-    gravity and the rotors' nominal thrust ``R e_z sum k_eta omega^2`` (frame drag, rotor
-    drag, induced inflow and translational lift: the simulated counterpart of Neural-Fly's
-    ``fa``). ``U`` (the held motor commands) does not change it (only the motors' rates)."""
-    state_derivative = _kernels().state_derivative
-
-    vdot = state_derivative(P, S, U)[:, 3:6]
-    m = P[0]
-    nominal = P[23] * np.sum(S[:, 16:20] ** 2, axis=1)
-    gravity = np.array([0.0, 0.0, m * P[1]])
-    return m * vdot + gravity - nominal[:, None] * _body_z_batch(S[:, 6:10])

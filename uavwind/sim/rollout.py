@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.checks import check_array, check_instance, check_scalar
+from ._rotor_layout import _kernels
 from .multirotor import Multirotor, force_command
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindGroups, ConstantWind, ShearWind, WindModel, libm_pow
@@ -309,7 +310,7 @@ class Rollout:
         return np.concatenate([r, v_air], axis=1), positions
 
     def _advance_multirotor(self, states, env, forces, sample0, n):
-        from ._rotor_kernels import control_step
+        control_step = _kernels().control_step
 
         uav = self.uav
         per = self.steps_per_sample

@@ -6,6 +6,7 @@ and the runner, cache and fill that compute them.
 * :mod:`.readings` -- named answers to what the paper leaves open;
 * :mod:`.builders` -- settings from the paper's words (Exps 1-5);
 * :mod:`.profiles` -- loop counts (paper, quick);
+* :mod:`.cases` -- what each experiment flies, case by case;
 * :mod:`.registry` -- the experiments as data;
 * :mod:`.runner` -- one experiment, as cache entries, into one table;
 * :mod:`.cache` -- keys, verified reads, atomic writes, locks;

@@ -7,7 +7,10 @@ experiments and readings share it; :func:`fill_cache` computes the missing ones 
 tasks -- one per chunk, longest first, and one per sample of a CEM run, ahead of the
 chunks, each iteration put as the last one returns -- over a pool of local workers or on
 a ``dask.distributed`` cluster (``scheduler=``), and records the CPU seconds of each
-entry; :func:`time_by_experiment` sums those records per experiment and reading.
+entry; :func:`time_by_experiment` sums those records per experiment and reading. Where the
+tasks run (the local and the cluster pool, ``uavwind.study._pools``), how a scheduler address
+is checked before it is trusted (``uavwind.study._dask_probe``) and the CPU accounting behind
+the records (``uavwind.study._timing``) are modules of their own.
 
 Local workers write their chunks themselves (the results folder is theirs too); a CEM run
 is written by the fill's own process, which steps it. Cluster workers only compute: each
@@ -23,24 +26,22 @@ workers, and it then reads them from the cache.
 
 from __future__ import annotations
 
-import heapq
 import os
 import sys
 import threading
 import time
-import uuid
 from collections.abc import Iterable, Mapping, Sequence
-from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-import pandas as pd
-
 from ..core.checks import check_instance
 from ..core.parallel import check_jobs, pin_threads, stop_workers
-from ..method.clustering import ClusteringParams
+from ..method.clustering import ClusteringParams, softdtw_engine
 from ..method.search import CEMRun, evaluate
+# PROBE_SECONDS and _probe_scheduler are named here too (fill_cache's text, the tests)
+from ._dask_probe import PROBE_SECONDS, _check_scheduler, _probe_scheduler  # noqa: F401
+from ._pools import _ClusterPool, _LocalPool, _Watcher
+from ._timing import _analysis_record, _cpu_seconds, _entry_record, time_by_experiment
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
 from .readings import DEFAULT_READING, READINGS, get_reading
@@ -136,22 +137,6 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     return {e: users[path] for path, e in first.items()}
 
 
-def _cpu_seconds():
-    """CPU seconds (user + system) of this process and of each of its live children, by
-    pid: a task's cost is the difference, workers it started included."""
-    import psutil
-
-    me = psutil.Process()
-    out = {0: time.process_time()}
-    for child in me.children(recursive=True):
-        try:
-            t = child.cpu_times()
-            out[child.pid] = t.user + t.system
-        except psutil.Error:
-            pass
-    return out
-
-
 def _fill_one(entry, pin=True, n_jobs=1):
     """One entry of :func:`fill_cache` in this process (``pin``: a worker process, limited to
     one thread); ``(path, rows, from_cache, CPU seconds)``. With ``n_jobs`` > 1 the entry is
@@ -191,217 +176,6 @@ SAMPLE_PRIORITY = 2 ** 62 + 1
 #: every chunk, below CEM samples; the others go when they are ready, after the chunks
 #: waiting then (priority 0), as they read what the last chunks wrote.
 ANALYSIS_PRIORITY = 2 ** 62
-
-
-class _LocalPool:
-    """Tasks on the local worker processes: joblib's reusable loky executor, made with the
-    arguments joblib's own ``Parallel`` gives it (so a later ``Parallel`` in this process,
-    e.g. Experiment 13's after the fill, reuses these workers instead of starting others),
-    and which :func:`~uavwind.core.parallel.stop_workers` stops. At most one task per
-    worker is handed out; the pending ones wait here in priority order, so a task put later
-    with a higher priority (the next CEM iteration's samples) goes before those already
-    waiting."""
-
-    def __init__(self, n_workers: int, executor=None):
-        from joblib import Parallel
-
-        self.pending, self.running, self._seq = [], {}, 0
-        if executor is not None:  # any concurrent.futures-style executor (tests)
-            self.n, self.executor = n_workers, executor
-            return
-        try:  # the executor a Parallel(n_jobs=n_workers) would run on (joblib's private
-            # set-up; tests/test_fill.py checks that a later Parallel reuses its workers)
-            par = Parallel(n_jobs=n_workers)
-            self.n = par._initialize_backend()
-            self.executor = par._backend._workers
-        except Exception:  # pragma: no cover - another joblib: its own workers, not shared
-            from joblib.executor import get_memmapping_executor
-            self.n, self.executor = n_workers, get_memmapping_executor(n_workers)
-
-    def start(self, key, fn, *args):
-        """Hand a task to the workers now, ahead of every task put (it counts as one of the
-        tasks in flight)."""
-        self.running[self.executor.submit(fn, *args)] = key
-
-    def put(self, key, priority, fn, *args):
-        heapq.heappush(self.pending, (-priority, self._seq, key, fn, args))
-        self._seq += 1
-
-    def busy(self) -> bool:
-        return bool(self.pending or self.running)
-
-    def wait(self, timeout: float, dispatch: bool = True) -> list:
-        """``(key, result, error)`` of every task finished within ``timeout`` seconds
-        (``error`` is ``None``, or the exception the task raised, its result ``None``);
-        first (``dispatch``) the free workers get the next tasks."""
-        while dispatch and self.pending and len(self.running) < self.n:
-            _, _, key, fn, args = heapq.heappop(self.pending)
-            self.running[self.executor.submit(fn, *args)] = key
-        done, _ = wait(list(self.running), timeout=timeout, return_when=FIRST_COMPLETED)
-        out = []
-        for f in done:
-            key, exc = self.running.pop(f), f.exception()
-            out.append((key, None if exc is not None else f.result(), exc))
-        return out
-
-    def cancel(self):
-        self.pending.clear()
-
-
-class _ClusterPool:
-    """Tasks on a dask cluster: each is submitted at once with its priority (the scheduler
-    runs the highest first, and computes again a task whose worker died). Task names carry
-    a token of this fill, so two fills on one cluster never share a task."""
-
-    def __init__(self, client):
-        from distributed import as_completed
-
-        self.client, self.futures = client, {}
-        self.arrivals = as_completed([])
-        self.token = uuid.uuid4().hex[:8]
-
-    def put(self, key, priority, fn, *args):
-        # a chunk's key is its path; a CEM sample's (path, iteration, sample)
-        name = (f"uavwind-fill-{key.stem}-{self.token}" if not isinstance(key, tuple)
-                else f"uavwind-cem-{key[0].stem}-{key[1]}-{key[2]}-{self.token}")
-        fut = self.client.submit(fn, *args, key=name, priority=priority, pure=False)
-        self.futures[fut] = key
-        self.arrivals.add(fut)
-
-    def busy(self) -> bool:
-        return bool(self.futures)
-
-    def wait(self, timeout: float, dispatch: bool = True) -> list:
-        """As :meth:`_LocalPool.wait` (every task was submitted when put)."""
-        if not self.arrivals.has_ready():
-            if timeout:
-                time.sleep(min(timeout, 0.1))
-            return []
-        out = []
-        for fut in self.arrivals.next_batch(block=False):
-            key = self.futures.pop(fut)
-            try:
-                out.append((key, fut.result(), None))
-            except Exception as exc:  # the task's error (or its cancellation)
-                out.append((key, None, exc))
-            fut.release()
-        return out
-
-    def cancel(self):
-        if self.futures:
-            self.client.cancel(list(self.futures), force=True)
-
-
-#: Seconds a scheduler address has to accept a connection and send dask's handshake.
-PROBE_SECONDS = 5.0
-#: The largest handshake a dask scheduler sends [bytes] (its first message is a few hundred).
-_HANDSHAKE_MAX = 1 << 20
-
-
-def _probe_scheduler(scheduler, stop=None, seconds=PROBE_SECONDS):
-    """Connect to the ``tcp://`` address ``scheduler`` and read the handshake a dask
-    scheduler sends on every new connection (an 8-byte length, then msgpack frames naming
-    its ``pickle-protocol``), within ``seconds``; ``ValueError`` naming the address if it
-    is refused, silent, or answers something else (an HTTP server waits silently; dask's own
-    client would wait for ever, or read "HTTP/1.1" as a length of exabytes). Checks
-    ``stop`` every 0.1 s (``KeyboardInterrupt`` once set). Other schemes are not probed."""
-    import errno
-    import select
-    import socket
-    import struct
-
-    from distributed.comm import parse_address, parse_host_port
-
-    try:
-        scheme, loc = parse_address(scheduler)
-        if scheme != "tcp":
-            return
-        host, port = parse_host_port(loc)
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"scheduler must be an address such as 'tcp://host:8786', got "
-                         f"{scheduler!r} ({exc})") from None
-    deadline = time.monotonic() + seconds
-
-    def left():
-        if stop is not None and stop.is_set():
-            raise KeyboardInterrupt
-        remaining = deadline - time.monotonic()
-        if remaining <= 0:
-            raise TimeoutError
-        return min(remaining, 0.1)
-
-    def read(sock, n):
-        data = b""
-        while len(data) < n:
-            sock.settimeout(left())
-            try:
-                chunk = sock.recv(n - len(data))
-            except (socket.timeout, BlockingIOError):
-                continue
-            if not chunk:
-                raise ConnectionResetError("the server closed the connection")
-            data += chunk
-        return data
-
-    sock = None
-    try:
-        infos = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)
-        family, kind, proto, _, addr = infos[0]
-        sock = socket.socket(family, kind, proto)
-        sock.setblocking(False)
-        err = sock.connect_ex(addr)
-        if err not in (0, errno.EINPROGRESS, errno.EWOULDBLOCK):
-            raise OSError(err, os.strerror(err))
-        while err:  # wait for the connection, a slice at a time
-            _, writable, _ = select.select([], [sock], [], left())
-            if writable:
-                err = sock.getsockopt(socket.SOL_SOCKET, socket.SO_ERROR)
-                if err:
-                    raise OSError(err, os.strerror(err))
-                break
-        (size,) = struct.unpack("<Q", read(sock, 8))
-        if not 0 < size <= _HANDSHAKE_MAX:
-            raise ValueError(f"its first message claims {size} bytes, not a dask handshake")
-        if b"pickle-protocol" not in read(sock, size):
-            raise ValueError("its first message is not a dask handshake")
-    except TimeoutError:
-        raise ValueError(f"scheduler: no dask scheduler answered at {scheduler!r} within "
-                         f"{seconds:g} s (the server is silent: is this a dask scheduler's "
-                         f"port, and not e.g. its dashboard's?)") from None
-    except OSError as exc:
-        raise ValueError(f"scheduler: cannot reach a dask scheduler at {scheduler!r} "
-                         f"({type(exc).__name__}: {exc})") from None
-    except ValueError as exc:
-        raise ValueError(f"scheduler: the server at {scheduler!r} is not a dask scheduler "
-                         f"({exc})") from None
-    finally:
-        if sock is not None:
-            sock.close()
-
-
-def _check_scheduler(scheduler, stop=None):
-    """``scheduler``: a ``dask.distributed`` scheduler address (``"tcp://host:8786"``) or a
-    ``Client``; ``(client, owned)`` (``owned``: made here, to be closed here). An address is
-    probed first (:func:`_probe_scheduler`): refused, silent or not dask, it fails within
-    :data:`PROBE_SECONDS`."""
-    try:
-        from distributed import Client
-    except ImportError as exc:  # pragma: no cover - distributed is pinned in environment.txt
-        raise ValueError("scheduler needs dask.distributed (pip install distributed)") from exc
-    if isinstance(scheduler, Client):
-        return scheduler, False
-    if not isinstance(scheduler, str):
-        raise TypeError(f"scheduler must be a dask.distributed address (str, e.g. "
-                        f"'tcp://host:8786') or a Client, got {type(scheduler).__name__}")
-    if not scheduler.strip() or any(c.isspace() for c in scheduler):
-        raise ValueError(f"scheduler must be an address such as 'tcp://host:8786', got "
-                         f"{scheduler!r}")
-    _probe_scheduler(scheduler, stop)
-    try:  # a scheduler answered: connecting takes a moment (at most dask's connect timeout)
-        return Client(scheduler, timeout=max(PROBE_SECONDS, 1.0)), True
-    except (OSError, TimeoutError) as exc:
-        raise ValueError(f"scheduler: cannot reach a dask scheduler at {scheduler!r} "
-                         f"({type(exc).__name__}: {exc})") from None
 
 
 #: The key of the task that compiles the clustering kernels (see :func:`_run_tasks`).
@@ -680,7 +454,7 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             # checkout, workers that each compiled them at once would spend a core-minute on
             # copies of the same work; now they load what one of them wrote (imported here:
             # a page that only reads results needs neither the kernels nor scikit-learn)
-            from ..method import softdtw
+            softdtw = softdtw_engine()
             if isinstance(get_active_backend()[0], LokyBackend):
                 # one task per chunk and per CEM sample, dispatched in priority order as
                 # workers free up (closed-loop entries fly while the kernels compile)
@@ -696,23 +470,14 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
                 watcher = _Watcher(stop)
         for path, n_rows, hit, cpu, shown, n_tasks in done:
             if isinstance(path, tuple):  # an analysis
-                out["times"].append({"experiment": path[1], "reading": "both",
-                                     "shared_with": [], "case": path[1], "search": "analysis",
-                                     "n_env": 0, "rows": 0, "tasks": 1, "cpu_seconds": cpu})
+                out["times"].append(_analysis_record(path[1], cpu))
                 continue
             out["computed"] += not hit
             out["cached"] += hit  # another run on the same folder got there first
             out["rows_computed"] += 0 if hit else n_rows
             if not hit:
                 e = by_path[path]
-                pairs = users[e]
-                rds = {r for _, r in pairs}
-                out["times"].append({
-                    "experiment": pairs[0][0],
-                    "reading": pairs[0][1] if len(rds) == 1 else "both",
-                    "shared_with": sorted({x for x, _ in pairs} - {pairs[0][0]}),
-                    "case": e.labels["case"], "search": e.search, "n_env": e.setting.n_env,
-                    "rows": n_rows, "tasks": n_tasks, "cpu_seconds": cpu})
+                out["times"].append(_entry_record(e, users[e], n_rows, n_tasks, cpu))
             if bar is not None:
                 bar.update(max(0, n_rows - shown))
             if stop is not None and stop.is_set():
@@ -739,72 +504,3 @@ def _then(done, tasks):
     yield from done
     for a, args, _ in tasks:
         yield ("analysis", a.name), 0, False, _run_analysis(a, *args, pin=False)[1], 0, 1
-
-
-class _Watcher:
-    """A thread that stops the local workers as soon as ``stop`` is set, so a fill waiting
-    on entries that take minutes ends within a moment of a SIGINT or SIGTERM (the waiting
-    loop then sees its workers gone, and raises ``KeyboardInterrupt``). The workers write
-    each entry whole (a temporary file renamed), so an entry is on disk complete or not at
-    all; the ones under way are computed again by the next run."""
-
-    def __init__(self, stop: threading.Event):
-        self.stop = stop
-        self.done = threading.Event()
-        self.thread = threading.Thread(target=self._watch, name="uavwind-fill-stop",
-                                       daemon=True)
-        self.thread.start()
-
-    def _watch(self):
-        while not self.done.wait(0.1):
-            if self.stop.is_set():
-                stop_workers()
-                return
-
-    def close(self):
-        self.done.set()
-        self.thread.join()
-
-
-def time_by_experiment(times: Sequence[Mapping[str, Any]]) -> pd.DataFrame:
-    """Where the compute of a :func:`fill_cache` run went: its ``times`` records summed
-    per experiment and reading.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Indexed by (``experiment``, ``reading``), experiments in registry order (``reading``
-        is ``"both"`` for entries both readings share; an entry two experiments share is
-        counted under the first), with
-        ``entries``, ``rows`` (loops, CEM samples or closed-loop reports), ``cpu_seconds`` and ``share`` (% of
-        the run's CPU seconds); empty if nothing was computed.
-
-    Examples
-    --------
-    >>> t = [{"experiment": "exp5", "reading": "inferred", "case": 0, "search": "random",
-    ...       "n_env": 6, "rows": 50, "cpu_seconds": 3.0},
-    ...      {"experiment": "exp1", "reading": "inferred", "case": 0, "search": "random",
-    ...       "n_env": 6, "rows": 50, "cpu_seconds": 1.0}]
-    >>> time_by_experiment(t)["share"].tolist()
-    [25.0, 75.0]
-    """
-    cols = ["entries", "rows", "cpu_seconds", "share"]
-    if not times:
-        return pd.DataFrame(columns=cols, index=pd.MultiIndex.from_tuples(
-            [], names=["experiment", "reading"]))
-    df = pd.DataFrame(list(times))
-    for col in ("experiment", "reading", "rows", "cpu_seconds"):
-        if col not in df.columns:
-            raise ValueError(f"times records must each have {col!r}; a record lacks it")
-    for col in ("rows", "cpu_seconds"):
-        v = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
-        bad = ~np.isfinite(v) | (v < 0)
-        if bad.any():
-            raise ValueError(f"times record {int(np.argmax(bad))} has {col} = "
-                             f"{df[col].iloc[int(np.argmax(bad))]!r}: must be a finite "
-                             f"number >= 0")
-    out = df.groupby(["experiment", "reading"]).agg(
-        entries=("rows", "size"), rows=("rows", "sum"), cpu_seconds=("cpu_seconds", "sum"))
-    out["share"] = 100 * out["cpu_seconds"] / out["cpu_seconds"].sum()
-    order = {k: i for i, k in enumerate(EXPERIMENTS)}
-    return out.sort_index(key=lambda ix: ix.map(order) if ix.name == "experiment" else ix)

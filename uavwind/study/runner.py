@@ -37,12 +37,12 @@ from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable
                     results_dir)
 from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, CEMSize, get_profile
 from .readings import DEFAULT_READING, get_reading
-from .registry import EXPERIMENTS, get_experiment
+from .registry import EXPERIMENTS, MEASURED, get_experiment
 
 if TYPE_CHECKING:
     from .profiles import Profile
     from .readings import Reading
-    from .registry import Case, Experiment
+    from .registry import Case, Experiment, MeasuredExperiment
 
 #: The engine stamp of closed-loop entries (no clustering: the run's engine does not matter).
 CLOSED_LOOP_ENGINE = "none"
@@ -82,8 +82,14 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
     Parameters
     ----------
     exp_id : str
-        An id of :data:`EXPERIMENTS`: ``"example"``, ``"exp1"`` ... ``"exp9"``,
-        ``"exp6_raw"``, ``"fit_layout"``, ``"fit_turbulence"``.
+        An id of :data:`~uavwind.study.registry.EXPERIMENTS` (``"example"``, ``"exp1"`` ...
+        ``"exp14_cem"``, ``"fit_layout"``, ...), or of
+        :data:`~uavwind.study.registry.MEASURED`: ``"exp13"``, Neural-Fly's real flights,
+        read from the folder ``$UAVWIND_NEURALFLY`` names (a ``ValueError`` naming the
+        variable when it is not set); it takes ``profile`` (``"quick"`` or ``"paper"``),
+        ``n_jobs`` and ``results`` only, and returns the real-flight rows
+        (:func:`uavwind.analysis.real_flights.real_flight_rows`), the simulated twin's
+        computed and cached beside them (:func:`uavwind.analysis.figure8.sim_rows`).
     profile : {"quick", "paper"}, Profile or dict
     seed : int
         Root seed (one SeedSequence for the experiment).
@@ -109,6 +115,9 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
         ``iteration`` and ``sample``. ``df.attrs["cached"]`` counts the chunks
         loaded rather than computed.
     """
+    if isinstance(exp_id, str) and exp_id in MEASURED:
+        return _run_measured(MEASURED[exp_id], profile, seed, n_jobs, engine, results, cases,
+                             reading, params)
     exp = get_experiment(exp_id)
     prof = get_profile(profile)
     seed, engine = check_seed_engine(seed, engine)
@@ -136,6 +145,27 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
     out = out[first + [c for c in out.columns if c not in first]]
     out.attrs.update(experiment=exp.id, profile=str(prof), seed=seed, cached=n_cached,
                      chunks=len(entries), reading=rd.name, engine=engine)
+    return out
+
+
+def _run_measured(exp: MeasuredExperiment, profile, seed, n_jobs, engine, results, cases,
+                  reading, params) -> pd.DataFrame:
+    """:func:`run_experiment` of an experiment on measured flights: its rows as the layer that
+    reads the flights computes them (:meth:`MeasuredExperiment.run
+    <uavwind.study.registry.MeasuredExperiment.run>`), ``attrs["experiment"]`` its id. Its
+    rows are the flights': no seed, engine, cases, reading or clustering parameters to
+    choose, and giving one is an error, not ignored."""
+    given = [name for name, value, default in (("seed", seed, DEFAULT_SEED),
+                                               ("engine", engine, None), ("cases", cases, None),
+                                               ("reading", reading, None))
+             if not (value is default or (default is not None and value == default))]
+    if given or params:
+        raise ValueError(f"experiment {exp.id!r}, {exp.title}, runs on measured flights: it "
+                         f"takes no {', '.join(given + sorted(params))}")
+    prof = get_profile(profile)
+    rows = exp.run(prof.name, results=results, n_jobs=n_jobs)
+    out = rows.copy()
+    out.attrs = {**rows.attrs, "experiment": exp.id, "profile": prof.name}
     return out
 
 

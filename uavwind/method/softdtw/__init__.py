@@ -9,8 +9,11 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
 ``_k_means_*`` kernels:
 
 * :mod:`._libm` -- bit-exact replicas of glibc's ``exp``/``log`` and their self-check;
+* :mod:`._scalar_forward` -- the soft-DTW forward recursion the kernels start from;
 * :mod:`._kernels` -- the numba kernels (soft-DTW value, gradient, barycentre
   objective, DTW), each tslearn's arithmetic in a faster schedule;
+* :mod:`._lockstep_forward`, :mod:`._lockstep` -- the same kernels on ``N`` pairs per
+  vector (:mod:`._simd`), one pair per lane, and :mod:`._dispatch`, which chooses;
 * :mod:`.metrics` -- the kernels as functions of series and batches;
 * :mod:`._lbfgsb` -- the L-BFGS-B driver of the barycentres, with a scipy-version guard;
 * :mod:`.kmeans` -- :class:`SoftDTWKMeans` and its loop;

@@ -1,0 +1,67 @@
+"""What every section of the benchmark shares: the timer, one random loop's inputs, the
+engines compared and the host measured on.
+
+``timeit`` is the median wall time of a call; ``loop_inputs`` flies one random loop of a
+Table 2 scenario (the trajectories and groups every engine section clusters);
+``compared_engines`` are the clustering engines installed; ``host_cpu`` names the CPU a
+figure was measured on (an engine's figures are one host's). ``bench.py`` runs the
+sections; ``bench_engine.py`` and ``bench_study.py`` hold them.
+"""
+
+from __future__ import annotations
+
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+
+import uavwind as uw
+
+
+def timeit(fn, repeat=5, number=1):
+    """Median wall time of ``fn`` [s] over ``repeat`` runs (after one warm-up)."""
+    fn()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        times.append((time.perf_counter() - t0) / number)
+    return statistics.median(times)
+
+
+def loop_inputs(n_env, seed, dt=0.1, scenario=None, layout="inferred"):
+    """Trajectories and groups of one random loop (scenario cycles through Table 2)."""
+    from uavwind.study.conditions import PAPER_SCENARIOS
+
+    k = scenario or (seed % 7) + 1
+    a, b = PAPER_SCENARIOS[k]
+    setting = uw.make_setting(a, b, n_env // 2, dt=dt, layout=layout)
+    thrust = setting.sample_thrust(np.random.default_rng(seed))
+    return setting.simulate(thrust, seed=seed), setting.groups
+
+
+def compared_engines():
+    """The clustering engines installed, tslearn first."""
+    from uavwind.method.clustering import ENGINES
+    return [e for e in ("tslearn", "fast") if e in ENGINES]
+
+
+def host_cpu():
+    """The host's CPU model (``/proc/cpuinfo``), LLVM's name for it and the engine's lanes:
+    a figure of the engine is a figure of one host (an AMD EPYC and an Intel Xeon of the
+    same machine kind differ by half)."""
+    from llvmlite import binding
+
+    from uavwind.method.softdtw._simd import N
+    model = platform.processor() or "unknown"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"model": model, "llvm_cpu": binding.get_host_cpu_name(), "lanes": int(N)}
