@@ -235,6 +235,18 @@ def test_the_cem_history_keeps_its_legend_off_the_lines():
     plt.close(fig)
 
 
+def test_the_flyable_bars_keep_their_legend_off_the_bars():
+    """Exp 14's panels: the legend sat in the last panel over the bottom scenario's bars
+    (issue 44); it is a figure legend above them."""
+    table = pd.DataFrame([{"scenario": s, "observation": o, "action": a, "mean": 90.0,
+                           "ci_low": 85.0, "ci_high": 95.0}
+                          for s in ("S1", "S2") for o in ("position", "imu")
+                          for a in ("waypoints", "thrust")])
+    fig = plotting.flyable_scores(table)
+    assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
+    plt.close(fig)
+
+
 def test_closed_loop_lines_stay_distinguishable():
     """Two policies with the same curve: each line keeps its own marker, the open-loop one
     drawn on top, and the legend sits outside the panels (issue 44: exp12's open-loop line hid)."""

@@ -38,7 +38,7 @@ from .closed_loop import accuracy_over_time, closing_the_loop, time_to_confidenc
 
 __all__ = ["memo", "derived", "MEMO_VERSION", "PAGE_ANALYSES", "page_analyses",
            "claims_verdicts", "c1_vehicles", "layout_fits", "scale_invariance_summary",
-           "exp12_summaries",
+           "exp12_summaries", "exp10_hover_settings", "SATURATION_LOOPS",
            "model_example"]
 
 #: Bump when an analysis routed through :func:`memo` changes its numbers.
@@ -153,7 +153,13 @@ def _fill_inference(profile, seed, results):
     scale_invariance_summary(profile, seed, results)
 
 
-def _exp10_hover_settings():
+#: Loops per setting of Exp 10's saturation split.
+SATURATION_LOOPS = 10
+
+
+def exp10_hover_settings() -> list:
+    """The settings :func:`saturation_split` flies: Exp 10's hovering, RotorPy-drag,
+    noise-free cases of the paper's Table 2 scenarios (the page counts its loops from them)."""
     return [c.setting for c in EXPERIMENTS["exp10"].cases()
             if c.labels["vehicle"] == "multirotor, RotorPy drag, hover"
             and c.labels["noise"] == "none" and c.labels["scenario_id"] > 0]
@@ -162,9 +168,10 @@ def _exp10_hover_settings():
 def saturation_split(seed: int, results=None) -> pd.DataFrame:
     """Exp 10's saturation split (:func:`uavwind.analysis.manoeuvres.saturation_split` on its
     hovering, RotorPy-drag, noise-free Table 2 settings, 10 loops each), cached."""
-    return memo("exp10_saturation_split", {"seed": seed, "n_loops": 10},
-                lambda: manoeuvres.saturation_split(_exp10_hover_settings(), n_loops=10,
-                                                    seed=seed), results)
+    return memo("exp10_saturation_split", {"seed": seed, "n_loops": SATURATION_LOOPS},
+                lambda: manoeuvres.saturation_split(exp10_hover_settings(),
+                                                    n_loops=SATURATION_LOOPS, seed=seed),
+                results)
 
 
 def drift_offsets(seed: int, results=None) -> pd.DataFrame:

@@ -214,7 +214,9 @@ def flyable_scores(table) -> Figure:
         ax.set(title=o, xlabel="mean score", xlim=(0, 100))
     axes[0, 0].set_yticks(y, scen, fontsize=8)
     axes[0, 0].invert_yaxis()
-    axes[0, -1].legend(fontsize=7, loc="lower right")
+    # above the panels: inside the last one it covered the bottom scenario's bars
+    fig.legend(*axes[0, -1].get_legend_handles_labels(), fontsize=7,
+               loc="outside upper center", ncol=len(actions))
     return fig
 
 
