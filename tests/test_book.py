@@ -1,4 +1,5 @@
 """End to end: the whole book built in the quick profile into a temporary folder."""
+import os
 import re
 import shutil
 import subprocess
@@ -205,3 +206,31 @@ def test_no_page_refers_to_a_label_a_build_without_its_data_leaves_out():
     # a page may refer to its own gated label only from a cell gated the same way; the
     # other pages never
     assert not [r for r in refs if r[0] != f"{r[2]}.md"], refs
+
+
+@pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
+                    reason="Neural-Fly's flights are not on this machine (set UAVWIND_NEURALFLY)")
+def test_run_exp13_on_the_real_flights_through_the_command_line(built_book, tmp_path):
+    """`python -m uavwind run exp13` with Neural-Fly's flights: exit 0, its channel table and
+    the twin's validation printed, from the rows the book's fill computed (read, never
+    computed again: the quick Exp 13 costs about 100 CPU-s); run_experiment("exp13") reads
+    the same rows."""
+    import sys
+
+    import uavwind as uw
+    from uavwind.analysis import real_flights as rf
+    from uavwind.core.io import READ_ONLY_ENV
+
+    results = built_book.parent / "results"
+    env = {**os.environ, "UAVWIND_RESULTS": str(results), READ_ONLY_ENV: "1"}
+    p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick",
+                        "--no-progress"], env=env, capture_output=True, text=True, timeout=600,
+                       cwd=ROOT)
+    assert p.returncode == 0, p.stderr[-2000:]
+    assert "exp13 (quick profile): real flights" in p.stdout
+    assert "does the simulation rank the channels" in p.stdout
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(READ_ONLY_ENV, "1")
+        df = uw.run_experiment("exp13", profile="quick", results=results)
+        assert df.equals(rf.real_flight_rows(profile="quick", results=results))
+    assert set(df["controller"].dropna()) >= {"baseline", "indi", "L1", "NF-C", "NF-T"}

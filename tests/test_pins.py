@@ -15,6 +15,9 @@ the sizing (the four digests as at 027ed6e's parent).
 Changed since: Exp 14's waypoint cases fly the Neural-Fly vehicle with its fitted drag, SE3
 with an integral term and a thrust cone, the wind ramped in and a budget in the wind (issue
 43): every exp14 and exp14_cem key is new (its eight digests); no other pin changed.
+Changed since: Exp 11's CEM runs half the profile's iterations (uavwind.study.cases.
+FUTURE_CEM_SCALE, sized on its page's question): its four entry-path digests; no other pin
+changed.
 """
 import hashlib
 import tempfile
@@ -51,7 +54,7 @@ ENTRY_PATHS = {
     "quick/inferred/exp9": "a19c1ac22a1095f8",
     "quick/inferred/exp10": "0c9cc78ab82fe9dd",
     "quick/inferred/exp11": "a707dc5ec512b5ce",
-    "quick/inferred/exp11_cem": "76f0b3edf060c978",
+    "quick/inferred/exp11_cem": "c536986c9492ff6c",
     "quick/inferred/exp12": "4a1fa0b690c9ccfc",
     "quick/inferred/exp14": "b7e7a0fe5163a2aa",
     "quick/inferred/exp14_cem": "0b45dab5b9e8d381",
@@ -71,7 +74,7 @@ ENTRY_PATHS = {
     "quick/halves/exp9": "aa2022438305f0ae",
     "quick/halves/exp10": "a66279354bbc3374",
     "quick/halves/exp11": "8fb1eafabe9b0414",
-    "quick/halves/exp11_cem": "645cf322efe9c749",
+    "quick/halves/exp11_cem": "fc63ec8a2f1d1de7",
     "quick/halves/exp12": "80e6458646f8e881",
     "quick/halves/exp14": "9e97d357e1243c0f",
     "quick/halves/exp14_cem": "1af2d5493a1ce940",
@@ -91,7 +94,7 @@ ENTRY_PATHS = {
     "paper/inferred/exp9": "2d5ecf50677fc920",
     "paper/inferred/exp10": "c273d1a915d5f450",
     "paper/inferred/exp11": "b06d46f03fa28a4b",
-    "paper/inferred/exp11_cem": "e3ebb8f3828df308",
+    "paper/inferred/exp11_cem": "39c1abee3b9c85b9",
     "paper/inferred/exp12": "4f5bf690e507a7b0",
     "paper/inferred/exp14": "c1ece1101c088d68",
     "paper/inferred/exp14_cem": "17a27373af0895c9",
@@ -111,7 +114,7 @@ ENTRY_PATHS = {
     "paper/halves/exp9": "c1099abe99e5e23f",
     "paper/halves/exp10": "aa65a1e090669563",
     "paper/halves/exp11": "1e3a3c3984d63763",
-    "paper/halves/exp11_cem": "593149cfb21684b6",
+    "paper/halves/exp11_cem": "7b9e1b77c8f7df3e",
     "paper/halves/exp12": "d5ef54547e0c443a",
     "paper/halves/exp14": "ddcd5187e8c2520e",
     "paper/halves/exp14_cem": "f0c97551584733b7",

@@ -374,25 +374,3 @@ def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, t
     assert df.equals(real) and list(df.columns) == list(real.columns)
     (twin_of, kw), = twins
     assert twin_of.equals(real) and kw == {"profile": "quick", "results": tmp_path, "n_jobs": 1}
-
-
-@pytest.mark.skipif(not SHARED.is_dir() and not os.environ.get("UAVWIND_NEURALFLY"),
-                    reason="Neural-Fly's flights are not on this machine (set UAVWIND_NEURALFLY)")
-def test_run_exp13_on_the_real_flights_through_the_command_line(tmp_path, monkeypatch):
-    """`python -m uavwind run exp13` with Neural-Fly's flights: exit 0, its channel table and
-    the twin's validation printed; run_experiment("exp13") then reads the same rows from the
-    cache (the quick profile: about 90 CPU-s)."""
-    from uavwind.core.io import READ_ONLY_ENV
-
-    data = os.environ.get("UAVWIND_NEURALFLY") or str(SHARED)
-    env = {**os.environ, "UAVWIND_NEURALFLY": data, "UAVWIND_RESULTS": str(tmp_path)}
-    p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick",
-                        "--no-progress"], env=env, capture_output=True, text=True, timeout=1800)
-    assert p.returncode == 0, p.stderr[-2000:]
-    assert "exp13 (quick profile): real flights" in p.stdout
-    assert "does the simulation rank the channels" in p.stdout
-    monkeypatch.setenv("UAVWIND_NEURALFLY", data)
-    monkeypatch.setenv(READ_ONLY_ENV, "1")  # read what the command computed, never compute
-    df = uw.run_experiment("exp13", profile="quick", results=tmp_path)
-    assert df.equals(rf.real_flight_rows(data, profile="quick", results=tmp_path))
-    assert set(df["controller"].dropna()) >= {"baseline", "indi", "L1", "NF-C", "NF-T"}

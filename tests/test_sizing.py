@@ -225,3 +225,20 @@ def test_a_loop_by_loop_question_is_sized_on_its_paired_differences():
         Sizing(experiment="x", question="q", halfwidth=1, unit="points", sd=1.0,
                measured_with=10, floor=1, floor_reason="r", compared=("a", "b"),
                reference=("only one",))
+
+
+def test_the_cems_beyond_the_paper_run_their_scaled_size():
+    """Exp 11's CEM runs half the profile's iterations (its page's question is settled by
+    then), Exp 14's a third of the draws for a quarter of them; the paper's own CEM (Exp 6)
+    the profile's size. Changing the scale changes what runs."""
+    from dataclasses import replace
+
+    from uavwind.study.runner import cem_size
+
+    paper = PROFILES["paper"]
+    assert cem_size(EXPERIMENTS["exp6"], paper) == paper.cem
+    assert cem_size(EXPERIMENTS["exp11_cem"], paper) == replace(paper.cem, max_iter=10)
+    assert cem_size(EXPERIMENTS["exp14_cem"], paper) == replace(paper.cem, n_samples=10,
+                                                                max_iter=5)
+    exp = replace(EXPERIMENTS["exp11_cem"], search_options={"cem_scale": {"max_iter": 1.0}})
+    assert cem_size(exp, paper) == paper.cem

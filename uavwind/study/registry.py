@@ -34,6 +34,7 @@ from ..data.neuralfly import ENV_VAR as NEURALFLY_ENV
 from .cases import (BIAS_LEVELS, BIAS_TIME, CLOSED_LOOP_POLICIES,  # noqa: F401
                     CLOSED_LOOP_VEHICLES, FIT_RATIOS, FLYABLE_CEM_SCALE, FLYABLE_CHANNELS,
                     FLYABLE_CPU_PER_LOOP, FLYABLE_RAMP, FLYABLE_VEHICLE, FUTURE_ACTIONS,
+                    FUTURE_CEM_SCALE,
                     FUTURE_CHANNELS, FUTURE_NOISE, FUTURE_VEHICLE, MIXED_SPACINGS,
                     NEURAL_FLY_FITTED, NOISE_LEVELS, NOISY_VEHICLES, THRUST_CHANGES, VEHICLES,
                     Case, example_cases, exp1_cases, exp2_cases, exp3_cases, exp4_cases,
@@ -217,7 +218,7 @@ EXPERIMENTS = {e.id: e for e in [
         question="Does CEM find better attitude or thrust actions than random search?",
         paper_table="beyond the paper (the paper's future work)", search="cem",
         build=exp11_cem_cases, summary="cem", readings=("inferred",),
-        group_by=("action", "observation")),
+        group_by=("action", "observation"), search_options={"cem_scale": FUTURE_CEM_SCALE}),
     Experiment(
         id="exp12", title="Closed loop", notebook="exp12_closed_loop.md",
         question="One vehicle in one unknown wind: how many seconds of flight does it need "
