@@ -14,17 +14,8 @@ import uavwind as uw
 from uavwind import study as ex
 from uavwind.core import store
 from uavwind.study import cache, runner
+from helpers import exact_cells
 
-
-def _py(v):
-    v = v.tolist() if hasattr(v, "tolist") else v
-    return [_py(x) for x in v] if isinstance(v, (list, tuple)) else v
-
-
-def _exact(df):
-    """Every cell as the repr of its Python value (a list read back from Parquet is an
-    array): equal texts mean equal doubles."""
-    return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
@@ -184,7 +175,7 @@ def test_a_first_run_returns_what_a_cached_run_returns(tmp_path):
     assert (first.dtypes == again.dtypes).all()
     for col in first.columns:  # e.g. thrust sequences: arrays both times, not lists then arrays
         assert [type(v) for v in first[col]] == [type(v) for v in again[col]], col
-    assert _exact(first) == _exact(again)
+    assert exact_cells(first) == exact_cells(again)
 
 
 # --------------------------------------------------------------------------- #

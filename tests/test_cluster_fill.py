@@ -10,7 +10,8 @@ import threading
 import time
 
 import pytest
-from test_fill import TINY, _exact
+from helpers import exact_cells
+from test_fill import TINY
 
 from uavwind import study as ex
 from uavwind.study import fill
@@ -27,7 +28,7 @@ def client(dask_client):
 
 
 def _rows(folder, reading):
-    return {eid: _exact(ex.run_experiment(eid, profile=TINY, results=folder, n_jobs=1,
+    return {eid: exact_cells(ex.run_experiment(eid, profile=TINY, results=folder, n_jobs=1,
                                           progress=False, reading=reading))
             for eid in IDS}
 
@@ -115,9 +116,9 @@ def test_a_worker_killed_mid_task_loses_nothing(tmp_path, client):
     alone = tmp_path / "alone"
     fill.fill_cache(IDS, profile=prof, results=alone, readings="all", progress=False, n_jobs=1)
     for reading in ("inferred", "halves"):
-        assert {e: _exact(ex.run_experiment(e, profile=prof, results=tmp_path, n_jobs=1,
+        assert {e: exact_cells(ex.run_experiment(e, profile=prof, results=tmp_path, n_jobs=1,
                                             progress=False, reading=reading)) for e in IDS} == \
-            {e: _exact(ex.run_experiment(e, profile=prof, results=alone, n_jobs=1,
+            {e: exact_cells(ex.run_experiment(e, profile=prof, results=alone, n_jobs=1,
                                          progress=False, reading=reading)) for e in IDS}
 
 

@@ -3,20 +3,10 @@ import pytest
 
 from uavwind import study as ex
 from uavwind.study import fill
+from helpers import exact_cells, record_fills
 
 TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
-
-
-def _py(v):
-    v = v.tolist() if hasattr(v, "tolist") else v
-    return [_py(x) for x in v] if isinstance(v, (list, tuple)) else v
-
-
-def _exact(df):
-    """Every cell as the repr of its Python value (a list read back from Parquet is an
-    array): equal texts mean equal doubles."""
-    return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
 
 
 def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
@@ -45,22 +35,11 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
             assert pooled.attrs["cached"] == pooled.attrs["chunks"]  # nothing left to compute
             alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone", n_jobs=1,
                                       progress=False, reading=reading)
-            assert _exact(pooled) == _exact(alone)
-
-
-def _record_fills(monkeypatch):
-    """Replace the work of fill_cache by a record of the entries it hands out, in order."""
-    order = []
-
-    def record(entry, pin=True, n_jobs=1):
-        order.append(entry)
-        return entry.path, entry.n_rows, False, 0.5
-    monkeypatch.setattr(fill, "_fill_one", record)
-    return order
+            assert exact_cells(pooled) == exact_cells(alone)
 
 
 def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
-    order = _record_fills(monkeypatch)
+    order = record_fills(monkeypatch)
     done = fill.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
                          progress=False)
     n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
@@ -75,7 +54,7 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
 
 
 def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
-    order = _record_fills(monkeypatch)
+    order = record_fills(monkeypatch)
     done = fill.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
                          progress=False)
     users = {e.path: pairs for e, pairs in
@@ -101,7 +80,7 @@ def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
     alone = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=1,
                               progress=False)
     pooled = ex.run_experiment("exp6", profile=TINY, results=tmp_path, n_jobs=1, progress=False)
-    assert _exact(pooled) == _exact(alone)
+    assert exact_cells(pooled) == exact_cells(alone)
 
 
 def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch):
@@ -154,7 +133,7 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
             assert pooled.attrs["cached"] == pooled.attrs["chunks"]
             alone = ex.run_experiment(eid, profile=TINY, results=tmp_path / "alone",
                                       n_jobs=1, progress=False, reading=reading)
-            assert _exact(pooled) == _exact(alone)
+            assert exact_cells(pooled) == exact_cells(alone)
 
 
 def test_closed_loop_entries_fly_while_the_kernels_compile(tmp_path, monkeypatch):
@@ -299,7 +278,7 @@ def test_another_joblib_backend_keeps_one_task_per_entry(tmp_path, monkeypatch):
         assert pooled.attrs["cached"] == pooled.attrs["chunks"]
         alone = ex.run_experiment(eid, profile=ONE_ITERATION, results=tmp_path / "alone",
                                   n_jobs=1, progress=False)
-        assert _exact(pooled) == _exact(alone)
+        assert exact_cells(pooled) == exact_cells(alone)
 
 
 def test_time_by_experiment_sums_per_experiment_in_registry_order():

@@ -6,21 +6,9 @@ import pytest
 
 from uavwind import study as ex
 from uavwind.analysis import tables
-from uavwind.study import fill
 
 TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
-
-
-def _record_fills(monkeypatch):
-    """Replace the work of fill_cache by a record of the entries it hands out, in order."""
-    order = []
-
-    def record(entry, pin=True, n_jobs=1):
-        order.append(entry)
-        return entry.path, entry.n_rows, False, 0.5
-    monkeypatch.setattr(fill, "_fill_one", record)
-    return order
 
 
 def test_run_resume_and_reuse(tmp_path, monkeypatch):
