@@ -1,7 +1,9 @@
 """Open-loop thrust sequences: the UAV's actions.
 
 This module owns :class:`ThrustSequence` (piecewise-constant thrust: change
-times [s], magnitudes [N], unit directions), the two samplers of the replication notes'
+times [s], magnitudes [N], unit directions), :class:`AttitudeSequence` (collective thrust
+and attitude, for a multirotor), the base both stand on (``_Sequence``: the change times,
+immutability, comparison, pickling and printing), the two samplers of the replication notes'
 decision 2 (:func:`sample_paper`, :func:`sample_continuous`), and the flat
 vector form the Cross-Entropy Method searches over (:meth:`ThrustSequence.to_vector`,
 :meth:`ThrustSequence.from_vector`). Every sampler takes an explicit
@@ -30,7 +32,88 @@ MAX_THRUST = 50.0
 _AXES = np.eye(3)
 
 
-class ThrustSequence:
+class _Sequence:
+    """What every piecewise-constant action shares: ``times`` [s] (segment starts, the first
+    at 0, strictly increasing) and two per-segment arrays named by ``_FIELDS``, frozen
+    (read-only arrays, no attribute set after construction), compared, hashed, pickled
+    bit-identically and printed by those arrays. A subclass checks its own arrays and calls
+    :meth:`_freeze`; ``_KIND`` names it in errors."""
+
+    __slots__ = ()
+    _FIELDS: tuple[str, str, str]
+    _KIND: str
+
+    @staticmethod
+    def _check_times(times) -> np.ndarray:
+        """``times`` checked: one segment at least, the first at 0 s, strictly increasing."""
+        times = check_array(times, "times", ndim=1)
+        if times.shape[0] == 0:
+            raise ValueError("times must hold at least one segment start (0.0)")
+        if times[0] != 0.0:
+            raise ValueError(f"times[0] must be 0 s (the first segment starts the flight), "
+                             f"got {times[0]}")
+        if np.any(np.diff(times) <= 0):
+            raise ValueError(f"times must be strictly increasing, got {times.tolist()}")
+        return times
+
+    def _freeze(self, *arrays) -> None:
+        """Set ``_FIELDS`` to read-only float copies of ``arrays``."""
+        for name, arr in zip(self._FIELDS, arrays):
+            arr = np.array(arr, dtype=float)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"{type(self).__name__} is immutable")
+
+    def __reduce__(self):
+        # bypass the constructor's checks and normalisation: a pickled copy is bit-identical
+        return (_restore, (type(self), *(getattr(self, f) for f in self._FIELDS)))
+
+    @property
+    def n_segments(self) -> int:
+        """Number of constant segments."""
+        return self.times.shape[0]
+
+    @property
+    def n_changes(self) -> int:
+        """Number of changes after the start (segments - 1)."""
+        return self.n_segments - 1
+
+    def segment(self, t: ArrayLike) -> np.ndarray | np.intp:
+        """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
+        t = np.asarray(t, dtype=float)
+        return np.searchsorted(self.times, t + 1e-9, side="right") - 1
+
+    def check_within(self, duration: float) -> None:
+        """Raise ``ValueError`` unless every change happens inside ``[0, duration)``."""
+        if self.times[-1] >= duration:
+            raise ValueError(f"{self._KIND} change times must lie inside the flight "
+                             f"[0, {duration}) s, got {self.times[-1]}")
+
+    def __eq__(self, other):
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, f), getattr(other, f)) for f in self._FIELDS)
+
+    def __hash__(self):
+        return hash(tuple(getattr(self, f).tobytes() for f in self._FIELDS))
+
+    def __repr__(self):
+        a, b, c = self._FIELDS
+        return (f"{type(self).__name__}({a}={getattr(self, a).tolist()}, "
+                f"{b}={getattr(self, b).tolist()}, "
+                f"{c}={np.round(getattr(self, c), 4).tolist()})")
+
+
+def _restore(cls, *arrays):
+    seq = object.__new__(cls)
+    for name, arr in zip(cls._FIELDS, arrays):
+        object.__setattr__(seq, name, arr)
+    return seq
+
+
+class ThrustSequence(_Sequence):
     """Piecewise-constant thrust: segment ``i`` holds from ``times[i]`` to the next change.
 
     Parameters
@@ -55,58 +138,27 @@ class ThrustSequence:
     """
 
     __slots__ = ("times", "magnitudes", "directions")
+    _FIELDS = __slots__
+    _KIND = "thrust"
 
     def __init__(self, times, magnitudes, directions):
-        times = check_array(times, "times", ndim=1)
+        times = self._check_times(times)
         k = times.shape[0]
-        if k == 0:
-            raise ValueError("times must hold at least one segment start (0.0)")
         magnitudes = check_array(magnitudes, "magnitudes", shape=(k,))
         directions = check_array(directions, "directions", shape=(k, 3))
-        if times[0] != 0.0:
-            raise ValueError(f"times[0] must be 0 s (the first segment starts the flight), "
-                             f"got {times[0]}")
-        if np.any(np.diff(times) <= 0):
-            raise ValueError(f"times must be strictly increasing, got {times.tolist()}")
         if np.any(magnitudes < 0):
             raise ValueError(f"magnitudes must be >= 0 N, got {magnitudes.tolist()}")
         norms = np.linalg.norm(directions, axis=1)
         if np.any(norms == 0):
             raise ValueError("directions must be non-zero vectors, got a zero row at index "
                              f"{int(np.flatnonzero(norms == 0)[0])}")
-        for name, arr in (("times", times), ("magnitudes", magnitudes),
-                          ("directions", directions / norms[:, None])):
-            arr = np.array(arr, dtype=float)
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-
-    def __setattr__(self, name, value):
-        raise AttributeError("ThrustSequence is immutable")
-
-    def __reduce__(self):
-        # bypass re-normalisation so a pickled copy is bit-identical
-        return (_restore, (self.times, self.magnitudes, self.directions))
+        self._freeze(times, magnitudes, directions / norms[:, None])
 
     # -- evaluation ---------------------------------------------------------- #
-    @property
-    def n_segments(self) -> int:
-        """Number of constant-thrust segments."""
-        return self.times.shape[0]
-
-    @property
-    def n_changes(self) -> int:
-        """Number of thrust changes after the start (segments - 1)."""
-        return self.n_segments - 1
-
     @property
     def vectors(self) -> np.ndarray:
         """Thrust vector of each segment, shape (k, 3) [N]."""
         return self.magnitudes[:, None] * self.directions
-
-    def segment(self, t: ArrayLike) -> np.ndarray | np.intp:
-        """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
-        t = np.asarray(t, dtype=float)
-        return np.searchsorted(self.times, t + 1e-9, side="right") - 1
 
     def thrust(self, t: ArrayLike) -> np.ndarray:
         """Thrust vector [N] at time(s) ``t`` [s]: shape (3,) or (len(t), 3)."""
@@ -115,12 +167,6 @@ class ThrustSequence:
             raise ValueError("t must be finite and >= 0 s")
         idx = np.maximum(self.segment(t_arr), 0)
         return self.vectors[idx]
-
-    def check_within(self, duration: float) -> None:
-        """Raise ``ValueError`` unless every change happens inside ``[0, duration)``."""
-        if self.times[-1] >= duration:
-            raise ValueError(f"thrust change times must lie inside the flight [0, {duration}) s, "
-                             f"got {self.times[-1]}")
 
     # -- vector form for CEM ------------------------------------------------- #
     def to_vector(self) -> np.ndarray:
@@ -152,33 +198,10 @@ class ThrustSequence:
         dirs[np.linalg.norm(dirs, axis=1) == 0] = (0.0, 0.0, 1.0)
         return cls(times, mags, dirs)
 
-    # -- dunder -------------------------------------------------------------- #
-    def __eq__(self, other):
-        if not isinstance(other, ThrustSequence):
-            return NotImplemented
-        return (np.array_equal(self.times, other.times)
-                and np.array_equal(self.magnitudes, other.magnitudes)
-                and np.array_equal(self.directions, other.directions))
-
-    def __hash__(self):
-        return hash((self.times.tobytes(), self.magnitudes.tobytes(), self.directions.tobytes()))
-
-    def __repr__(self):
-        return (f"ThrustSequence(times={self.times.tolist()}, "
-                f"magnitudes={self.magnitudes.tolist()}, "
-                f"directions={np.round(self.directions, 4).tolist()})")
-
     def to_dict(self) -> dict[str, list]:
         """Plain lists, for tables: times [s], magnitudes [N], directions."""
         return {"times": self.times.tolist(), "magnitudes": self.magnitudes.tolist(),
                 "directions": self.directions.tolist()}
-
-
-def _restore(times, magnitudes, directions):
-    seq = object.__new__(ThrustSequence)
-    for name, arr in (("times", times), ("magnitudes", magnitudes), ("directions", directions)):
-        object.__setattr__(seq, name, arr)
-    return seq
 
 
 def _check_rng(rng):
@@ -297,7 +320,7 @@ def euler_to_quaternion(angles) -> np.ndarray:
                      cr * cp * sy - sr * sp * cy, cr * cp * cy + sr * sp * sy], axis=1)
 
 
-class AttitudeSequence:
+class AttitudeSequence(_Sequence):
     """Piecewise-constant collective thrust and attitude: segment ``i`` holds from
     ``times[i]`` to the next change, flown with RotorPy's ``cmd_ctatt`` (a multirotor only).
 
@@ -319,21 +342,17 @@ class AttitudeSequence:
     """
 
     __slots__ = ("times", "thrusts", "angles")
+    _FIELDS = __slots__
+    _KIND = "attitude"
     #: the CEM's start: per segment (thrust [N], roll, pitch, yaw [rad]) means and stds
     CEM_MEAN = (25.0, 0.0, 0.0, 0.0)
     CEM_STD = (50.0, 0.3, 0.3, 1.0)
 
     def __init__(self, times, thrusts, angles):
-        times = check_array(times, "times", ndim=1)
+        times = self._check_times(times)
         k = times.shape[0]
-        if k == 0:
-            raise ValueError("times must hold at least one segment start (0.0)")
         thrusts = check_array(thrusts, "thrusts", shape=(k,))
         angles = check_array(angles, "angles", shape=(k, 3))
-        if times[0] != 0.0:
-            raise ValueError(f"times[0] must be 0 s, got {times[0]}")
-        if np.any(np.diff(times) <= 0):
-            raise ValueError(f"times must be strictly increasing, got {times.tolist()}")
         if np.any(thrusts < 0):
             raise ValueError(f"thrusts must be >= 0 N, got {thrusts.tolist()}")
         if np.any(np.abs(angles[:, :2]) > math.pi / 2 + 1e-12):
@@ -342,24 +361,7 @@ class AttitudeSequence:
         if np.any(np.abs(angles[:, 2]) > math.pi + 1e-12):
             raise ValueError(f"angles: yaw must be in [-pi, pi] rad, got "
                              f"{np.abs(angles[:, 2]).max():g}")
-        for name, arr in (("times", times), ("thrusts", thrusts), ("angles", angles)):
-            arr = np.array(arr, dtype=float)
-            arr.setflags(write=False)
-            object.__setattr__(self, name, arr)
-
-    def __setattr__(self, name, value):
-        raise AttributeError("AttitudeSequence is immutable")
-
-    def __reduce__(self):
-        return (AttitudeSequence, (self.times, self.thrusts, self.angles))
-
-    @property
-    def n_segments(self) -> int:
-        return self.times.shape[0]
-
-    @property
-    def n_changes(self) -> int:
-        return self.n_segments - 1
+        self._freeze(times, thrusts, angles)
 
     @property
     def magnitudes(self) -> np.ndarray:
@@ -369,15 +371,6 @@ class AttitudeSequence:
     def quaternions(self) -> np.ndarray:
         """Commanded attitude of each segment, quaternions [i, j, k, w], shape (k, 4)."""
         return euler_to_quaternion(self.angles)
-
-    def segment(self, t):
-        """Index of the segment active at time(s) ``t`` [s] (a change at t counts from t)."""
-        return np.searchsorted(self.times, np.asarray(t, dtype=float) + 1e-9, side="right") - 1
-
-    def check_within(self, duration: float) -> None:
-        if self.times[-1] >= duration:
-            raise ValueError(f"attitude change times must lie inside the flight [0, {duration}) "
-                             f"s, got {self.times[-1]}")
 
     def to_vector(self) -> np.ndarray:
         """Flat vector ``[T_0, roll_0, pitch_0, yaw_0, T_1, ...]``, shape (4 k,)."""
@@ -396,20 +389,6 @@ class AttitudeSequence:
         angles = np.column_stack([np.clip(v[:, 1:3], -max_tilt, max_tilt),
                                   (v[:, 3] + math.pi) % (2 * math.pi) - math.pi])
         return cls(times, np.clip(v[:, 0], 0.0, max_magnitude), angles)
-
-    def __eq__(self, other):
-        if not isinstance(other, AttitudeSequence):
-            return NotImplemented
-        return (np.array_equal(self.times, other.times)
-                and np.array_equal(self.thrusts, other.thrusts)
-                and np.array_equal(self.angles, other.angles))
-
-    def __hash__(self):
-        return hash((self.times.tobytes(), self.thrusts.tobytes(), self.angles.tobytes()))
-
-    def __repr__(self):
-        return (f"AttitudeSequence(times={self.times.tolist()}, thrusts={self.thrusts.tolist()}, "
-                f"angles={np.round(self.angles, 4).tolist()})")
 
     def to_dict(self) -> dict:
         return {"times": self.times.tolist(), "magnitudes": self.thrusts.tolist(),
