@@ -356,8 +356,8 @@ def _fit_forces(quiet, target, study, start=(1.0, 1.0)):
     Both at once, from ``start`` (the preset's own drag and lift): the drag moves the vertical
     force too (induced inflow, the tilted frame) and the lift the lean, so the two forces are
     one map of the two factors. Its Jacobian is measured by one step in each factor, then
-    Newton steps with Broyden's update of it: five measurements (ten flights) where fitting
-    each factor in turn by secant steps took about twenty-two."""
+    Newton steps with Broyden's update of it: on the Neural-Fly targets six measurements
+    (twelve flights), where fitting each factor in turn by secant steps took twenty-two."""
     goal = np.array([target["force_x"], target["force_z"]])
     tol = np.array([0.005 * abs(target["force_x"]), 0.02])
     low, high = np.array([1e-3, 0.0]), np.array([100.0, 100.0])
