@@ -6,8 +6,8 @@ paper profile's fill and book, the closed loop, Experiment 13 and the fill on a 
 * ``bench_paper_profile`` -- the paper profile: its loops' cost, and with ``FULL=1`` the
   measured fill and book (``where_the_fill_goes``, ``page_cell_seconds``);
 * ``bench_closed_loop`` -- Exp 12's episodes and rollouts;
-* ``bench_exp13`` -- Exp 13's CPU seconds at each profile, and the check behind its
-  iteration cap;
+* ``bench_exp13`` -- Exp 13's CPU seconds at each profile, and the checks behind its
+  iteration cap and its lap length;
 * ``bench_cluster`` -- a CEM run on a two-worker dask cluster, as one task and sample by
   sample.
 """
@@ -279,7 +279,8 @@ def bench_exp13(report):
     (a fresh process, the flights read and every pair, channel and controller clustered, one
     worker), the simulated part's beside it, and the check behind its iteration cap: every
     real-flight row at the paper profile with the k-means capped as the study caps it and
-    at 100 (the paper's clustering), side by side."""
+    at 100 (the paper's clustering), side by side, and with the laps resampled to the
+    study's samples and to the paper's series length (:func:`_lap_length_check`)."""
     import subprocess
     import tempfile
 
@@ -318,7 +319,38 @@ def bench_exp13(report):
           f"identical, largest difference {diff:.3g} points")
     out["iterations"] = {"cap": rf.STUDIES["paper"].max_iter, "identical": same,
                          "rows": int(cl.sum()), "largest_difference": diff}
+    # the lap's length: the study's samples per lap against the paper's series length, on
+    # what the page reads (each channel's controlled verdict, the orders of two channels
+    # the real flights decide)
+    paper_len = 120
+    longer = rf.compute_rows(flights, replace(rf.STUDIES["paper"], n_samples=paper_len),
+                             n_jobs=-1)
+    out["samples"] = _lap_length_check(capped, longer, rf.STUDIES["paper"].n_samples, paper_len)
+    s = out["samples"]
+    print(f"  laps of {s['samples']} against {s['paper_samples']} samples: {s['verdicts_same']} "
+          f"of {s['channels']} channel verdicts the same; orders of two channels decided "
+          f"(CIs apart): {s['decided']} against {s['decided_paper']}, {s['reversed']} reversed")
     report["exp13"] = out
+
+
+def _lap_length_check(rows, paper_rows, samples, paper_samples):
+    """What a page reads of Exp 13's real rows at ``samples`` per lap against
+    ``paper_samples``: how many channels keep their controlled verdict, how many orders of two
+    channels each decides (their CIs over controllers apart) and how many it reverses."""
+    from uavwind.analysis import real_flights as rf
+
+    def decided(r):
+        ch = rf.channel_table(r).set_index("channel")
+        return {(a, b) for a in ch.index for b in ch.index
+                if a != b and ch.loc[a, "ci_low"] > ch.loc[b, "ci_high"]}
+
+    va = rf.controlled_table(rows).set_index("channel")["verdict"]
+    vb = rf.controlled_table(paper_rows).set_index("channel")["verdict"].reindex(va.index)
+    da, db = decided(rows), decided(paper_rows)
+    return {"samples": samples, "paper_samples": paper_samples, "channels": len(va),
+            "verdicts_same": int((va == vb).sum()), "decided": len(da),
+            "decided_paper": len(db), "reversed": len({(a, b) for a, b in da if (b, a) in db}),
+            "undecided_here": sorted(f"{a} above {b}" for a, b in db - da)}
 
 
 #: The CEM run the cluster section fills: Experiment 6's (point mass, 20 environments).
