@@ -214,10 +214,19 @@ def read_columns(file: os.PathLike | str) -> dict[str, np.ndarray]:
     return out
 
 
+#: What :func:`_vectors` strips from a cell before reading its numbers: the list brackets
+#: and whitespace.
+_STRIP = str.maketrans("", "", "[] \t\n\r\f\v")
+
+
 def _vectors(cells: pd.Series, file: str, col: str, width: int) -> np.ndarray:
-    """(n, width) floats from a column of list literals (or plain numbers when width is 1)."""
-    text = cells.str.replace(r"[\[\]\s]", "", regex=True)
-    counts = np.where(text == "", 0, text.str.count(",") + 1)
+    """(n, width) floats from a column of list literals (or plain numbers when width is 1):
+    the column's cells joined and stripped in one pass (a regular expression per cell took
+    half of a file's read)."""
+    strings = cells.tolist()
+    text = [t.translate(_STRIP) for t in strings] if any(";" in t for t in strings) \
+        else ";".join(strings).translate(_STRIP).split(";")
+    counts = np.fromiter((t.count(",") + 1 if t else 0 for t in text), np.int64, len(text))
     bad = np.flatnonzero(counts != width)
     if bad.size:
         i = int(bad[0])
