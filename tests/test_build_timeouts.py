@@ -138,14 +138,14 @@ def test_a_page_that_would_compute_fails_naming_what(tmp_path, monkeypatch):
     with pytest.raises(RuntimeError, match="the filter comparison"):
         filter_comparison(s, n_flights=1, results=tmp_path)
     # a page's own small run (an exercise's loops, a closed-loop episode) is refused too:
-    # the fill runs them (uavwind.analysis.memo) and the page shows their code and result
+    # the fill runs them (uavwind.analysis.page_analyses) and the page shows their code and result
     with pytest.raises(RuntimeError, match=r"a clustering loop \(score_loop\)"):
         uw.random_search(s, n_loops=1, seed=0, n_jobs=1, progress=False)
     from uavwind.method.closed_loop import ClosedLoop, run_episodes
     with pytest.raises(RuntimeError, match=r"closed-loop episodes"):
         run_episodes(ClosedLoop(setting=uw.make_setting("light constant", "strong constant", 2)),
                      "greedy", 0, 1)
-    from uavwind.analysis import memo as page_analyses
+    from uavwind.analysis import page_analyses
     with pytest.raises(RuntimeError, match="the analysis model_example"):
         page_analyses.model_example(results=tmp_path)
 

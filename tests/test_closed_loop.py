@@ -331,18 +331,18 @@ def test_experiment_12_end_to_end_and_its_cache(tmp_path, monkeypatch):
     # the page's summaries (the curves' bootstraps, time to confidence, closing the loop)
     # are made by the fill, kept under the table's digest and read back equal
     from uavwind.analysis import closed_loop as cl
-    from uavwind.analysis import memo
+    from uavwind.analysis import page_analyses
     from uavwind.core.io import READ_ONLY_ENV
-    made = memo.exp12_summaries(df, results=tmp_path)
+    made = page_analyses.exp12_summaries(df, results=tmp_path)
     for name, f in (("curves", cl.accuracy_over_time), ("time_to_confidence",
                                                          cl.time_to_confidence),
                     ("closing", cl.closing_the_loop)):
         assert made[name].equals(f(df)), name
     monkeypatch.setenv(READ_ONLY_ENV, "1")
-    read = memo.exp12_summaries(again, results=tmp_path)
+    read = page_analyses.exp12_summaries(again, results=tmp_path)
     assert all(read[k].equals(made[k]) for k in made)
     with pytest.raises(RuntimeError, match="the analysis exp12_curves"):
-        memo.exp12_summaries(df.iloc[:-1], results=tmp_path)  # another table: not cached
+        page_analyses.exp12_summaries(df.iloc[:-1], results=tmp_path)  # another table: not cached
 
 
 def test_a_flight_unlike_every_member_is_not_read_with_certainty():

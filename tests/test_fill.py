@@ -372,12 +372,12 @@ def test_analyses_run_in_the_fills_pool_once_what_they_read_is_stored(tmp_path):
 def test_every_page_analysis_is_a_task_that_says_what_it_reads():
     """The pages' analyses are the fill's tasks, each once, each naming experiments of the
     registry it reads (an analysis that read one unnamed would run before it is stored)."""
-    from uavwind.analysis import memo
+    from uavwind.analysis import page_analyses
     from uavwind.study.registry import EXPERIMENTS
 
-    tasks = memo.page_analyses()
-    assert [a.name for a in tasks] == list(memo.PAGE_ANALYSES)
-    assert set(memo.PAGE_ANALYSIS_READS) <= set(memo.PAGE_ANALYSES)
+    tasks = page_analyses.page_analyses()
+    assert [a.name for a in tasks] == list(page_analyses.PAGE_ANALYSES)
+    assert len({a.name for a in tasks}) == len(tasks)
     for a in tasks:
         assert isinstance(a, fill.Analysis) and set(a.reads) <= set(EXPERIMENTS), a.name
     assert {"exp1", "exp10"} <= set(dict((a.name, a.reads) for a in tasks)["claims"])

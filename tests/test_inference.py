@@ -67,14 +67,15 @@ def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
     fits = inf.check_fits(inf.fit_layouts(df))
     assert list(fits.index) == [1, 4] and fits["in_ci"].all()
     # the page reads the same table from the fill's cache, keyed by the loops it is fitted to
-    from uavwind.analysis import memo
+    from uavwind.analysis import page_analyses
     from uavwind.core.io import READ_ONLY_ENV
-    assert memo.layout_fits(df, results=tmp_path).equals(fits)
+    assert page_analyses.layout_fits(df, results=tmp_path).equals(fits)
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv(READ_ONLY_ENV, "1")
-        assert memo.layout_fits(df, results=tmp_path).equals(fits)  # read, not computed
+        assert page_analyses.layout_fits(df, results=tmp_path).equals(fits)  # read, not computed
         with pytest.raises(RuntimeError, match="inference_layout_fits"):
-            memo.layout_fits(df.iloc[1:], results=tmp_path)  # other loops: not in the cache
+            # other loops: not in the cache
+            page_analyses.layout_fits(df.iloc[1:], results=tmp_path)
     # and the check bites: a constant far from its fit is refused, naming the scenario
     bad = fits.assign(in_use=[99.0, 5.7], in_ci=[False, True])
     with pytest.raises(ValueError, match="scenario 1"):

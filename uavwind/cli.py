@@ -30,7 +30,7 @@ from functools import partial
 from .analysis.exp13 import run_exp13
 from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
 from .analysis.filters import filter_table
-from .analysis.memo import page_analyses
+from .analysis.page_analyses import page_analyses
 from .analysis.real_flights import channel_table, real_flight_rows
 from .analysis.tables import summary_table
 from .core.io import check_target
@@ -301,7 +301,7 @@ def _filter_fill(profile, seed, results):
 def _book_analyses(folder) -> list:
     """Every analysis the pages read, as the fill's tasks: the explorer's grid, Exp 11's
     filter table and Exp 13's real flights (first: long, and reading no experiment), then
-    :func:`~uavwind.analysis.memo.page_analyses` (each once what it reads is stored).
+    :func:`~uavwind.analysis.page_analyses.page_analyses` (each once what it reads is stored).
     Exp 13 only with its flights: ``folder``, else ``$UAVWIND_NEURALFLY`` (else left out)."""
     out = [Analysis("explore_grid", fill_grid, long=True),
            Analysis("exp11_filter_table", _filter_fill, long=True)]

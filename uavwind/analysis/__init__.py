@@ -8,7 +8,10 @@
 * :mod:`.exp13` -- Exp 13 as one run (the real flights, then their twin), registered with the
   study's registry;
 * :mod:`.inference` -- the paper's unstated setup, recovered from its Table 4 and tested;
-* :mod:`.claims` -- the paper's claims, judged with uncertainty.
+* :mod:`.claims` -- the paper's claims, judged with uncertainty;
+* :mod:`.memo` -- a table an analysis computes once, in the one verified cache;
+* :mod:`.page_analyses` -- the analyses the pages read, each registered where it is defined
+  as the fill's task, and the settings they fly.
 
 Imports the layers below it, never :mod:`uavwind.report`.
 """

@@ -1,0 +1,141 @@
+"""The page analyses: registered where they are defined, found by the fill and by the pages
+under the same cache keys as before they moved out of ``uavwind.analysis.memo``."""
+import ast
+import pickle
+import re
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from uavwind.analysis import memo, page_analyses
+from uavwind.core.store import make_key
+from uavwind.study.fill import Analysis
+
+ROOT = Path(__file__).resolve().parents[1]
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.md"))
+
+#: The fill's page tasks in the order they had as a hand-kept dict in memo.py.
+ORDER = ["claims", "inference", "exp12", "exp10_saturation_split", "exp10_drift_offsets",
+         "exp10_zero_thrust_sensitivity", "exp12_inferred_exercise", "model_example"]
+
+
+def test_every_page_analysis_is_registered_once_in_the_order_it_is_defined():
+    tasks = page_analyses.page_analyses()
+    names = [a.name for a in tasks]
+    assert names == list(page_analyses.PAGE_ANALYSES) == ORDER
+    assert len(set(names)) == len(names)
+    for name, a in page_analyses.PAGE_ANALYSES.items():
+        assert isinstance(a, Analysis) and a.name == name
+    reads = {a.name: a.reads for a in tasks}
+    assert reads["inference"] == ("fit_layout",) and reads["exp12_inferred_exercise"] == ("exp12",)
+    assert reads["exp10_saturation_split"] == () and reads["model_example"] == ()
+    # the fill sends them to worker processes
+    assert [a.name for a in pickle.loads(pickle.dumps(tasks))] == names
+
+
+def test_a_name_registered_twice_is_refused_naming_it(monkeypatch):
+    before = dict(page_analyses.PAGE_ANALYSES)
+    with pytest.raises(ValueError, match=r"'claims' is registered twice: by "
+                                         r"uavwind\.analysis\.page_analyses\._fill_claims"):
+        page_analyses.fills("claims")(lambda profile, seed, results: None)
+    assert page_analyses.PAGE_ANALYSES == before  # the refused one left nothing behind
+
+    monkeypatch.setattr(page_analyses, "PAGE_ANALYSES", dict(before))
+
+    def twice(profile, seed, results):
+        pass
+    assert page_analyses.fills("twice")(twice) is twice  # returned unchanged
+    with pytest.raises(ValueError, match=r"'twice' is registered twice: by .*twice and by .*twice"):
+        page_analyses.fills("twice")(twice)
+    assert [a.name for a in page_analyses.page_analyses()] == [*ORDER, "twice"]
+
+
+def test_fills_checks_what_it_registers(monkeypatch):
+    monkeypatch.setattr(page_analyses, "PAGE_ANALYSES", {})
+    with pytest.raises(ValueError, match=r"'x' reads experiments not in the registry: \['nope'\]"):
+        page_analyses.fills("x", reads=("exp1", "nope"))
+    with pytest.raises(ValueError, match="identifier"):
+        page_analyses.fills("not a name")
+    with pytest.raises(TypeError, match="must take 'results'"):
+        page_analyses.fills("x")(lambda profile, seed: None)
+    with pytest.raises(TypeError, match="must take 'results'"):
+        page_analyses.fills("x")(lambda seed, n_loops, results=None: None)
+    assert page_analyses.PAGE_ANALYSES == {}
+    # an analysis taking some of (profile, seed, results) is called with those it names
+    got = []
+    page_analyses.fills("x", reads=("exp1",))(lambda seed, results=None, n=3:
+                                               got.append((seed, results, n)))
+    task = page_analyses.PAGE_ANALYSES["x"]
+    assert task.reads == ("exp1",)
+    task.fill("quick", 7, "folder")
+    assert got == [(7, "folder", 3)]
+
+
+def _table(k):
+    return pd.DataFrame({"a": np.arange(3) + k, "b": [0.5, 1.5, 2.5]})
+
+
+def test_the_cache_keys_did_not_move(monkeypatch):
+    """The file names (name-key) each analysis asks the store for, with these inputs, as
+    uavwind.analysis.memo computed them before the page analyses moved out of it
+    (commit 78be621): a cache filled before is still found."""
+    seen = []
+
+    def capture(kind, key_params, compute, folder=None, version=None, name=None, **kw):
+        seen.append(f"{kind}/{name}-{make_key(kind, key_params, version)}")
+        return pd.DataFrame()
+    monkeypatch.setattr(memo, "get_or_compute", capture)
+    pa = page_analyses
+    pa.claims_verdicts({"inferred": {"exp1": _table(0)}, "halves": {"exp1": _table(1)}})
+    pa.c1_vehicles(_table(2))
+    pa.layout_fits(_table(3))
+    pa.scale_invariance_summary("paper", 11)
+    pa.scale_invariance_summary("quick", 11)
+    pa.exp12_summaries(_table(4))
+    pa.saturation_split(11)
+    pa.drift_offsets(11)
+    pa.zero_thrust_sensitivity(11)
+    pa.model_example()
+    assert seen == ["analyses/claims_verdicts-581a33f451dc68f16383",
+                    "analyses/claims_c1_by_vehicle-41a2cbe3f01d658805fb",
+                    "analyses/inference_layout_fits-6ac9d38f5ae0b4e87df2",
+                    "analyses/inference_scale_invariance-150190e8cd002a2b7cb6",
+                    "analyses/inference_scale_invariance-b1449601e2fb273f28ff",
+                    "analyses/exp12_curves-97038c94f1959bc9725b",
+                    "analyses/exp12_time_to_confidence-69edd2b834df73f407af",
+                    "analyses/exp12_closing-fb8816b10d924c656558",
+                    "analyses/exp10_saturation_split-36ba8b79b1752f68f153",
+                    "analyses/exp10_drift_offsets-38ed16bfce413685da59",
+                    "analyses/exp10_zero_thrust_sensitivity-d3fffe5f0d77d2cd1b9a",
+                    "analyses/model_example-45c1fdc599b0f97a9f14"]
+
+
+def test_every_name_a_page_asks_of_page_analyses_exists():
+    used = {}
+    for nb in NOTEBOOKS:
+        text = nb.read_text()
+        assert "memo as page_analyses" not in text, nb.name
+        for name in re.findall(r"\bpage_analyses\.(\w+)", text):
+            used.setdefault(name, nb.name)
+    assert {"claims_inputs", "saturation_split", "model_example", "SATURATION_LOOPS"} <= set(used)
+    missing = {n: page for n, page in used.items() if not hasattr(page_analyses, n)}
+    assert not missing, missing
+
+
+def test_exp12_exercise_cell_is_the_call_the_fill_makes(monkeypatch):
+    """Exp 12's first exercise shows its solution as code that reads the fill's entries: the
+    page's literal arguments are the ones exp12_inferred_exercise runs."""
+    got = {}
+    monkeypatch.setattr(page_analyses, "run_experiment",
+                        lambda exp_id, **kw: got.update(exp_id=exp_id, **kw))
+    page_analyses.exp12_inferred_exercise(5)
+    text = (ROOT / "notebooks" / "exp12_closed_loop.md").read_text()
+    calls = [ast.parse(m).body[0].value
+             for m in re.findall(r"run_experiment\(\"exp12\",[^)]*\)", text) if "cases=" in m]
+    assert len(calls) == 1
+    page = {k.arg: ast.literal_eval(k.value) for k in calls[0].keywords
+            if isinstance(k.value, (ast.Constant, ast.List))}
+    assert ast.literal_eval(calls[0].args[0]) == got["exp_id"] == "exp12"
+    assert page == {k: got[k] for k in ("profile", "reading", "cases")}
