@@ -77,10 +77,8 @@ def _table(k):
     return pd.DataFrame({"a": np.arange(3) + k, "b": [0.5, 1.5, 2.5]})
 
 
-def test_the_cache_keys_did_not_move(monkeypatch):
-    """The file names (name-key) each analysis asks the store for, with these inputs, as
-    uavwind.analysis.memo computed them before the page analyses moved out of it
-    (commit 78be621): a cache filled before is still found."""
+def _keys(monkeypatch):
+    """The file names (name-key) each analysis asks the store for, with fixed inputs."""
     seen = []
 
     def capture(kind, key_params, compute, folder=None, version=None, name=None, **kw):
@@ -98,18 +96,25 @@ def test_the_cache_keys_did_not_move(monkeypatch):
     pa.drift_offsets(11)
     pa.zero_thrust_sensitivity(11)
     pa.model_example()
-    assert seen == ["analyses/claims_verdicts-581a33f451dc68f16383",
-                    "analyses/claims_c1_by_vehicle-41a2cbe3f01d658805fb",
-                    "analyses/inference_layout_fits-6ac9d38f5ae0b4e87df2",
-                    "analyses/inference_scale_invariance-150190e8cd002a2b7cb6",
-                    "analyses/inference_scale_invariance-b1449601e2fb273f28ff",
-                    "analyses/exp12_curves-97038c94f1959bc9725b",
-                    "analyses/exp12_time_to_confidence-69edd2b834df73f407af",
-                    "analyses/exp12_closing-fb8816b10d924c656558",
-                    "analyses/exp10_saturation_split-36ba8b79b1752f68f153",
-                    "analyses/exp10_drift_offsets-38ed16bfce413685da59",
-                    "analyses/exp10_zero_thrust_sensitivity-d3fffe5f0d77d2cd1b9a",
-                    "analyses/model_example-45c1fdc599b0f97a9f14"]
+    return seen
+
+
+@pytest.mark.parametrize("setting, value, moved", [
+    ("DRIFT_WIND", (3.0, -1.0, 0.0), {"exp10_drift_offsets"}),
+    ("SENSITIVITY_WIND", (0.5, 0.25, 0.0), {"exp10_zero_thrust_sensitivity"}),
+    ("SENSITIVITY_DELTA", 1e-8, {"exp10_zero_thrust_sensitivity"}),
+    ("SATURATION_LOOPS", 3, {"exp10_saturation_split"}),
+    ("SCALE_FACTOR", 2.0, {"inference_scale_invariance"}),
+    ("SCALE_ENVIRONMENTS", 3, {"inference_scale_invariance"}),
+])
+def test_a_setting_of_an_analysis_is_part_of_its_cache_key(monkeypatch, setting, value, moved):
+    """Changing a page analysis' setting gives its entry a new key (a cache filled under the
+    old setting is not read back as the new one's), and only its own."""
+    before = _keys(monkeypatch)
+    monkeypatch.setattr(page_analyses, setting, value)
+    after = _keys(monkeypatch)
+    changed = {b.split("/")[1].rsplit("-", 1)[0] for b, a in zip(before, after) if a != b}
+    assert changed == moved
 
 
 def test_every_name_a_page_asks_of_page_analyses_exists():

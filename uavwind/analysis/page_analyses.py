@@ -189,7 +189,10 @@ def scale_invariance_summary(profile: str, seed: int, results=None) -> pd.DataFr
                     n_loops=n, seed=seed, n_jobs=1)["difference"]
                 .describe()[["mean", "std", "min", "max"]] for cond in SCALE_LAYOUTS}
         return pd.DataFrame(rows).T.rename_axis("layout").assign(n_loops=n)
-    return memo("inference_scale_invariance", {"n_loops": n, "seed": seed}, compute, results)
+    return memo("inference_scale_invariance", {"n_loops": n, "seed": seed, "factor": SCALE_FACTOR,
+                                                 "layouts": list(SCALE_LAYOUTS),
+                                                 "environments": SCALE_ENVIRONMENTS},
+                compute, results)
 
 
 @fills("inference", reads=("fit_layout",))
@@ -257,7 +260,8 @@ def saturation_split(seed: int, results=None) -> pd.DataFrame:
 def drift_offsets(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.drift_offsets` over :data:`DRIFT_LOOPS` sequences
     in :data:`DRIFT_WIND`, cached."""
-    return memo("exp10_drift_offsets", {"seed": seed, "n_loops": DRIFT_LOOPS},
+    return memo("exp10_drift_offsets", {"seed": seed, "n_loops": DRIFT_LOOPS,
+                                         "wind": list(DRIFT_WIND)},
                 lambda: manoeuvres.drift_offsets(DRIFT_LOOPS, seed=seed, wind=DRIFT_WIND),
                 results)
 
@@ -267,7 +271,9 @@ def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.zero_thrust_sensitivity` over
     :data:`SENSITIVITY_LOOPS` sequences in :data:`SENSITIVITY_WIND`, changed by
     :data:`SENSITIVITY_DELTA`, cached."""
-    return memo("exp10_zero_thrust_sensitivity", {"seed": seed, "n_loops": SENSITIVITY_LOOPS},
+    return memo("exp10_zero_thrust_sensitivity", {"seed": seed, "n_loops": SENSITIVITY_LOOPS,
+                                                   "wind": list(SENSITIVITY_WIND),
+                                                   "delta": SENSITIVITY_DELTA},
                 lambda: manoeuvres.zero_thrust_sensitivity(
                     SENSITIVITY_LOOPS, seed=seed, wind=SENSITIVITY_WIND,
                     delta=SENSITIVITY_DELTA), results)
