@@ -101,3 +101,26 @@ def test_parameters_reach_tslearn():
     labels = km.fit_predict(X)
     sil = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": 1.0})
     assert np.array_equal(a.labels, labels) and a.silhouette == sil
+
+
+# ---- LoopScorer: the checks once, the loops trusted -------------------------------------- #
+def test_a_scorer_scores_as_score_loop_and_checks_once_when_made(worked_example):
+    from uavwind.method.clustering import ClusteringParams, LoopScorer
+    s = worked_example
+    X = s.simulate(uw.PAPER_EXAMPLE)
+    scorer = LoopScorer.of(s.groups, max_iter=20)
+    a, b = scorer(X), score_loop(X, s.groups, max_iter=20)
+    assert (a.score, a.silhouette, a.n_iter, a.correct) == (b.score, b.silhouette, b.n_iter,
+                                                            b.correct)
+    assert np.array_equal(a.labels, b.labels)
+    with pytest.raises(ValueError, match="groups must contain two non-empty classes"):
+        LoopScorer(np.zeros(4, int), "fast", ClusteringParams())
+    with pytest.raises(ValueError, match="engine"):
+        LoopScorer(s.groups, "slow", ClusteringParams())
+    with pytest.raises(TypeError, match="params must be a ClusteringParams"):
+        LoopScorer(s.groups, "fast", {"gamma": 0.5})
+    with pytest.raises(TypeError, match="gama"):
+        LoopScorer.of(s.groups, gama=0.5)
+    with pytest.raises(ValueError, match=r"trajectories must have shape \(%d, n_steps, d\)"
+                       % len(s.groups)):
+        scorer(X[:-1])

@@ -252,3 +252,28 @@ def test_dryden_variant_is_validated():
         uw.DrydenWind([12.0], variant="karman")
     with pytest.raises(TypeError, match="cited"):
         uw.DrydenWind([12.0], variant="cited", cited={"turbulence_level": 3})
+
+
+def test_a_reseeded_dryden_wind_is_the_wind_made_with_that_seed():
+    """with_seed draws what the constructor draws for that seed (a setting checks a group's
+    model once and reseeds it per loop); another seed draws other gusts; a model with no
+    gusts is its own reseeding."""
+    base = uw.DrydenWind([5.0, 12.0], altitude=10.0, seed=0)
+    for seed in (lambda: 3, lambda: np.random.SeedSequence(7)):  # a SeedSequence spawns once
+        again = base.with_seed(seed())
+        made = uw.DrydenWind([5.0, 12.0], altitude=10.0, seed=seed())
+        assert np.array_equal(again.gusts(50), made.gusts(50))
+        assert np.array_equal(again.sigmas, made.sigmas)
+    assert not np.array_equal(base.with_seed(1).gusts(50), base.with_seed(2).gusts(50))
+    assert np.array_equal(base.gusts(50), uw.DrydenWind([5.0, 12.0], seed=0).gusts(50))
+    const = uw.ConstantWind([[1.0, 0.0, 0.0]])
+    assert const.with_seed(5) is const
+    with pytest.raises(TypeError, match="seed must be an int"):
+        base.with_seed("3")
+
+
+def test_a_settings_turbulence_follows_its_seed():
+    setting = uw.make_setting("light turbulence", "strong turbulence", 3)
+    a, b, c = setting.simulate(uw.PAPER_EXAMPLE, seed=1), setting.simulate(
+        uw.PAPER_EXAMPLE, seed=1), setting.simulate(uw.PAPER_EXAMPLE, seed=2)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)

@@ -225,3 +225,26 @@ def test_a_cem_run_stepped_by_hand_is_cem_to_the_double():
         search.CEMRun(s, max_iter=0)
     with pytest.raises(ValueError, match="engine"):
         search.CEMRun(s, engine="slow")
+
+
+def test_a_search_checks_its_clustering_parameters_once_not_per_loop(monkeypatch):
+    """evaluate() checks the groups, engine and clustering parameters once (a LoopScorer)
+    and scores every loop with them; the paper sampler freezes its draws without checking
+    them again. Counted on a random search of 6 loops."""
+    from uavwind.method import clustering
+    from uavwind.sim import actions
+    made = {"params": 0, "sequences": 0}
+    post, init = clustering.ClusteringParams.__post_init__, actions.ThrustSequence.__init__
+
+    def count_params(self):
+        made["params"] += 1
+        post(self)
+
+    def count_sequences(self, *a, **k):
+        made["sequences"] += 1
+        init(self, *a, **k)
+    monkeypatch.setattr(clustering.ClusteringParams, "__post_init__", count_params)
+    monkeypatch.setattr(actions.ThrustSequence, "__init__", count_sequences)
+    setting = uw.table3_setting()
+    df = uw.random_search(setting, n_loops=6, seed=0, n_jobs=1, progress=False)
+    assert len(df) == 6 and made == {"params": 1, "sequences": 0}

@@ -36,7 +36,8 @@ if TYPE_CHECKING:
 
     from ..sim.actions import ThrustSequence
 
-__all__ = ["score_loop", "LoopResult", "ClusteringParams", "ENGINES", "DEFAULT_PARAMS",
+__all__ = ["score_loop", "LoopScorer", "LoopResult", "ClusteringParams", "ENGINES",
+           "DEFAULT_PARAMS",
            "check_groups", "check_engine", "default_engine", "softdtw_engine"]
 
 #: Fewest trajectories a loop can score: two clusters, one of them with two members.
@@ -254,6 +255,62 @@ def check_engine(engine: str | None) -> str:
     return check_choice(engine, "engine", sorted(ENGINES))
 
 
+@dataclass(frozen=True, eq=False)
+class LoopScorer:
+    """How the loops of one setting are clustered and scored, checked once.
+
+    The groups, the engine and the clustering parameters are checked when the scorer is
+    made; calling it on a loop's trajectories then trusts them, as scikit-learn's private
+    helpers assume prior validation: a search makes one scorer and scores every loop with
+    it, instead of re-checking the same values loop after loop (:func:`score_loop` is the
+    public entry, which checks the trajectories too).
+
+    Attributes
+    ----------
+    groups : ndarray of {0, 1}, shape (n_env,)
+        True wind group of each environment; both present.
+    engine : {"tslearn", "fast"}
+        Implementation (same answers).
+    params : ClusteringParams
+    """
+
+    groups: np.ndarray
+    engine: str
+    params: ClusteringParams
+
+    def __post_init__(self):
+        g = np.asarray(self.groups)
+        object.__setattr__(self, "groups", check_groups(g, g.shape[0] if g.ndim else -1))
+        object.__setattr__(self, "engine", check_engine(self.engine))
+        if not isinstance(self.params, ClusteringParams):
+            raise TypeError(f"params must be a ClusteringParams, got "
+                            f"{type(self.params).__name__}")
+
+    @classmethod
+    def of(cls, groups: ArrayLike, engine: str | None = None, **params: float | str
+           ) -> "LoopScorer":
+        """The scorer of ``groups`` with ``engine`` (default :func:`default_engine`) and the
+        fields of :class:`ClusteringParams` as keywords (an unknown one is a ``TypeError``)."""
+        return cls(groups, engine, ClusteringParams.from_kwargs(params, "clustering parameters"))
+
+    def __call__(self, trajectories: np.ndarray) -> LoopResult:
+        """Cluster one loop's trajectories (a float array of shape (n_env, n_steps, d), one
+        series per group entry, as the simulator returns it) and score them. Under
+        ``UAVWIND_PAGES_READ_ONLY`` it refuses with a ``RuntimeError``."""
+        refuse_to_compute("a clustering loop (score_loop)")
+        X = np.ascontiguousarray(trajectories, dtype=np.float64)
+        g = self.groups
+        if X.ndim != 3 or X.shape[0] != g.shape[0]:  # the one shape every caller shares
+            raise ValueError(f"trajectories must have shape ({g.shape[0]}, n_steps, d), one "
+                             f"series per group entry, got {X.shape}")
+        labels, sil, n_iter = _cluster(X, self.params.to_dict(), self.engine)
+        two = len(np.unique(labels)) == 2
+        correct = bool(two and (np.array_equal(labels, g) or np.array_equal(labels, 1 - g)))
+        score = 100.0 * sil if correct and np.isfinite(sil) else 0.0
+        return LoopResult(score=float(score), silhouette=float(sil), labels=labels,
+                          correct=correct, n_iter=n_iter, groups=g)
+
+
 def score_loop(trajectories: ArrayLike, groups: ArrayLike, engine: str | None = None,
                **params: float | str) -> LoopResult:
     """Cluster one loop's trajectories into two clusters and score them.
@@ -300,12 +357,4 @@ def score_loop(trajectories: ArrayLike, groups: ArrayLike, engine: str | None = 
         raise ValueError(f"trajectories must stay within +-{MAX_COORDINATE:g} m (squared DTW "
                          f"costs overflow beyond), got {np.abs(X).max():g}")
     g = check_groups(groups, X.shape[0])
-    engine = check_engine(engine)
-    p = ClusteringParams.from_kwargs(params, "score_loop").to_dict()
-    X = np.ascontiguousarray(X, dtype=np.float64)
-    labels, sil, n_iter = _cluster(X, p, engine)
-    two = len(np.unique(labels)) == 2
-    correct = bool(two and (np.array_equal(labels, g) or np.array_equal(labels, 1 - g)))
-    score = 100.0 * sil if correct and np.isfinite(sil) else 0.0
-    return LoopResult(score=float(score), silhouette=float(sil), labels=labels, correct=correct,
-                      n_iter=n_iter, groups=g)
+    return LoopScorer(g, engine, ClusteringParams.from_kwargs(params, "score_loop"))(X)

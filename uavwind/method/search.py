@@ -41,7 +41,7 @@ from ..sim.references import Reference, WaypointSpline
 from ..sim.multirotor import GroundContact, Multirotor
 from ..sim.setting import Setting
 from .baseline import baseline_metrics
-from .clustering import ClusteringParams, LoopResult, check_engine, score_loop
+from .clustering import ClusteringParams, LoopResult, LoopScorer, check_engine
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -49,20 +49,22 @@ if TYPE_CHECKING:
 __all__ = ["evaluate", "random_search", "cem", "CEMRun", "CEMResult", "cem_step"]
 
 
-def _one_loop(setting, thrust, wind_seed, engine, params, pin=False):
+def _one_loop(setting, thrust, wind_seed, scorer, pin=False):
+    """One loop of ``setting`` flown with ``thrust`` in the winds of ``wind_seed``, scored by
+    ``scorer`` (a :class:`~uavwind.method.clustering.LoopScorer`: checked once, by
+    :func:`evaluate`)."""
     if pin:  # inside a worker process: do not oversubscribe the cores
         pin_threads()
     multirotor = isinstance(setting.uav, Multirotor)
     if setting.plain and not multirotor:
-        traj = setting.simulate(thrust, seed=wind_seed)
-        return score_loop(traj, setting.groups, engine=engine, **params)
+        return scorer(setting.simulate(thrust, seed=wind_seed))
     try:
         obs, flight, positions = setting.observe(thrust, seed=wind_seed)
     except GroundContact as exc:
         if not isinstance(thrust, Reference):
             raise
         return _crashed(setting, exc)
-    res = score_loop(obs, setting.groups, engine=engine, **params)
+    res = scorer(obs)
     metrics = {}
     if multirotor:  # how often the vehicle's limits bound in this loop
         metrics.update(tilt_limited=flight.tilt_limited, motor_limited=flight.motor_limited)
@@ -133,9 +135,9 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
         raise ValueError(f"thrusts and wind_seeds must have the same length, "
                          f"got {len(thrusts)} and {len(wind_seeds)}")
     n_jobs = check_jobs(n_jobs)
-    engine = check_engine(engine)
-    params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict()
-    tasks = [delayed(_one_loop)(setting, th, ws, engine, params, pin=True)
+    scorer = LoopScorer(setting.groups, engine,
+                        ClusteringParams.from_kwargs(params, "clustering parameters"))
+    tasks = [delayed(_one_loop)(setting, th, ws, scorer, pin=True)
              for th, ws in zip(thrusts, wind_seeds)]
     bar = None
     if progress:
@@ -146,7 +148,7 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
     results = []
     if n_jobs == 1:
         for th, ws in zip(thrusts, wind_seeds):
-            results.append(_one_loop(setting, th, ws, engine, params))
+            results.append(_one_loop(setting, th, ws, scorer))
             if bar is not None:
                 bar.update()
     else:

@@ -63,6 +63,15 @@ class _Sequence:
             arr.setflags(write=False)
             object.__setattr__(self, name, arr)
 
+    @classmethod
+    def _drawn(cls, *arrays):
+        """A sequence of a sampler's draws, which keep the constructor's rules by how they
+        are drawn (times from 0, increasing; values in range; unit directions): frozen
+        without checking them again."""
+        seq = object.__new__(cls)
+        seq._freeze(*arrays)
+        return seq
+
     def __setattr__(self, name, value):
         raise AttributeError(f"{type(self).__name__} is immutable")
 
@@ -273,7 +282,7 @@ def sample_paper(rng: np.random.Generator, n_changes: int = 6, duration: float =
         dirs = _AXES[idx % 3] * np.where(idx < 3, 1.0, -1.0)[:, None]
     else:
         raise ValueError(f"axes must be 'positive' or 'signed', got {axes!r}")
-    return ThrustSequence(times, mags, dirs)
+    return ThrustSequence._drawn(times, mags, dirs)  # unit axes: the constructor's own values
 
 
 def sample_continuous(rng: np.random.Generator, n_changes: int = 6, duration: float = 12.0,

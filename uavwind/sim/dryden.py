@@ -21,6 +21,7 @@ the two models is importable from here.
 
 from __future__ import annotations
 
+import copy
 from functools import cached_property
 
 import numpy as np
@@ -133,12 +134,26 @@ class DrydenWind(WindModel):
                                  f"got min {V.min():g}, max {V.max():g}")
         self.airspeed = V
         self.dt = check_scalar(dt, "dt", low=1e-4, high=10.0)
+        self._draw(seed)
+
+    def _draw(self, seed):
+        """Draw this wind's gusts from ``seed`` (an int, a SeedSequence or None)."""
         if seed is not None and not isinstance(seed, (int, np.integer, np.random.SeedSequence)):
             raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, "
                             f"got {type(seed).__name__}")
         self.seed = seed
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        self._gusts = self.model.gusts(w20, self.altitude, V, self.dt, ss.spawn(self.n_env))
+        self._gusts = self.model.gusts(self.w20, self.altitude, self.airspeed, self.dt,
+                                       ss.spawn(self.n_env))
+        self.__dict__.pop("sigmas", None)  # cached from the gusts it replaces
+
+    def with_seed(self, seed: int | np.random.SeedSequence | None) -> DrydenWind:
+        """The same turbulence (its levels, altitude, airspeed, step and variant, checked
+        when this one was made) with gusts drawn from ``seed``: what
+        ``DrydenWind(..., seed=seed)`` gives, without checking the rest again."""
+        out = copy.copy(self)
+        out._draw(seed)
+        return out
 
     @property
     def parameters(self) -> dict:

@@ -17,6 +17,7 @@ import json
 import math
 from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, replace
+from functools import lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -37,6 +38,20 @@ if TYPE_CHECKING:
     from .flight import Flight
 
 __all__ = ["KINDS", "EnvironmentGroup", "Setting"]
+
+@lru_cache(maxsize=256)
+def _group_model(group: EnvironmentGroup) -> ConstantWind | ShearWind | DrydenWind:
+    """``group``'s wind model, checked once (a turbulence group's drawn from seed 0, which
+    :meth:`EnvironmentGroup.wind` reseeds). Models are shared between loops and never
+    changed after they are built."""
+    if group.kind == "constant":
+        return ConstantWind(group.values)
+    if group.kind == "shear":
+        return ShearWind(group.values, reference_height=group.reference_height,
+                         alpha=group.alpha, floor=group.floor)
+    return DrydenWind(group.values, altitude=group.altitude, seed=0, variant=group.variant,
+                      cited=group.cited)
+
 
 #: Wind models a condition can use.
 KINDS = ("constant", "shear", "turbulence")
@@ -109,14 +124,10 @@ class EnvironmentGroup:
 
     def wind(self, seed: int | np.random.SeedSequence | None = None,
              ) -> ConstantWind | ShearWind | DrydenWind:
-        """The :class:`~uavwind.sim.wind.WindModel` of this group (``seed`` for turbulence)."""
-        if self.kind == "constant":
-            return ConstantWind(self.values)
-        if self.kind == "shear":
-            return ShearWind(self.values, reference_height=self.reference_height,
-                             alpha=self.alpha, floor=self.floor)
-        return DrydenWind(self.values, altitude=self.altitude, seed=seed, variant=self.variant,
-                          cited=self.cited)
+        """The :class:`~uavwind.sim.wind.WindModel` of this group (``seed`` for turbulence):
+        the group's model, built and checked once per group and process, reseeded
+        (:meth:`~uavwind.sim.wind.WindModel.with_seed`)."""
+        return _group_model(self).with_seed(seed)
 
     def max_speed(self, height: float) -> float:
         """The strongest horizontal wind [m/s] a vehicle of this group meets up to ``height``

@@ -102,6 +102,12 @@ class WindModel(ABC):
     def __len__(self):
         return self.n_env
 
+    def with_seed(self, seed: int | np.random.SeedSequence | None) -> WindModel:
+        """This model with its gusts drawn from ``seed``: the model itself when it draws
+        none (every model here but :class:`~uavwind.sim.dryden.DrydenWind`). A setting
+        builds and checks each group's model once and reseeds it for every loop."""
+        return self
+
     def __add__(self, other):
         """``a + b``: the :class:`SumWind` of both (the same environments, winds added)."""
         if not isinstance(other, WindModel):
