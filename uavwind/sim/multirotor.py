@@ -258,6 +258,12 @@ class Multirotor:
         return float(4 * P[K_ETA] * P[SPEED_MAX] ** 2)
 
     @property
+    def thrust_coefficient(self) -> float:
+        """The rotors' thrust coefficient ``k_eta`` [N/(rad/s)^2]: a rotor turning at
+        ``omega`` [rad/s] makes ``k_eta omega^2`` of thrust (no translational lift)."""
+        return float(self.packed[K_ETA])
+
+    @property
     def hover_speed(self) -> float:
         """Rotor speed whose thrust holds the vehicle in still air [rad/s]."""
         return math.sqrt(self.weight / (4 * self.packed[K_ETA]))
