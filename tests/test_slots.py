@@ -1,15 +1,20 @@
 """The multirotor's packed layouts (``uavwind.sim._slots``): every slot named once, the blocks
-tiling each layout exactly, the state columns RotorPy's own, and ``_packed`` putting each
-of the vehicle's numbers at its named slot."""
+tiling each layout exactly, the state columns RotorPy's own, ``_packed`` putting each of the
+vehicle's numbers at its named slot, the kernels compiled with the layout they are given,
+and no bare number indexing the layouts again."""
+import re
+from pathlib import Path
+
 import numpy as np
 import pytest
 
-from uavwind.sim import _slots
+from uavwind.sim import _rotor_kernels as rk
+from uavwind.sim import _rotor_layout, _slots
 from uavwind.sim._rotor_layout import _packed
 from uavwind.sim.rotor_params import (GRAVITY, SE3_KD_POS, SE3_KP_POS, PositionControl,
                                       rotorpy_params)
 
-NAMES = [n for n in vars(_slots) if n.isupper()]
+NAMES = [n for n in vars(_slots) if n.isupper() and n != "LAYOUT"]
 STATE = {n: getattr(_slots, n) for n in NAMES if n.startswith("S_")}
 PARAMS = {n: getattr(_slots, n) for n in NAMES if not n.startswith(("S_", "N_"))}
 
@@ -46,6 +51,28 @@ def test_the_blocks_have_their_shapes():
     assert length == {"INERTIA": 9, "INERTIA_INV": 9, "C_D": 3, "ROTOR_POS": 12, "ROTOR_DIR": 4,
                       "TM_TO_F": 16, "KP_POS": 3, "KD_POS": 3, "KI_POS": 3, "S_POS": 3, "S_VEL": 3,
                       "S_QUAT": 4, "S_RATES": 3, "S_WIND": 3, "S_ROTORS": 4, "S_INTEGRAL": 3}
+
+
+def test_layout_lists_every_number():
+    assert _slots.LAYOUT == tuple(x for n in NAMES for x in
+                                  ((getattr(_slots, n).start, getattr(_slots, n).stop)
+                                   if isinstance(getattr(_slots, n), slice)
+                                   else (getattr(_slots, n),)))
+
+
+def test_the_kernels_were_compiled_with_this_layout():
+    assert rk.compiled_layout() == _slots.LAYOUT
+
+
+def test_kernels_compiled_under_another_layout_are_refused(monkeypatch):
+    """numba's cache does not see _slots.py: a stale kernel is refused, not flown."""
+    monkeypatch.setattr(_rotor_layout, "LAYOUT", _slots.LAYOUT[:-1] + (99,))
+    _rotor_layout._kernels.cache_clear()
+    try:
+        with pytest.raises(RuntimeError, match="another layout"):
+            _rotor_layout._kernels()
+    finally:
+        _rotor_layout._kernels.cache_clear()
 
 
 def test_the_state_columns_are_rotorpys_own():
@@ -104,3 +131,39 @@ def test_without_position_control_its_slots_stay_zero():
     s = _slots
     assert not P[s.KI_POS].any() and P[[s.TAN_TILT, s.THRUST_LOW, s.THRUST_HIGH,
                                         s.INTEGRAL_ACC]].tolist() == [0.0] * 4
+
+
+SIM = Path(__file__).resolve().parents[1] / "uavwind" / "sim"
+#: A bare index into the kernels' parameter vector P, a state array S, a state row s or the
+#: rows of its derivative (out, tmp, k1..k4): a subscript, or a part of one after a comma or
+#: a colon, that starts with a number. Numbers remain only as offsets within a named block
+#: (``S_VEL.start + i``) and as components of a named block's local view (``w = s[S_RATES]``,
+#: ``w[0]``; ``A = P[TM_TO_F]``, ``A[4 * k + 1]``), which this does not look into.
+BARE_IN_KERNELS = re.compile(r"\b(?:P|S|s|out|tmp|k[1-4])\[(?:[^\]]*[,:])?\s*-?\d")
+#: The same for the Python code that reads the layouts (``S[0, ...]``, a row, is fine there).
+BARE_IN_PYTHON = re.compile(r"\b(?:P|packed)\[\s*\d|\b(?:S|s)\[[^\]]*[,:]\s*\d")
+
+
+@pytest.mark.parametrize("text, bare", [
+    ("P[23]", True), ("P[32 + 3 * k]", True), ("S[:, 13:16]", True), ("s[6:10]", True),
+    ("out[16 + k]", True), ("k1[3]", True), ("s[S_QUAT.start:10]", True), ("S[i, 2]", True),
+    ("P[K_ETA]", False), ("s[S_VEL.start + i]", False), ("rotor_pos[3 * k + 1]", False),
+    ("P[TM_TO_F]", False), ("out[i]", False), ("Rs[0]", False), ("tmp[j]", False)])
+def test_the_bare_index_pattern(text, bare):
+    assert bool(BARE_IN_KERNELS.search(text)) == bare
+
+
+def test_no_bare_index_into_the_layouts_in_the_kernels():
+    source = (SIM / "_rotor_kernels.py").read_text()
+    assert source.count("P[") > 20  # the pattern has something to look at
+    bad = [f"{i}: {line.strip()}" for i, line in enumerate(source.splitlines(), 1)
+           if BARE_IN_KERNELS.search(line)]
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("module", ["_rotor_layout.py", "multirotor.py"])
+def test_no_bare_index_into_the_layouts_in_their_python_readers(module):
+    lines = (SIM / module).read_text().splitlines()
+    bad = [f"{i}: {line.strip()}" for i, line in enumerate(lines, 1)
+           if BARE_IN_PYTHON.search(line)]
+    assert not bad, "\n".join(bad)

@@ -19,20 +19,27 @@ from functools import lru_cache
 import numpy as np
 
 from ._slots import (AERO, C_D, G, INERTIA, INERTIA_INV, INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H,
-                     K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS, KP_ATT, KP_POS, MASS, N_PARAMS,
+                     K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS, KP_ATT, KP_POS, LAYOUT, MASS, N_PARAMS,
                      ROTOR_DIR, ROTOR_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
                      SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
                      TM_TO_F)
 from .rotor_params import DRAG_KEYS, GRAVITY, SE3_KD_POS, SE3_KP_POS, rotorpy_params
 
 
+@lru_cache(maxsize=None)
 def _kernels():
     """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
     1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
-    flies none). The multirotor and its rollouts reach the kernels through here only."""
+    flies none). The multirotor and its rollouts reach the kernels through here only.
+    ``RuntimeError`` if numba's cache holds kernels compiled under another layout of
+    ``uavwind.sim._slots`` than the present one (its cache does not see that file)."""
     # the package's one import of the rotor kernels: kept in a function so that importing
     # uavwind, which builds multirotors but flies none, does not load numba
     from . import _rotor_kernels
+    if _rotor_kernels.compiled_layout() != LAYOUT:
+        raise RuntimeError("numba's cache holds uavwind.sim._rotor_kernels compiled under "
+                           "another layout of uavwind.sim._slots than the present one: delete "
+                           "uavwind/sim/__pycache__/_rotor_kernels*.nbi and *.nbc and run again")
     return _rotor_kernels
 
 

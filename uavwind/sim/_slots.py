@@ -10,6 +10,12 @@ slots is a ``slice`` (``P[INERTIA]``, ``S[:, S_WIND]``; in a kernel ``S_ROTORS.s
 Numba freezes module-level ints and slices into compiled code as constants, so the kernels
 index by name at no cost. Units in brackets, as RotorPy's and python-control's comments give
 them; ``[-]`` a pure number. 3 x 3 and 4 x 4 blocks are row-major.
+
+Numba's on-disk cache is keyed on the kernels' own source file (a hash of its bytes), not on
+this one: a kernel cached before a slot here moved would keep the old number. So
+:data:`LAYOUT` (every number here) is compiled into the kernels too, and
+``uavwind.sim._rotor_layout._kernels`` refuses kernels whose copy differs (then delete
+``uavwind/sim/__pycache__/_rotor_kernels*.nbi`` and ``.nbc``, and they compile afresh).
 """
 
 # -- the parameter vector P (one vehicle) ---------------------------------------------- #
@@ -57,3 +63,16 @@ N_STATE = 20               # RotorPy's state length
 S_INTEGRAL = slice(20, 23)  # integral of the position error, PositionControl only (mode 3) [m s]
 N_STATE_PI = 23            # state length under PositionControl
 
+
+
+def _numbers():
+    """Every number above, in the order written (an int, or a block's start and stop)."""
+    out = []
+    for name, v in list(globals().items()):
+        if name.isupper():
+            out += [v.start, v.stop] if isinstance(v, slice) else [v]
+    return tuple(out)
+
+
+#: Every number of the layouts, as this file gives them (the kernels compile a copy).
+LAYOUT = _numbers()
