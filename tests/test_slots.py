@@ -16,7 +16,10 @@ from uavwind.sim.rotor_params import (GRAVITY, SE3_KD_POS, SE3_KP_POS, PositionC
 
 NAMES = [n for n in vars(_slots) if n.isupper() and n != "LAYOUT"]
 STATE = {n: getattr(_slots, n) for n in NAMES if n.startswith("S_")}
-PARAMS = {n: getattr(_slots, n) for n in NAMES if not n.startswith(("S_", "N_"))}
+FLAT = {n: getattr(_slots, n) for n in NAMES if n.startswith("FLAT_")}
+CMD = {n: getattr(_slots, n) for n in NAMES if n.startswith("CMD_")}
+PARAMS = {n: getattr(_slots, n) for n in NAMES
+          if not n.startswith(("S_", "N_", "FLAT_", "CMD_"))}
 
 
 def _indices(slot):
@@ -46,11 +49,19 @@ def test_the_state_columns_tile_the_state():
     _tiles(STATE, _slots.N_STATE_PI)
 
 
+def test_the_flat_output_and_se3_output_rows_are_tiled():
+    _tiles(FLAT, _slots.N_FLAT)
+    _tiles(CMD, _slots.N_CMD)
+
+
 def test_the_blocks_have_their_shapes():
-    length = {n: s.stop - s.start for n, s in {**PARAMS, **STATE}.items() if isinstance(s, slice)}
+    length = {n: s.stop - s.start for n, s in {**PARAMS, **STATE, **FLAT, **CMD}.items()
+              if isinstance(s, slice)}
     assert length == {"INERTIA": 9, "INERTIA_INV": 9, "C_D": 3, "ROTOR_POS": 12, "ROTOR_DIR": 4,
                       "TM_TO_F": 16, "KP_POS": 3, "KD_POS": 3, "KI_POS": 3, "S_POS": 3, "S_VEL": 3,
-                      "S_QUAT": 4, "S_RATES": 3, "S_WIND": 3, "S_ROTORS": 4, "S_INTEGRAL": 3}
+                      "S_QUAT": 4, "S_RATES": 3, "S_WIND": 3, "S_ROTORS": 4, "S_INTEGRAL": 3,
+                      "FLAT_POS": 3, "FLAT_VEL": 3, "FLAT_ACC": 3, "CMD_MOMENT": 3, "CMD_Q": 4,
+                      "CMD_ACC": 3, "CMD_W": 3}
 
 
 def test_layout_lists_every_number():
@@ -134,19 +145,22 @@ def test_without_position_control_its_slots_stay_zero():
 
 
 SIM = Path(__file__).resolve().parents[1] / "uavwind" / "sim"
-#: A bare index into the kernels' parameter vector P, a state array S, a state row s or the
-#: rows of its derivative (out, tmp, k1..k4): a subscript, or a part of one after a comma or
-#: a colon, that starts with a number. Numbers remain only as offsets within a named block
-#: (``S_VEL.start + i``) and as components of a named block's local view (``w = s[S_RATES]``,
-#: ``w[0]``; ``A = P[TM_TO_F]``, ``A[4 * k + 1]``), which this does not look into.
-BARE_IN_KERNELS = re.compile(r"\b(?:P|S|s|out|tmp|k[1-4])\[(?:[^\]]*[,:])?\s*-?\d")
-#: The same for the Python code that reads the layouts (``S[0, ...]``, a row, is fine there).
-BARE_IN_PYTHON = re.compile(r"\b(?:P|packed)\[\s*\d|\b(?:S|s)\[[^\]]*[,:]\s*\d")
+#: A bare index into the kernels' parameter vector P, a state array S, a state row s, the
+#: rows of its derivative (out, tmp, k1..k4), a flat-output row f or SE3's outputs aux: a
+#: subscript, or a part of one after a comma or a colon, that starts with a number. Numbers
+#: remain only as offsets within a named block (``S_VEL.start + i``) and as components of a
+#: named block's local view (``w = s[S_RATES]``, ``w[0]``; ``A = P[TM_TO_F]``,
+#: ``A[4 * k + 1]``), which this does not look into.
+BARE_IN_KERNELS = re.compile(r"\b(?:P|S|s|out|tmp|k[1-4]|f|aux)\[(?:[^\]]*[,:])?\s*-?\d")
+#: The same for the Python code that reads the layouts (``S[0, ...]``, a row, is fine there;
+#: F is the flat-output rows of a reference flight).
+BARE_IN_PYTHON = re.compile(r"\b(?:P|packed)\[\s*\d|\b(?:S|s|F)\[[^\]]*[,:]\s*\d")
 
 
 @pytest.mark.parametrize("text, bare", [
     ("P[23]", True), ("P[32 + 3 * k]", True), ("S[:, 13:16]", True), ("s[6:10]", True),
     ("out[16 + k]", True), ("k1[3]", True), ("s[S_QUAT.start:10]", True), ("S[i, 2]", True),
+    ("f[9]", True), ("aux[:, 1:4]", True), ("aux[i]", False), ("f[FLAT_YAW]", False),
     ("P[K_ETA]", False), ("s[S_VEL.start + i]", False), ("rotor_pos[3 * k + 1]", False),
     ("P[TM_TO_F]", False), ("out[i]", False), ("Rs[0]", False), ("tmp[j]", False)])
 def test_the_bare_index_pattern(text, bare):

@@ -9,9 +9,10 @@ controllers' gains): both are indexed only through the names of ``uavwind.sim._s
 gives every slot and column with its unit. Mode 3 adds three state columns,
 ``s[S_INTEGRAL]``, the integral of the position error [m s].
 
-Flat-output row (mode 2, ``SE3Control``), 11 numbers: ``x`` (3) [m], ``x_dot`` (3) [m/s],
-``x_ddot`` (3) [m/s^2], ``yaw`` [rad], ``yaw_dot`` [rad/s] (the jerk and snap RotorPy's flat
-outputs carry are not used by ``SE3Control``).
+Flat-output row ``f`` (modes 2 and 3, ``SE3Control``), 11 numbers: ``x``, ``x_dot``,
+``x_ddot``, ``yaw``, ``yaw_dot`` (``_slots``' ``FLAT_*``; the jerk and snap RotorPy's flat
+outputs carry are not used by ``SE3Control``); its other outputs go to a row ``aux``
+(``_slots``' ``CMD_*``).
 
 One :func:`control_step` is ``Multirotor.step`` with a fixed-step integrator: the command is
 mapped to motor speeds from the state at the start of the step and clipped, then held (with
@@ -28,11 +29,13 @@ import math
 import numpy as np
 from numba import njit
 
-from ._slots import (AERO, C_D, G, INERTIA, INERTIA_INV, INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H,
-                     K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS, KP_ATT, KP_POS, LAYOUT, MASS,
-                     N_STATE, ROTOR_DIR, ROTOR_POS, S_INTEGRAL, S_POS, S_QUAT, S_RATES, S_ROTORS,
-                     S_VEL, S_WIND, SE3_KD_ATT, SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT,
-                     TAU_M, THRUST_HIGH, THRUST_LOW, TM_TO_F)
+from ._slots import (AERO, C_D, CMD_ACC, CMD_MOMENT, CMD_Q, CMD_THRUST, CMD_W, FLAT_ACC,
+                     FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, G, INERTIA, INERTIA_INV,
+                     INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H, K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS,
+                     KP_ATT, KP_POS, LAYOUT, MASS, N_CMD, N_STATE, ROTOR_DIR, ROTOR_POS,
+                     S_INTEGRAL, S_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
+                     SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
+                     TM_TO_F)
 
 _NB = dict(cache=True, nogil=True, error_model="numpy")
 
@@ -287,9 +290,12 @@ def _se3(P, s, f, u, R, Rd, aux):
     kd = P[KD_POS]
     x = s[S_POS]
     v = s[S_VEL]
-    F0 = m * ((-(kp[0] * (x[0] - f[0])) - kd[0] * (v[0] - f[3])) + f[6])
-    F1 = m * ((-(kp[1] * (x[1] - f[1])) - kd[1] * (v[1] - f[4])) + f[7])
-    F2 = m * (((-(kp[2] * (x[2] - f[2])) - kd[2] * (v[2] - f[5])) + f[8]) + g)
+    x_ref = f[FLAT_POS]
+    v_ref = f[FLAT_VEL]
+    a_ref = f[FLAT_ACC]
+    F0 = m * ((-(kp[0] * (x[0] - x_ref[0])) - kd[0] * (v[0] - v_ref[0])) + a_ref[0])
+    F1 = m * ((-(kp[1] * (x[1] - x_ref[1])) - kd[1] * (v[1] - v_ref[1])) + a_ref[1])
+    F2 = m * (((-(kp[2] * (x[2] - x_ref[2])) - kd[2] * (v[2] - v_ref[2])) + a_ref[2]) + g)
     _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, False)
 
 
@@ -343,12 +349,15 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
     x = s[S_POS]
     v = s[S_VEL]
     integral = s[S_INTEGRAL]
-    e0 = x[0] - f[0]
-    e1 = x[1] - f[1]
-    e2 = x[2] - f[2]
-    F0 = m * (-kp[0] * e0 - kd[0] * (v[0] - f[3]) - ki[0] * integral[0] + f[6])
-    F1 = m * (-kp[1] * e1 - kd[1] * (v[1] - f[4]) - ki[1] * integral[1] + f[7])
-    F2 = m * (-kp[2] * e2 - kd[2] * (v[2] - f[5]) - ki[2] * integral[2] + f[8] + g)
+    x_ref = f[FLAT_POS]
+    v_ref = f[FLAT_VEL]
+    a_ref = f[FLAT_ACC]
+    e0 = x[0] - x_ref[0]
+    e1 = x[1] - x_ref[1]
+    e2 = x[2] - x_ref[2]
+    F0 = m * (-kp[0] * e0 - kd[0] * (v[0] - v_ref[0]) - ki[0] * integral[0] + a_ref[0])
+    F1 = m * (-kp[1] * e1 - kd[1] * (v[1] - v_ref[1]) - ki[1] * integral[1] + a_ref[1])
+    F2 = m * (-kp[2] * e2 - kd[2] * (v[2] - v_ref[2]) - ki[2] * integral[2] + a_ref[2] + g)
     limited = False
     lo, hi = P[THRUST_LOW], P[THRUST_HIGH]
     if F2 < lo:
@@ -368,7 +377,7 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
         for k in range(3):
             if ki[k] > 0.0:
                 lim = P[INTEGRAL_ACC] / ki[k]
-                i_k = integral[k] + h * (x[k] - f[k])
+                i_k = integral[k] + h * (x[k] - x_ref[k])
                 integral[k] = min(max(i_k, -lim), lim)
     _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, True)
 
@@ -376,7 +385,7 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
 @njit(**_NB)
 def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
     """The rest of ``SE3Control.update`` from the desired force ``F`` [N] (world frame): the
-    desired attitude (body z along ``F``, yaw ``f[9]``), the collective thrust ``F . b3``,
+    desired attitude (body z along ``F``, yaw ``f[FLAT_YAW]``), the collective thrust ``F . b3``,
     the attitude law and the motor speeds u; aux as :func:`_se3`. With ``yaw_last`` the yaw
     moment is shortened first when the rotors cannot make all four (:func:`_yaw_share`)."""
     m = P[MASS]
@@ -386,8 +395,8 @@ def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
     b30 = F0 / nF
     b31 = F1 / nF
     b32 = F2 / nF
-    c0 = math.cos(f[9])
-    c1 = math.sin(f[9])
+    c0 = math.cos(f[FLAT_YAW])
+    c1 = math.sin(f[FLAT_YAW])
     x0 = b31 * 0.0 - b32 * c1                                # b3_des x c1_des
     x1 = b32 * c0 - b30 * 0.0
     x2 = b30 * c1 - b31 * c0
@@ -404,21 +413,25 @@ def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
     Rd[0, 2] = b30
     Rd[1, 2] = b31
     Rd[2, 2] = b32
-    M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[SE3_KP_ATT], P[SE3_KD_ATT], f[10])
+    M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[SE3_KP_ATT], P[SE3_KD_ATT],
+                                             f[FLAT_YAW_RATE])
     if yaw_last:
         M2 = M2 * _yaw_share(P, u1, M0, M1, M2)
     _speeds(P, u1, M0, M1, M2, u)
-    aux[0] = u1
-    aux[1] = M0
-    aux[2] = M1
-    aux[3] = M2
-    _quat_from_matrix(Rd, aux[4:8])
-    aux[8] = F0 / m
-    aux[9] = F1 / m
-    aux[10] = F2 / m
-    aux[11] = a0
-    aux[12] = a1
-    aux[13] = a2
+    aux[CMD_THRUST] = u1
+    moment = aux[CMD_MOMENT]
+    moment[0] = M0
+    moment[1] = M1
+    moment[2] = M2
+    _quat_from_matrix(Rd, aux[CMD_Q])
+    acc = aux[CMD_ACC]
+    acc[0] = F0 / m
+    acc[1] = F1 / m
+    acc[2] = F2 / m
+    cmd_w = aux[CMD_W]
+    cmd_w[0] = a0
+    cmd_w[1] = a1
+    cmd_w[2] = a2
 
 
 @njit(**_NB)
@@ -443,7 +456,7 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
     k3 = np.empty(N_STATE)
     k4 = np.empty(N_STATE)
     tmp = np.empty(N_STATE)
-    aux = np.empty(14)
+    aux = np.empty(N_CMD)
     for i in range(n):
         s = S[i]
         if mode == 0:
@@ -452,10 +465,10 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
             _cmd_ctbr(P, s, T[i], C[i], u)
         elif mode == 2:
             _se3(P, s, C[i], u, R, Rd, aux)
-            T[i] = aux[0]
+            T[i] = aux[CMD_THRUST]
         else:
             _se3i(P, s, C[i], n_sub * h, u, R, Rd, aux)
-            T[i] = aux[0]
+            T[i] = aux[CMD_THRUST]
         hit = False
         for k in range(4):                                   # np.clip(cmd, min, max)
             c = min(max(u[k], P[SPEED_MIN]), P[SPEED_MAX])
@@ -514,14 +527,14 @@ def se3i_commands(P, S, F):
     (:func:`_se3i`) at the states S (n, 23), without advancing the integral."""
     n = S.shape[0]
     u = np.empty((n, 4))
-    aux = np.empty((n, 14))
+    aux = np.empty((n, N_CMD))
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     s = np.empty(S.shape[1])
     for i in range(n):
         s[:] = S[i]
         _se3i(P, s, F[i], 0.0, u[i], R, Rd, aux[i])
-    return u, aux[:, 0].copy()
+    return u, aux[:, CMD_THRUST].copy()
 
 
 @njit(**_NB)
@@ -531,10 +544,10 @@ def se3_commands(P, S, F):
     [N m], cmd_q (n, 4) [i, j, k, w], cmd_acc (n, 3) [m/s^2], cmd_w (n, 3) [rad/s])``."""
     n = S.shape[0]
     u = np.empty((n, 4))
-    aux = np.empty((n, 14))
+    aux = np.empty((n, N_CMD))
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     for i in range(n):
         _se3(P, S[i], F[i], u[i], R, Rd, aux[i])
-    return u, aux[:, 0].copy(), aux[:, 1:4].copy(), aux[:, 4:8].copy(), aux[:, 8:11].copy(), \
-        aux[:, 11:14].copy()
+    return (u, aux[:, CMD_THRUST].copy(), aux[:, CMD_MOMENT].copy(), aux[:, CMD_Q].copy(),
+            aux[:, CMD_ACC].copy(), aux[:, CMD_W].copy())

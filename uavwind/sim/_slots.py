@@ -11,6 +11,11 @@ Numba freezes module-level ints and slices into compiled code as constants, so t
 index by name at no cost. Units in brackets, as RotorPy's and python-control's comments give
 them; ``[-]`` a pure number. 3 x 3 and 4 x 4 blocks are row-major.
 
+Two more rows the kernels pack: the flat output that mode 2 and 3 follow (RotorPy's
+``flat_output``, without the jerk and snap that ``SE3Control`` does not use) and the
+outputs of ``SE3Control.update`` besides the motor speeds (RotorPy's ``control_input``
+keys).
+
 Numba's on-disk cache is keyed on the kernels' own source file (a hash of its bytes), not on
 this one: a kernel cached before a slot here moved would keep the old number. So
 :data:`LAYOUT` (every number here) is compiled into the kernels too, and
@@ -62,6 +67,23 @@ S_ROTORS = slice(16, 20)   # rotor speeds [rad/s]
 N_STATE = 20               # RotorPy's state length
 S_INTEGRAL = slice(20, 23)  # integral of the position error, PositionControl only (mode 3) [m s]
 N_STATE_PI = 23            # state length under PositionControl
+
+# -- the flat-output row f (one control step of a reference flight) -------------------- #
+FLAT_POS = slice(0, 3)     # reference position x, world frame [m]
+FLAT_VEL = slice(3, 6)     # reference velocity x_dot, world frame [m/s]
+FLAT_ACC = slice(6, 9)     # reference acceleration x_ddot, world frame [m/s^2]
+FLAT_YAW = 9               # reference yaw [rad]
+FLAT_YAW_RATE = 10         # reference yaw rate yaw_dot [rad/s]
+N_FLAT = 11                # length of f
+
+# -- SE3Control's outputs besides the motor speeds (aux, one environment) -------------- #
+CMD_THRUST = 0             # commanded collective thrust cmd_thrust [N]
+CMD_MOMENT = slice(1, 4)   # commanded body moments cmd_moment, body frame [N m]
+CMD_Q = slice(4, 8)        # desired attitude cmd_q [i, j, k, w] (scalar last) [-]
+CMD_ACC = slice(8, 11)     # desired acceleration cmd_acc = F_des / m, world frame [m/s^2]
+CMD_W = slice(11, 14)      # cmd_w = -kp_att e - kd_att (w - w_des), body frame: RotorPy calls
+#                            it body rates [rad/s] (it is the attitude law's angular acceleration)
+N_CMD = 14                 # length of aux
 
 
 

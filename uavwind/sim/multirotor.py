@@ -65,8 +65,9 @@ import numpy as np
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
 from ._rotor_layout import (_aero_force, _body_z, _body_z_batch, _clipped_commands, _clipped_se3,
                             _kernels, _packed, _record_state)
-from ._slots import (K_ETA, N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND,
-                     SPEED_MAX, SPEED_MIN)
+from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA, N_FLAT,
+                     N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND, SPEED_MAX,
+                     SPEED_MIN)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 # the vehicle's parameters, re-exported: this module's names before they had a module
@@ -476,14 +477,17 @@ class Multirotor:
         h = h_ctrl / self.substeps
         n_ctrl = n * per
         t_ctrl = np.arange(n_ctrl) * h_ctrl
-        flat = reference.flat_output(np.append(t_ctrl, n * dt))
-        F = np.column_stack([flat["x"], flat["x_dot"], flat["x_ddot"], flat["yaw"],
-                             flat["yaw_dot"]])
-        low = int(np.argmin(F[:, 2]))
-        if F[low, 2] < 0.0:
-            raise ValueError(f"reference: its path goes below the ground (z = {F[low, 2]:.4g} m "
+        t_flat = np.append(t_ctrl, n * dt)
+        flat = reference.flat_output(t_flat)
+        F = np.empty((t_flat.size, N_FLAT))  # one flat-output row per control step, and the end
+        F[:, FLAT_POS], F[:, FLAT_VEL], F[:, FLAT_ACC] = flat["x"], flat["x_dot"], flat["x_ddot"]
+        F[:, FLAT_YAW], F[:, FLAT_YAW_RATE] = flat["yaw"], flat["yaw_dot"]
+        z_ref = F[:, FLAT_POS.start + 2]
+        low = int(np.argmin(z_ref))
+        if z_ref[low] < 0.0:
+            raise ValueError(f"reference: its path goes below the ground (z = {z_ref[low]:.4g} m "
                              f"at t = {min(low, n_ctrl) * h_ctrl:.4g} s); keep it above z = 0")
-        start = F[0, 0:3].copy()
+        start = F[0, FLAT_POS].copy()
         S = self.initial_states(start, np.zeros((n_env, 3)))
         mode = 2
         if self.position_control is not None:  # the integral of the position error, from 0
@@ -498,7 +502,7 @@ class Multirotor:
                     ("fa", 3), ("thrust", 3))}
             commands = np.empty((n_env, n))
         for k in range(n_ctrl):
-            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, 11)))
+            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, N_FLAT)))
             S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
             last = (k + 1) % per == 0
             if record_all and last:  # the command held over the step, for the sensors
