@@ -41,7 +41,7 @@ SPEED_MAX = 31             # most rotor speed [rad/s]
 ROTOR_POS = slice(32, 44)  # rotor positions, 4 x 3: row k is rotor k's x, y, z, body frame [m]
 ROTOR_DIR = slice(44, 48)  # rotor spin directions, +1 or -1 (the sign of its yaw moment) [-]
 TM_TO_F = slice(48, 64)    # collective thrust and moments to rotor forces, 4 x 4: row k gives
-#                            rotor k's thrust [N] from (T [N], M_x, M_y, M_z [N m]) [-, 1/m]
+#                            rotor k's thrust [N] from (T [N], M_x, M_y, M_z [N m]): [-], [1/m]
 K_W = 64                   # body rate gain k_w of cmd_ctbr [1/s]
 KP_ATT = 65                # attitude gain kp_att of cmd_ctatt [1/s^2]
 KD_ATT = 66                # body rate gain kd_att of cmd_ctatt [1/s]
@@ -84,7 +84,6 @@ CMD_ACC = slice(8, 11)     # desired acceleration cmd_acc = F_des / m, world fra
 CMD_W = slice(11, 14)      # cmd_w = -kp_att e - kd_att (w - w_des), body frame: RotorPy calls
 #                            it body rates [rad/s] (it is the attitude law's angular acceleration)
 N_CMD = 14                 # length of aux
-
 
 
 def _numbers():
