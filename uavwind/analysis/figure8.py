@@ -213,7 +213,8 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
     t = f.times
     q, R = _offset_attitude(f.attitudes[0], cal.axis_offset)
     true_b3 = Rotation.from_quat(f.attitudes[0]).as_matrix()[:, :, 2]
-    thrust = vehicle.packed[23] * np.sum(f.rotor_speeds[0] ** 2, axis=1)  # the rotors' nominal
+    # the rotors' nominal thrust
+    thrust = vehicle.thrust_coefficient * np.sum(f.rotor_speeds[0] ** 2, axis=1)
     fa = f.aero_forces[0] + thrust[:, None] * (true_b3 - R[:, :, 2])
     ref = FIGURE8.flat_output(t)
     hover = vehicle.weight / vehicle.max_thrust

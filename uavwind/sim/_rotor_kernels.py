@@ -2,31 +2,17 @@
 time, batched by a loop (the same formulas as ``rotorpy/vehicles/multirotor.py``; the tests hold
 them to RotorPy's own methods, 1e-12 of each block's scale).
 
-State, one row per environment, exactly ``Multirotor._pack_state``'s layout (20 numbers)::
+State, one row ``s`` per environment, exactly ``Multirotor._pack_state``'s layout (20 numbers:
+position, velocity, attitude quaternion, body rates, wind, rotor speeds), and the parameter
+vector ``P`` (:func:`uavwind.sim.multirotor.Multirotor.packed`: the vehicle, its rotors, its
+controllers' gains): both are indexed only through the names of ``uavwind.sim._slots``, which
+gives every slot and column with its unit. Mode 3 adds three state columns,
+``s[S_INTEGRAL]``, the integral of the position error [m s].
 
-    s[0:3]   x      position, world frame, z up                          [m]
-    s[3:6]   v      velocity over ground, world frame                    [m/s]
-    s[6:10]  q      attitude quaternion [i, j, k, w] (scalar last), body -> world
-    s[10:13] w      body rates, body frame                               [rad/s]
-    s[13:16] wind   wind velocity, world frame (held over a control step) [m/s]
-    s[16:20] rotor speeds                                                 [rad/s]
-
-Parameter vector ``P`` (:func:`uavwind.sim.multirotor.Multirotor.packed`)::
-
-    0 mass, 1 g, 2:11 inertia (row-major), 11:20 inverse inertia, 20:23 c_Dx, c_Dy, c_Dz,
-    23 k_eta, 24 k_m, 25 k_d, 26 k_z, 27 k_h, 28 k_flap, 29 tau_m, 30 rotor speed min,
-    31 rotor speed max, 32:44 rotor positions (4 x 3, body frame), 44:48 rotor directions,
-    48:64 thrust-and-moments to rotor forces (4 x 4), 64 k_w, 65 kp_att, 66 kd_att, 67 aero,
-    68:71 SE3 kp_pos, 71:74 SE3 kd_pos, 74 SE3 kp_att, 75 SE3 kd_att (``SE3Control``'s gains),
-    76:79 ki_pos [1/s^3], 79 tan(max tilt), 80 least collective thrust [N], 81 most thrust [N],
-    82 largest integral acceleration |ki I| [m/s^2] (mode 3 only:
-    :class:`~uavwind.sim.multirotor.PositionControl`)
-
-Mode 3 adds three state columns: ``s[20:23]`` the integral of the position error [m s].
-
-Flat-output row (mode 2, ``SE3Control``), 11 numbers: ``x`` (3) [m], ``x_dot`` (3) [m/s],
-``x_ddot`` (3) [m/s^2], ``yaw`` [rad], ``yaw_dot`` [rad/s] (the jerk and snap RotorPy's flat
-outputs carry are not used by ``SE3Control``).
+Flat-output row ``f`` (modes 2 and 3, ``SE3Control``), 11 numbers: ``x``, ``x_dot``,
+``x_ddot``, ``yaw``, ``yaw_dot`` (``_slots``' ``FLAT_*``; the jerk and snap RotorPy's flat
+outputs carry are not used by ``SE3Control``); its other outputs go to a row ``aux``
+(``_slots``' ``CMD_*``).
 
 One :func:`control_step` is ``Multirotor.step`` with a fixed-step integrator: the command is
 mapped to motor speeds from the state at the start of the step and clipped, then held (with
@@ -43,7 +29,23 @@ import math
 import numpy as np
 from numba import njit
 
+from ._slots import (AERO, C_D, CMD_ACC, CMD_MOMENT, CMD_Q, CMD_THRUST, CMD_W, FLAT_ACC,
+                     FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, G, INERTIA, INERTIA_INV,
+                     INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H, K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS,
+                     KP_ATT, KP_POS, LAYOUT, MASS, N_CMD, N_STATE, ROTOR_DIR, ROTOR_POS,
+                     S_INTEGRAL, S_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
+                     SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
+                     TM_TO_F)
+
 _NB = dict(cache=True, nogil=True, error_model="numpy")
+
+
+@njit(**_NB)
+def compiled_layout():
+    """``uavwind.sim._slots.LAYOUT`` as these kernels were compiled with it: numba freezes
+    another module's globals into its on-disk cache, which only a change of this file
+    renews."""
+    return LAYOUT
 
 
 @njit(**_NB)
@@ -77,28 +79,37 @@ def _rotmat(q, R):
 
 @njit(**_NB)
 def _sdot(P, s, u, out, R):
-    """``Multirotor._s_dot_fn`` for one environment: s, out (20,), u clipped motor speeds (4,)."""
-    m = P[0]
-    _rotmat(s[6:10], R)
+    """``Multirotor._s_dot_fn`` for one environment: s, out (20,) (``uavwind.sim._slots``'
+    columns), u clipped motor speeds (4,)."""
+    m = P[MASS]
+    _rotmat(s[S_QUAT], R)
     for i in range(3):
-        out[i] = s[3 + i]                                   # x_dot = v
-    inv_tau = 1 / P[29]
+        out[S_POS.start + i] = s[S_VEL.start + i]           # x_dot = v
+    inv_tau = 1 / P[TAU_M]
+    speeds = s[S_ROTORS]
     for k in range(4):
-        out[16 + k] = inv_tau * (u[k] - s[16 + k])          # first-order motors
-    q0, q1, q2, q3 = s[6], s[7], s[8], s[9]
-    w0, w1, w2 = s[10], s[11], s[12]
-    out[6] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)            # quaternion rate (raw q)
-    out[7] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
-    out[8] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
-    out[9] = 0.5 * (-q0 * w0 - q1 * w1 - q2 * w2)
-    d0 = s[3] - s[13]
-    d1 = s[4] - s[14]
-    d2 = s[5] - s[15]
+        out[S_ROTORS.start + k] = inv_tau * (u[k] - speeds[k])  # first-order motors
+    q = s[S_QUAT]
+    w = s[S_RATES]
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    w0, w1, w2 = w[0], w[1], w[2]
+    q_dot = out[S_QUAT]
+    q_dot[0] = 0.5 * (q3 * w0 - q2 * w1 + q1 * w2)          # quaternion rate (raw q)
+    q_dot[1] = 0.5 * (q2 * w0 + q3 * w1 - q0 * w2)
+    q_dot[2] = 0.5 * (-q1 * w0 + q0 * w1 + q3 * w2)
+    q_dot[3] = 0.5 * (-q0 * w0 - q1 * w1 - q2 * w2)
+    v = s[S_VEL]
+    wind = s[S_WIND]
+    d0 = v[0] - wind[0]
+    d1 = v[1] - wind[1]
+    d2 = v[2] - wind[2]
     va0 = R[0, 0] * d0 + R[1, 0] * d1 + R[2, 0] * d2        # body airspeed R^T (v - wind)
     va1 = R[0, 1] * d0 + R[1, 1] * d1 + R[2, 1] * d2
     va2 = R[0, 2] * d0 + R[1, 2] * d1 + R[2, 2] * d2
-    aero = P[67] != 0.0
-    k_eta, k_m, k_d, k_z, k_h, k_flap = P[23], P[24], P[25], P[26], P[27], P[28]
+    aero = P[AERO] != 0.0
+    k_eta, k_m, k_d, k_z, k_h, k_flap = P[K_ETA], P[K_M], P[K_D], P[K_Z], P[K_H], P[K_FLAP]
+    rotor_pos = P[ROTOR_POS]                                # 4 x 3, row k rotor k's x, y, z
+    rotor_dir = P[ROTOR_DIR]
     F0 = 0.0
     F1 = 0.0
     F2 = 0.0
@@ -109,8 +120,8 @@ def _sdot(P, s, u, out, R):
     Mr1 = 0.0
     Mr2 = 0.0
     for k in range(4):
-        rx, ry, rz = P[32 + 3 * k], P[33 + 3 * k], P[34 + 3 * k]
-        om = s[16 + k]
+        rx, ry, rz = rotor_pos[3 * k], rotor_pos[3 * k + 1], rotor_pos[3 * k + 2]
+        om = speeds[k]
         om2 = om * om
         Tz = k_eta * om2
         Hx = 0.0
@@ -136,39 +147,42 @@ def _sdot(P, s, u, out, R):
         M2 += rx * Hy - ry * Hx
         Mr0 += Mf0
         Mr1 += Mf1
-        Mr2 += P[44 + k] * (k_m * om2)                      # rotor yaw torque
+        Mr2 += rotor_dir[k] * (k_m * om2)                   # rotor yaw torque
     if aero:
         vn = math.sqrt(va0 * va0 + va1 * va1 + va2 * va2)
-        F0 = F0 + (-vn * P[20]) * va0                       # quadratic frame drag
-        F1 = F1 + (-vn * P[21]) * va1
-        F2 = F2 + (-vn * P[22]) * va2
+        c_d = P[C_D]
+        F0 = F0 + (-vn * c_d[0]) * va0                      # quadratic frame drag
+        F1 = F1 + (-vn * c_d[1]) * va1
+        F2 = F2 + (-vn * c_d[2]) * va2
     M0 = M0 + Mr0
     M1 = M1 + Mr1
     M2 = M2 + Mr2
     for i in range(3):                                      # v_dot = (weight + R F) / m
         Fi = R[i, 0] * F0 + R[i, 1] * F1 + R[i, 2] * F2
-        out[3 + i] = ((-m * P[1] if i == 2 else 0.0) + Fi) / m
-    I = P[2:11]
+        out[S_VEL.start + i] = ((-m * P[G] if i == 2 else 0.0) + Fi) / m
+    I = P[INERTIA]
     Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
     Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
     Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
     g0 = M0 - (w1 * Iw2 - w2 * Iw1)                          # M - w x I w
     g1 = M1 - (w2 * Iw0 - w0 * Iw2)
     g2 = M2 - (w0 * Iw1 - w1 * Iw0)
-    Ji = P[11:20]
-    out[10] = Ji[0] * g0 + Ji[1] * g1 + Ji[2] * g2
-    out[11] = Ji[3] * g0 + Ji[4] * g1 + Ji[5] * g2
-    out[12] = Ji[6] * g0 + Ji[7] * g1 + Ji[8] * g2
-    for i in range(13, 16):
+    Ji = P[INERTIA_INV]
+    w_dot = out[S_RATES]
+    w_dot[0] = Ji[0] * g0 + Ji[1] * g1 + Ji[2] * g2
+    w_dot[1] = Ji[3] * g0 + Ji[4] * g1 + Ji[5] * g2
+    w_dot[2] = Ji[6] * g0 + Ji[7] * g1 + Ji[8] * g2
+    for i in range(S_WIND.start, S_WIND.stop):
         out[i] = 0.0                                        # the wind is held
 
 
 @njit(**_NB)
 def _speeds(P, T, M0, M1, M2, u):
     """Collective thrust and body moments -> signed motor speeds ``sign(f) sqrt(|f| / k_eta)``."""
+    A = P[TM_TO_F]                                          # 4 x 4, row k rotor k's force
     for k in range(4):
-        f = P[48 + 4 * k] * T + P[49 + 4 * k] * M0 + P[50 + 4 * k] * M1 + P[51 + 4 * k] * M2
-        sp = f / P[23]
+        f = A[4 * k] * T + A[4 * k + 1] * M0 + A[4 * k + 2] * M1 + A[4 * k + 3] * M2
+        sp = f / P[K_ETA]
         r = math.sqrt(abs(sp))
         u[k] = -r if sp < 0 else (r if sp > 0 else (0.0 if sp == 0 else sp))
 
@@ -179,18 +193,19 @@ def _attitude_law(P, s, R, Rd, kp, kd, wz_des):
     rotation R and the desired one Rd (3, 3), the error ``e = vee(Rd^T R - R^T Rd) / 2`` and
     the angular acceleration ``a = -kp e - kd (w - (0, 0, wz_des))``, the moments
     ``M = I a + w x (I w)``. Returns ``(M0, M1, M2, a0, a1, a2)``."""
-    S = np.empty((3, 3))
+    skew = np.empty((3, 3))
     for i in range(3):
         for j in range(3):
             a = Rd[0, i] * R[0, j] + Rd[1, i] * R[1, j] + Rd[2, i] * R[2, j]
             b = R[0, i] * Rd[0, j] + R[1, i] * Rd[1, j] + R[2, i] * Rd[2, j]
-            S[i, j] = 0.5 * (a - b)
-    e0, e1, e2 = -S[1, 2], S[0, 2], -S[0, 1]
-    w0, w1, w2 = s[10], s[11], s[12]
+            skew[i, j] = 0.5 * (a - b)
+    e0, e1, e2 = -skew[1, 2], skew[0, 2], -skew[0, 1]
+    w = s[S_RATES]
+    w0, w1, w2 = w[0], w[1], w[2]
     a0 = -kp * e0 - kd * w0
     a1 = -kp * e1 - kd * w1
     a2 = -kp * e2 - kd * (w2 - wz_des)
-    I = P[2:11]
+    I = P[INERTIA]
     Iw0 = I[0] * w0 + I[1] * w1 + I[2] * w2
     Iw1 = I[3] * w0 + I[4] * w1 + I[5] * w2
     Iw2 = I[6] * w0 + I[7] * w1 + I[8] * w2
@@ -203,20 +218,21 @@ def _attitude_law(P, s, R, Rd, kp, kd, wz_des):
 @njit(**_NB)
 def _cmd_ctatt(P, s, T, qd, u, R, Rd):
     """``cmd_ctatt``: collective thrust T [N] and attitude qd -> unclipped motor speeds u."""
-    _rotmat(s[6:10], R)
+    _rotmat(s[S_QUAT], R)
     _rotmat(qd, Rd)
-    M0, M1, M2, _, _, _ = _attitude_law(P, s, R, Rd, P[65], P[66], 0.0)
+    M0, M1, M2, _, _, _ = _attitude_law(P, s, R, Rd, P[KP_ATT], P[KD_ATT], 0.0)
     _speeds(P, T, M0, M1, M2, u)
 
 
 @njit(**_NB)
 def _cmd_ctbr(P, s, T, wd, u):
     """``cmd_ctbr``: collective thrust T [N] and body rates wd -> unclipped motor speeds u."""
-    kw = P[64]
-    a0 = -kw * (s[10] - wd[0])
-    a1 = -kw * (s[11] - wd[1])
-    a2 = -kw * (s[12] - wd[2])
-    I = P[2:11]
+    kw = P[K_W]
+    w = s[S_RATES]
+    a0 = -kw * (w[0] - wd[0])
+    a1 = -kw * (w[1] - wd[1])
+    a2 = -kw * (w[2] - wd[2])
+    I = P[INERTIA]
     _speeds(P, T, I[0] * a0 + I[1] * a1 + I[2] * a2, I[3] * a0 + I[4] * a1 + I[5] * a2,
             I[6] * a0 + I[7] * a1 + I[8] * a2, u)
 
@@ -268,11 +284,18 @@ def _se3(P, s, f, u, R, Rd, aux):
     motor speeds u (4,) and, in aux (14,), ``cmd_thrust`` [N], ``cmd_moment`` (3) [N m],
     ``cmd_q`` (4), ``cmd_acc`` (3) [m/s^2] (``F_des / m``) and ``cmd_w`` (3) [rad/s]; R and
     Rd (3, 3) are scratch (Rd ends as the desired attitude)."""
-    m = P[0]
-    g = P[1]
-    F0 = m * ((-(P[68] * (s[0] - f[0])) - P[71] * (s[3] - f[3])) + f[6])
-    F1 = m * ((-(P[69] * (s[1] - f[1])) - P[72] * (s[4] - f[4])) + f[7])
-    F2 = m * (((-(P[70] * (s[2] - f[2])) - P[73] * (s[5] - f[5])) + f[8]) + g)
+    m = P[MASS]
+    g = P[G]
+    kp = P[KP_POS]
+    kd = P[KD_POS]
+    x = s[S_POS]
+    v = s[S_VEL]
+    x_ref = f[FLAT_POS]
+    v_ref = f[FLAT_VEL]
+    a_ref = f[FLAT_ACC]
+    F0 = m * ((-(kp[0] * (x[0] - x_ref[0])) - kd[0] * (v[0] - v_ref[0])) + a_ref[0])
+    F1 = m * ((-(kp[1] * (x[1] - x_ref[1])) - kd[1] * (v[1] - v_ref[1])) + a_ref[1])
+    F2 = m * (((-(kp[2] * (x[2] - x_ref[2])) - kd[2] * (v[2] - v_ref[2])) + a_ref[2]) + g)
     _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, False)
 
 
@@ -284,13 +307,14 @@ def _yaw_share(P, T, M0, M1, M2):
     A multirotor makes yaw moments weakly (through its rotors' drag torque), and a large
     frame's yaw inertia grows with the square of its arms: a flight controller gives up yaw
     before roll, pitch and thrust (PX4's mixer does)."""
-    lo = P[23] * P[30] * P[30]
-    hi = P[23] * P[31] * P[31]
+    lo = P[K_ETA] * P[SPEED_MIN] * P[SPEED_MIN]
+    hi = P[K_ETA] * P[SPEED_MAX] * P[SPEED_MAX]
+    A = P[TM_TO_F]
     c_lo = 0.0
     c_hi = 1.0
     for k in range(4):
-        base = P[48 + 4 * k] * T + P[49 + 4 * k] * M0 + P[50 + 4 * k] * M1
-        slope = P[51 + 4 * k] * M2
+        base = A[4 * k] * T + A[4 * k + 1] * M0 + A[4 * k + 2] * M1
+        slope = A[4 * k + 3] * M2
         if slope == 0.0:
             if base < lo or base > hi:
                 return 0.0
@@ -310,23 +334,32 @@ def _yaw_share(P, T, M0, M1, M2):
 def _se3i(P, s, f, h, u, R, Rd, aux):
     """SE3 with an integral term and a thrust cone (mode 3), for one environment.
 
-    The desired force is SE3's plus ``-m ki I``, ``I = s[20:23]`` the integral of the
+    The desired force is SE3's plus ``-m ki I``, ``I = s[S_INTEGRAL]`` the integral of the
     position error [m s]; then, as PX4's position controller limits its thrust set-point
     with vertical priority, its vertical part is held within [least, most] collective
     thrust and its horizontal part shortened to stay within the tilt cone
     ``|F_h| <= F_z tan(max tilt)`` and within the most thrust. The integral advances by
     ``h`` [s] of position error unless the force was limited (conditional integration, the
     anti-windup), each axis clipped so that ``|ki I|`` stays within its bound."""
-    m = P[0]
-    g = P[1]
-    e0 = s[0] - f[0]
-    e1 = s[1] - f[1]
-    e2 = s[2] - f[2]
-    F0 = m * (-P[68] * e0 - P[71] * (s[3] - f[3]) - P[76] * s[20] + f[6])
-    F1 = m * (-P[69] * e1 - P[72] * (s[4] - f[4]) - P[77] * s[21] + f[7])
-    F2 = m * (-P[70] * e2 - P[73] * (s[5] - f[5]) - P[78] * s[22] + f[8] + g)
+    m = P[MASS]
+    g = P[G]
+    kp = P[KP_POS]
+    kd = P[KD_POS]
+    ki = P[KI_POS]
+    x = s[S_POS]
+    v = s[S_VEL]
+    integral = s[S_INTEGRAL]
+    x_ref = f[FLAT_POS]
+    v_ref = f[FLAT_VEL]
+    a_ref = f[FLAT_ACC]
+    e0 = x[0] - x_ref[0]
+    e1 = x[1] - x_ref[1]
+    e2 = x[2] - x_ref[2]
+    F0 = m * (-kp[0] * e0 - kd[0] * (v[0] - v_ref[0]) - ki[0] * integral[0] + a_ref[0])
+    F1 = m * (-kp[1] * e1 - kd[1] * (v[1] - v_ref[1]) - ki[1] * integral[1] + a_ref[1])
+    F2 = m * (-kp[2] * e2 - kd[2] * (v[2] - v_ref[2]) - ki[2] * integral[2] + a_ref[2] + g)
     limited = False
-    lo, hi = P[80], P[81]
+    lo, hi = P[THRUST_LOW], P[THRUST_HIGH]
     if F2 < lo:
         F2 = lo
         limited = True
@@ -334,7 +367,7 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
         F2 = hi
         limited = True
     fh = math.sqrt(F0 * F0 + F1 * F1)
-    fh_max = min(F2 * P[79], math.sqrt(max(hi * hi - F2 * F2, 0.0)))
+    fh_max = min(F2 * P[TAN_TILT], math.sqrt(max(hi * hi - F2 * F2, 0.0)))
     if fh > fh_max:
         c = fh_max / fh
         F0 = F0 * c
@@ -342,29 +375,28 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
         limited = True
     if not limited:
         for k in range(3):
-            ki = P[76 + k]
-            if ki > 0.0:
-                lim = P[82] / ki
-                v = s[20 + k] + h * (s[k] - f[k])
-                s[20 + k] = min(max(v, -lim), lim)
+            if ki[k] > 0.0:
+                lim = P[INTEGRAL_ACC] / ki[k]
+                i_k = integral[k] + h * (x[k] - x_ref[k])
+                integral[k] = min(max(i_k, -lim), lim)
     _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, True)
 
 
 @njit(**_NB)
 def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
     """The rest of ``SE3Control.update`` from the desired force ``F`` [N] (world frame): the
-    desired attitude (body z along ``F``, yaw ``f[9]``), the collective thrust ``F . b3``,
+    desired attitude (body z along ``F``, yaw ``f[FLAT_YAW]``), the collective thrust ``F . b3``,
     the attitude law and the motor speeds u; aux as :func:`_se3`. With ``yaw_last`` the yaw
     moment is shortened first when the rotors cannot make all four (:func:`_yaw_share`)."""
-    m = P[0]
-    _rotmat(s[6:10], R)
+    m = P[MASS]
+    _rotmat(s[S_QUAT], R)
     u1 = F0 * R[0, 2] + F1 * R[1, 2] + F2 * R[2, 2]          # F_des . b3
     nF = math.sqrt(F0 * F0 + F1 * F1 + F2 * F2)
     b30 = F0 / nF
     b31 = F1 / nF
     b32 = F2 / nF
-    c0 = math.cos(f[9])
-    c1 = math.sin(f[9])
+    c0 = math.cos(f[FLAT_YAW])
+    c1 = math.sin(f[FLAT_YAW])
     x0 = b31 * 0.0 - b32 * c1                                # b3_des x c1_des
     x1 = b32 * c0 - b30 * 0.0
     x2 = b30 * c1 - b31 * c0
@@ -381,21 +413,25 @@ def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
     Rd[0, 2] = b30
     Rd[1, 2] = b31
     Rd[2, 2] = b32
-    M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[74], P[75], f[10])
+    M0, M1, M2, a0, a1, a2 = _attitude_law(P, s, R, Rd, P[SE3_KP_ATT], P[SE3_KD_ATT],
+                                             f[FLAT_YAW_RATE])
     if yaw_last:
         M2 = M2 * _yaw_share(P, u1, M0, M1, M2)
     _speeds(P, u1, M0, M1, M2, u)
-    aux[0] = u1
-    aux[1] = M0
-    aux[2] = M1
-    aux[3] = M2
-    _quat_from_matrix(Rd, aux[4:8])
-    aux[8] = F0 / m
-    aux[9] = F1 / m
-    aux[10] = F2 / m
-    aux[11] = a0
-    aux[12] = a1
-    aux[13] = a2
+    aux[CMD_THRUST] = u1
+    moment = aux[CMD_MOMENT]
+    moment[0] = M0
+    moment[1] = M1
+    moment[2] = M2
+    _quat_from_matrix(Rd, aux[CMD_Q])
+    acc = aux[CMD_ACC]
+    acc[0] = F0 / m
+    acc[1] = F1 / m
+    acc[2] = F2 / m
+    cmd_w = aux[CMD_W]
+    cmd_w[0] = a0
+    cmd_w[1] = a1
+    cmd_w[2] = a2
 
 
 @njit(**_NB)
@@ -415,12 +451,12 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     u = np.empty(4)
-    k1 = np.empty(20)
-    k2 = np.empty(20)
-    k3 = np.empty(20)
-    k4 = np.empty(20)
-    tmp = np.empty(20)
-    aux = np.empty(14)
+    k1 = np.empty(N_STATE)
+    k2 = np.empty(N_STATE)
+    k3 = np.empty(N_STATE)
+    k4 = np.empty(N_STATE)
+    tmp = np.empty(N_STATE)
+    aux = np.empty(N_CMD)
     for i in range(n):
         s = S[i]
         if mode == 0:
@@ -429,13 +465,13 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
             _cmd_ctbr(P, s, T[i], C[i], u)
         elif mode == 2:
             _se3(P, s, C[i], u, R, Rd, aux)
-            T[i] = aux[0]
+            T[i] = aux[CMD_THRUST]
         else:
             _se3i(P, s, C[i], n_sub * h, u, R, Rd, aux)
-            T[i] = aux[0]
+            T[i] = aux[CMD_THRUST]
         hit = False
         for k in range(4):                                   # np.clip(cmd, min, max)
-            c = min(max(u[k], P[30]), P[31])
+            c = min(max(u[k], P[SPEED_MIN]), P[SPEED_MAX])
             if c != u[k]:
                 hit = True
             u[k] = c
@@ -443,20 +479,21 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
             clipped[i] += 1
         for _ in range(n_sub):
             _sdot(P, s, u, k1, R)
-            for j in range(20):
+            for j in range(N_STATE):
                 tmp[j] = s[j] + (0.5 * h) * k1[j]
             _sdot(P, tmp, u, k2, R)
-            for j in range(20):
+            for j in range(N_STATE):
                 tmp[j] = s[j] + (0.5 * h) * k2[j]
             _sdot(P, tmp, u, k3, R)
-            for j in range(20):
+            for j in range(N_STATE):
                 tmp[j] = s[j] + h * k3[j]
             _sdot(P, tmp, u, k4, R)
-            for j in range(20):
+            for j in range(N_STATE):
                 s[j] = s[j] + (h / 6.0) * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
-        qn = math.sqrt(s[6] * s[6] + s[7] * s[7] + s[8] * s[8] + s[9] * s[9])
-        for j in range(6, 10):
-            s[j] = s[j] / qn
+        q = s[S_QUAT]
+        qn = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        for j in range(4):
+            q[j] = q[j] / qn
 
 
 @njit(**_NB)
@@ -490,14 +527,14 @@ def se3i_commands(P, S, F):
     (:func:`_se3i`) at the states S (n, 23), without advancing the integral."""
     n = S.shape[0]
     u = np.empty((n, 4))
-    aux = np.empty((n, 14))
+    aux = np.empty((n, N_CMD))
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     s = np.empty(S.shape[1])
     for i in range(n):
         s[:] = S[i]
         _se3i(P, s, F[i], 0.0, u[i], R, Rd, aux[i])
-    return u, aux[:, 0].copy()
+    return u, aux[:, CMD_THRUST].copy()
 
 
 @njit(**_NB)
@@ -507,10 +544,10 @@ def se3_commands(P, S, F):
     [N m], cmd_q (n, 4) [i, j, k, w], cmd_acc (n, 3) [m/s^2], cmd_w (n, 3) [rad/s])``."""
     n = S.shape[0]
     u = np.empty((n, 4))
-    aux = np.empty((n, 14))
+    aux = np.empty((n, N_CMD))
     R = np.empty((3, 3))
     Rd = np.empty((3, 3))
     for i in range(n):
         _se3(P, S[i], F[i], u[i], R, Rd, aux[i])
-    return u, aux[:, 0].copy(), aux[:, 1:4].copy(), aux[:, 4:8].copy(), aux[:, 8:11].copy(), \
-        aux[:, 11:14].copy()
+    return (u, aux[:, CMD_THRUST].copy(), aux[:, CMD_MOMENT].copy(), aux[:, CMD_Q].copy(),
+            aux[:, CMD_ACC].copy(), aux[:, CMD_W].copy())

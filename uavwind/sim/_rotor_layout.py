@@ -1,11 +1,11 @@
-"""The numba kernels' layouts as the multirotor's Python code sees them.
+"""The bridge between the multirotor's Python code and its numba kernels.
 
 This module owns the bridge between :class:`uavwind.sim.multirotor.Multirotor` and
 ``uavwind.sim._rotor_kernels``: ``_packed``, the vehicle's parameters packed once into the
 kernels' parameter vector (RotorPy's ``quad_params`` from
 :func:`uavwind.sim.rotor_params.rotorpy_params`, the drag and lift factors, SE3's gains and a
-:class:`~uavwind.sim.rotor_params.PositionControl`), the slots of that vector and the columns
-of the kernels' state read outside them, what a recorded flight stores at each sample
+:class:`~uavwind.sim.rotor_params.PositionControl`) written through the names of
+``uavwind.sim._slots``, what a recorded flight stores at each sample
 (velocities, winds, attitudes, body rates, rotor speeds, the accelerometer's specific force,
 the aerodynamic force; ``_record_state``, ``_specific_force``, ``_aero_force``) and
 ``_kernels``, the one lazy access to the kernels themselves.
@@ -18,25 +18,28 @@ from functools import lru_cache
 
 import numpy as np
 
+from ._slots import (AERO, C_D, G, INERTIA, INERTIA_INV, INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H,
+                     K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS, KP_ATT, KP_POS, LAYOUT, MASS, N_PARAMS,
+                     ROTOR_DIR, ROTOR_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
+                     SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
+                     TM_TO_F)
 from .rotor_params import DRAG_KEYS, GRAVITY, SE3_KD_POS, SE3_KP_POS, rotorpy_params
 
-#: Slots of the parameter vector (``uavwind.sim._rotor_kernels``' layout) read here.
-_K_ETA, _SPEED_MIN, _SPEED_MAX = 23, 30, 31
-_KI, _TAN_TILT, _THRUST_LOW, _THRUST_HIGH, _INTEGRAL_ACC = slice(76, 79), 79, 80, 81, 82
-#: Length of the parameter vector.
-_N_PARAMS = 83
-#: State columns of a flight under :class:`PositionControl`: RotorPy's 20, then the integral
-#: of the position error (3) [m s].
-_N_STATE, _N_STATE_PI = 20, 23
 
-
+@lru_cache(maxsize=None)
 def _kernels():
     """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
     1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
-    flies none). The multirotor and its rollouts reach the kernels through here only."""
+    flies none). The multirotor and its rollouts reach the kernels through here only.
+    ``RuntimeError`` if numba's cache holds kernels compiled under another layout of
+    ``uavwind.sim._slots`` than the present one (its cache does not see that file)."""
     # the package's one import of the rotor kernels: kept in a function so that importing
     # uavwind, which builds multirotors but flies none, does not load numba
     from . import _rotor_kernels
+    if _rotor_kernels.compiled_layout() != LAYOUT:
+        raise RuntimeError("numba's cache holds uavwind.sim._rotor_kernels compiled under "
+                           "another layout of uavwind.sim._slots than the present one: delete "
+                           "uavwind/sim/__pycache__/_rotor_kernels*.nbi and *.nbc and run again")
     return _rotor_kernels
 
 
@@ -58,29 +61,31 @@ def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None):  # mass
                          np.hstack([np.cross(qp["rotor_pos"][key], np.array([0, 0, 1]))
                                     .reshape(-1, 1)[0:2] for key in qp["rotor_pos"]]),
                          (k * direction).reshape(1, -1)))
-    P = np.zeros(_N_PARAMS)
-    P[0], P[1] = qp["mass"], GRAVITY
-    P[2:11] = inertia.ravel()
-    P[11:20] = np.linalg.inv(inertia).ravel()
-    P[20:23] = [qp.get("c_Dx", 0.0), qp.get("c_Dy", 0.0), qp.get("c_Dz", 0.0)]
-    P[23:32] = [qp["k_eta"], qp["k_m"], qp.get("k_d", 0.0), qp.get("k_z", 0.0),
-                qp.get("k_h", 0.0), qp.get("k_flap", 0.0), qp["tau_m"], qp["rotor_speed_min"],
-                qp["rotor_speed_max"]]
-    P[32:44] = geometry.ravel()
-    P[44:48] = direction
-    P[48:64] = np.linalg.inv(f_to_TM).ravel()
-    P[64:67] = [qp.get("k_w", 1.0), qp.get("kp_att", 3000.0), qp.get("kd_att", 360.0)]
-    P[67] = 1.0
-    P[68:71] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
-    P[71:74] = SE3_KD_POS  # with its own defaults)
-    P[74:76] = [qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)]
+    P = np.zeros(N_PARAMS)
+    P[MASS], P[G] = qp["mass"], GRAVITY
+    P[INERTIA] = inertia.ravel()
+    P[INERTIA_INV] = np.linalg.inv(inertia).ravel()
+    P[C_D] = [qp.get("c_Dx", 0.0), qp.get("c_Dy", 0.0), qp.get("c_Dz", 0.0)]
+    P[K_ETA], P[K_M] = qp["k_eta"], qp["k_m"]
+    P[K_D], P[K_Z], P[K_H] = qp.get("k_d", 0.0), qp.get("k_z", 0.0), qp.get("k_h", 0.0)
+    P[K_FLAP], P[TAU_M] = qp.get("k_flap", 0.0), qp["tau_m"]
+    P[SPEED_MIN], P[SPEED_MAX] = qp["rotor_speed_min"], qp["rotor_speed_max"]
+    P[ROTOR_POS] = geometry.ravel()
+    P[ROTOR_DIR] = direction
+    P[TM_TO_F] = np.linalg.inv(f_to_TM).ravel()
+    P[K_W] = qp.get("k_w", 1.0)
+    P[KP_ATT], P[KD_ATT] = qp.get("kp_att", 3000.0), qp.get("kd_att", 360.0)
+    P[AERO] = 1.0
+    P[KP_POS] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
+    P[KD_POS] = SE3_KD_POS  # with its own defaults)
+    P[SE3_KP_ATT], P[SE3_KD_ATT] = qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)
     if control is not None:
-        full = 4 * P[_K_ETA] * P[_SPEED_MAX] ** 2
-        P[_KI] = control.ki
-        P[_TAN_TILT] = math.tan(math.radians(control.max_tilt))
-        P[_THRUST_LOW] = control.min_thrust * full
-        P[_THRUST_HIGH] = control.max_thrust * full
-        P[_INTEGRAL_ACC] = control.max_integral_acceleration
+        full = 4 * P[K_ETA] * P[SPEED_MAX] ** 2
+        P[KI_POS] = control.ki
+        P[TAN_TILT] = math.tan(math.radians(control.max_tilt))
+        P[THRUST_LOW] = control.min_thrust * full
+        P[THRUST_HIGH] = control.max_thrust * full
+        P[INTEGRAL_ACC] = control.max_integral_acceleration
     P.setflags(write=False)
     return P
 
@@ -94,17 +99,17 @@ def _body_z(q) -> np.ndarray:
 def _record_state(rec, j, P, S, u_held):
     """Sample ``j`` of a recorded flight: velocities, winds, attitudes, body rates, rotor
     speeds and the accelerometer's specific force under the held motor speeds."""
-    rec["v"][:, j] = S[:, 3:6]
-    rec["wind"][:, j] = S[:, 13:16]
-    rec["q"][:, j] = S[:, 6:10]
-    rec["w"][:, j] = S[:, 10:13]
-    rec["rotors"][:, j] = S[:, 16:20]
+    rec["v"][:, j] = S[:, S_VEL]
+    rec["wind"][:, j] = S[:, S_WIND]
+    rec["q"][:, j] = S[:, S_QUAT]
+    rec["w"][:, j] = S[:, S_RATES]
+    rec["rotors"][:, j] = S[:, S_ROTORS]
     rec["f"][:, j] = _specific_force(P, S, u_held)
 
 
 def _clipped_commands(P, S, T, C):
     motor_commands = _kernels().motor_commands
-    return np.clip(motor_commands(P, S, T, C, 0), P[30], P[31])
+    return np.clip(motor_commands(P, S, T, C, 0), P[SPEED_MIN], P[SPEED_MAX])
 
 
 def _specific_force(P, S, U):
@@ -112,9 +117,9 @@ def _specific_force(P, S, U):
     g)`` at the states ``S`` under the held motor speeds ``U`` (RotorPy's IMU, no noise)."""
     state_derivative = _kernels().state_derivative
 
-    vdot = state_derivative(P, S, U)[:, 3:6]
+    vdot = state_derivative(P, S, U)[:, S_VEL]
     acc = vdot - np.array([0.0, 0.0, -GRAVITY])
-    q = S[:, 6:10] / np.linalg.norm(S[:, 6:10], axis=1, keepdims=True)
+    q = S[:, S_QUAT] / np.linalg.norm(S[:, S_QUAT], axis=1, keepdims=True)
     x, y, z, w = q.T
     R = np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
                   np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
@@ -133,7 +138,7 @@ def _body_z_batch(Q) -> np.ndarray:
 def _clipped_se3(P, S, C, mode=2):
     se3_commands, se3i_commands = _kernels().se3_commands, _kernels().se3i_commands
     u = se3_commands(P, S, C)[0] if mode == 2 else se3i_commands(P, S, C)[0]
-    return np.clip(u, P[_SPEED_MIN], P[_SPEED_MAX])
+    return np.clip(u, P[SPEED_MIN], P[SPEED_MAX])
 
 
 def _aero_force(P, S, U):
@@ -143,8 +148,8 @@ def _aero_force(P, S, U):
     ``fa``). ``U`` (the held motor commands) does not change it (only the motors' rates)."""
     state_derivative = _kernels().state_derivative
 
-    vdot = state_derivative(P, S, U)[:, 3:6]
-    m = P[0]
-    nominal = P[23] * np.sum(S[:, 16:20] ** 2, axis=1)
-    gravity = np.array([0.0, 0.0, m * P[1]])
-    return m * vdot + gravity - nominal[:, None] * _body_z_batch(S[:, 6:10])
+    vdot = state_derivative(P, S, U)[:, S_VEL]
+    m = P[MASS]
+    nominal = P[K_ETA] * np.sum(S[:, S_ROTORS] ** 2, axis=1)
+    gravity = np.array([0.0, 0.0, m * P[G]])
+    return m * vdot + gravity - nominal[:, None] * _body_z_batch(S[:, S_QUAT])

@@ -49,9 +49,9 @@ than RotorPy's default RK45 tolerances on the paper's flights). Positions are re
 
 The vehicle's numbers (the presets, RotorPy's scaled parameters,
 :class:`~uavwind.sim.rotor_params.PositionControl`) are :mod:`uavwind.sim.rotor_params`' and
-are re-exported here; their packing into the kernels' parameter vector, the state columns
-read outside the kernels and what a recorded flight stores at each sample are
-``uavwind.sim._rotor_layout``'s.
+are re-exported here; their packing into the kernels' parameter vector and what a recorded
+flight stores at each sample are ``uavwind.sim._rotor_layout``'s, the slots of that vector
+and the columns of the state ``uavwind.sim._slots``'.
 """
 
 from __future__ import annotations
@@ -63,9 +63,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
-from ._rotor_layout import (_K_ETA, _N_STATE, _N_STATE_PI, _SPEED_MAX, _SPEED_MIN,
-                            _aero_force, _body_z, _body_z_batch, _clipped_commands, _clipped_se3,
+from ._rotor_layout import (_aero_force, _body_z, _body_z_batch, _clipped_commands, _clipped_se3,
                             _kernels, _packed, _record_state)
+from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA, N_FLAT,
+                     N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND, SPEED_MAX,
+                     SPEED_MIN)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
 # the vehicle's parameters, re-exported: this module's names before they had a module
@@ -254,12 +256,18 @@ class Multirotor:
     def max_thrust(self) -> float:
         """Collective thrust at full rotor speed [N] (no translational lift)."""
         P = self.packed
-        return float(4 * P[_K_ETA] * P[_SPEED_MAX] ** 2)
+        return float(4 * P[K_ETA] * P[SPEED_MAX] ** 2)
+
+    @property
+    def thrust_coefficient(self) -> float:
+        """The rotors' thrust coefficient ``k_eta`` [N/(rad/s)^2]: a rotor turning at
+        ``omega`` [rad/s] makes ``k_eta omega^2`` of thrust (no translational lift)."""
+        return float(self.packed[K_ETA])
 
     @property
     def hover_speed(self) -> float:
         """Rotor speed whose thrust holds the vehicle in still air [rad/s]."""
-        return math.sqrt(self.weight / (4 * self.packed[23]))
+        return math.sqrt(self.weight / (4 * self.packed[K_ETA]))
 
     def drag_force(self, airspeed: float) -> float:
         """Horizontal aerodynamic force [N] on the vehicle hovering level (rotors at hover
@@ -269,9 +277,9 @@ class Multirotor:
         state_derivative = _kernels().state_derivative
 
         S = self.initial_states(np.zeros(3), np.zeros((1, 3)))
-        S[0, 13] = check_scalar(airspeed, "airspeed", low=0.0, high=1e3)  # wind along x
+        S[0, S_WIND.start] = check_scalar(airspeed, "airspeed", low=0.0, high=1e3)  # along x
         U = np.full((1, 4), self.hover_speed)
-        return float(state_derivative(self.packed, S, U)[0, 3] * self.mass)
+        return float(state_derivative(self.packed, S, U)[0, S_VEL.start] * self.mass)  # x
 
     def hover_trim(self, airspeed: float) -> tuple[float, float]:
         """``(tilt [deg], collective thrust [N])`` that hold the vehicle still in a steady
@@ -289,11 +297,11 @@ class Multirotor:
         def residual(x):
             th, om = x
             S = self.initial_states(np.zeros(3), np.zeros((1, 3)))
-            S[0, 6:10] = [0.0, math.sin(th / 2), 0.0, math.cos(th / 2)]  # pitch about y
-            S[0, 13] = airspeed
-            S[0, 16:20] = om
-            d = state_derivative(P, S, np.full((1, 4), om))[0]
-            return np.array([d[3], d[5]])
+            S[0, S_QUAT] = [0.0, math.sin(th / 2), 0.0, math.cos(th / 2)]  # pitch about y
+            S[0, S_WIND.start] = airspeed  # along x
+            S[0, S_ROTORS] = om
+            dv = state_derivative(P, S, np.full((1, 4), om))[0, S_VEL]
+            return np.array([dv[0], dv[2]])  # x and z
 
         x = np.array([-math.atan2(self.drag_force(airspeed), self.weight), self.hover_speed])
         for _ in range(50):
@@ -306,10 +314,10 @@ class Multirotor:
                 dx[j] = h
                 J[:, j] = (residual(x + dx) - r) / h
             x = x - np.linalg.solve(J, r)
-        if np.abs(residual(x)).max() > 1e-6 or not P[_SPEED_MIN] <= x[1] <= P[_SPEED_MAX]:
+        if np.abs(residual(x)).max() > 1e-6 or not P[SPEED_MIN] <= x[1] <= P[SPEED_MAX]:
             raise ValueError(f"airspeed = {airspeed:g} m/s: no rotor speed within the rotors' "
                              f"range holds this vehicle still in it")
-        return abs(math.degrees(x[0])), float(4 * P[_K_ETA] * x[1] ** 2)
+        return abs(math.degrees(x[0])), float(4 * P[K_ETA] * x[1] ** 2)
 
     def quad_params(self) -> dict:
         """This vehicle as RotorPy's ``quad_params`` (for ``rotorpy``'s own ``Multirotor``)."""
@@ -322,18 +330,18 @@ class Multirotor:
 
     # -- flying -------------------------------------------------------------- #
     def initial_states(self, start_position, winds0) -> np.ndarray:
-        """(n_env, 20) states at t = 0: level, no rates, rotors at hover speed, at
-        ``start_position``; at rest (``"hover"``) or with the wind ``winds0`` (n_env, 3)
-        (``"drifting"``)."""
+        """(n_env, 20) states (``uavwind.sim._slots``' columns) at t = 0: level, no rates,
+        rotors at hover speed, at ``start_position``; at rest (``"hover"``) or with the wind
+        ``winds0`` (n_env, 3) (``"drifting"``)."""
         start_position = check_array(start_position, "start_position", shape=(3,))
         winds0 = check_array(winds0, "winds0", shape=(None, 3))
         n = winds0.shape[0]
-        s = np.zeros((n, 20))
-        s[:, 0:3] = start_position
-        s[:, 9] = 1.0
-        s[:, 16:20] = self.hover_speed
+        s = np.zeros((n, N_STATE))
+        s[:, S_POS] = start_position
+        s[:, S_QUAT] = [0.0, 0.0, 0.0, 1.0]  # level: the identity [i, j, k, w]
+        s[:, S_ROTORS] = self.hover_speed
         if self.start == "drifting":
-            s[:, 3:6] = winds0
+            s[:, S_VEL] = winds0
         return s
 
     def check_grid(self, dt: float) -> int:
@@ -414,7 +422,7 @@ class Multirotor:
             limited_steps += limited
             T[:] = thrust_k
             C[:] = quat_k
-            S[:, 13:16] = wind._velocity(t, S[:, 0:3])
+            S[:, S_WIND] = wind._velocity(t, S[:, S_POS])
             if record_all and (k + 1) % per == 0:  # the held command, for the accelerometer
                 u_held = _clipped_commands(P, S, T, C)
             if clip_log is not None:
@@ -424,7 +432,7 @@ class Multirotor:
                 clip_log[:, k] = clipped != before
             if (k + 1) % per == 0:
                 j = (k + 1) // per - 1
-                positions[:, j] = S[:, 0:3]
+                positions[:, j] = S[:, S_POS]
                 if record_all:
                     _record_state(rec, j, P, S, u_held)
                     T_j, q_j, _ = commands[int(max(seg_of[k], 0))]
@@ -469,18 +477,21 @@ class Multirotor:
         h = h_ctrl / self.substeps
         n_ctrl = n * per
         t_ctrl = np.arange(n_ctrl) * h_ctrl
-        flat = reference.flat_output(np.append(t_ctrl, n * dt))
-        F = np.column_stack([flat["x"], flat["x_dot"], flat["x_ddot"], flat["yaw"],
-                             flat["yaw_dot"]])
-        low = int(np.argmin(F[:, 2]))
-        if F[low, 2] < 0.0:
-            raise ValueError(f"reference: its path goes below the ground (z = {F[low, 2]:.4g} m "
+        t_flat = np.append(t_ctrl, n * dt)
+        flat = reference.flat_output(t_flat)
+        F = np.empty((t_flat.size, N_FLAT))  # one flat-output row per control step, and the end
+        F[:, FLAT_POS], F[:, FLAT_VEL], F[:, FLAT_ACC] = flat["x"], flat["x_dot"], flat["x_ddot"]
+        F[:, FLAT_YAW], F[:, FLAT_YAW_RATE] = flat["yaw"], flat["yaw_dot"]
+        z_ref = F[:, FLAT_POS.start + 2]
+        low = int(np.argmin(z_ref))
+        if z_ref[low] < 0.0:
+            raise ValueError(f"reference: its path goes below the ground (z = {z_ref[low]:.4g} m "
                              f"at t = {min(low, n_ctrl) * h_ctrl:.4g} s); keep it above z = 0")
-        start = F[0, 0:3].copy()
+        start = F[0, FLAT_POS].copy()
         S = self.initial_states(start, np.zeros((n_env, 3)))
         mode = 2
         if self.position_control is not None:  # the integral of the position error, from 0
-            S = np.hstack([S, np.zeros((n_env, _N_STATE_PI - _N_STATE))])
+            S = np.hstack([S, np.zeros((n_env, N_STATE_PI - N_STATE))])
             mode = 3
         T = np.empty(n_env)
         clipped = np.zeros(n_env, dtype=np.int64)
@@ -491,11 +502,11 @@ class Multirotor:
                     ("fa", 3), ("thrust", 3))}
             commands = np.empty((n_env, n))
         for k in range(n_ctrl):
-            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, 11)))
-            S[:, 13:16] = wind._velocity(t_ctrl[k], S[:, 0:3])
+            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, N_FLAT)))
+            S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
             last = (k + 1) % per == 0
             if record_all and last:  # the command held over the step, for the sensors
-                b3 = _body_z_batch(S[:, 6:10])
+                b3 = _body_z_batch(S[:, S_QUAT])
                 u_held = _clipped_se3(P, S, C, mode)
             control_step(P, S, T, C, mode, self.substeps, h, clipped)
             finite = np.isfinite(S).all(axis=1)
@@ -504,17 +515,18 @@ class Multirotor:
                 raise ValueError(f"environment {i}: the multirotor's state became non-finite at "
                                  f"t = {(k + 1) * h_ctrl:.4g} s flying the reference (winds or "
                                  f"forces too large for float64); check the wind speeds")
-            below = S[:, 2] < 0.0
+            z = S[:, S_POS.start + 2]
+            below = z < 0.0
             if below.any():
                 i = int(np.argmax(below))
                 raise GroundContact(
-                    f"environment {i} would go below the ground (z = {S[i, 2]:.4g} m) at "
+                    f"environment {i} would go below the ground (z = {z[i]:.4g} m) at "
                     f"t = {(k + 1) * h_ctrl:.4g} s flying the reference: the flight is refused "
                     f"(a multirotor does not fly through the floor); check the winds and the "
                     f"reference's height", env=i, time=(k + 1) * h_ctrl)
             if last:
                 j = (k + 1) // per - 1
-                positions[:, j] = S[:, 0:3]
+                positions[:, j] = S[:, S_POS]
                 if record_all:
                     _record_state(rec, j, P, S, u_held)
                     rec["fa"][:, j] = _aero_force(P, S, u_held)

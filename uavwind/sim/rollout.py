@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core.checks import check_array, check_instance, check_scalar
 from ._rotor_layout import _kernels
+from ._slots import N_STATE, S_POS, S_QUAT, S_WIND
 from .multirotor import Multirotor, force_command
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindGroups, ConstantWind, ShearWind, WindModel, libm_pow
@@ -155,7 +156,7 @@ class _Lookup:
 
 def state_size(uav: UAV | Multirotor) -> int:
     """Numbers in one row's state: 6 for the point mass ``(r, v_air)``, 20 for a multirotor."""
-    return 20 if isinstance(uav, Multirotor) else 6
+    return N_STATE if isinstance(uav, Multirotor) else 6
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,7 +268,8 @@ class Rollout:
         columns 6-9, of norm near 1), ``env`` indices of the table's environments, forces
         (n_rows, 3) finite and, for a multirotor, within its rotors' thrust."""
         width = state_size(self.uav)
-        what = "the multirotor's 20" if width == 20 else "the point mass's 6 (r, v_air)"
+        what = (f"the multirotor's {N_STATE}" if isinstance(self.uav, Multirotor)
+                else "the point mass's 6 (r, v_air)")
         arr = np.asarray(states) if not isinstance(states, np.ndarray) else states
         if arr.ndim != 2 or arr.shape[1] != width:
             raise ValueError(f"states must have shape (n_rows, {width}) ({what} numbers per "
@@ -277,9 +279,10 @@ class Rollout:
         env = self.table.check_env(env, rows)
         forces = check_array(forces, "forces", shape=(rows, 3))
         if isinstance(self.uav, Multirotor):
-            qn = np.linalg.norm(states[:, 6:10], axis=1)
+            qn = np.linalg.norm(states[:, S_QUAT], axis=1)
             if np.any((qn < 0.5) | (qn > 2.0)):
-                raise ValueError(f"states: the attitude quaternions (columns 6-9) must have "
+                raise ValueError(f"states: the attitude quaternions (columns "
+                                 f"{S_QUAT.start}-{S_QUAT.stop - 1}) must have "
                                  f"norm near 1, got norms {qn.min():g} .. {qn.max():g}")
             top = float(np.linalg.norm(forces, axis=1).max()) if rows else 0.0
             if top > self.uav.max_thrust * (1 + 1e-12):
@@ -330,8 +333,8 @@ class Rollout:
         k0 = sample0 * per
         wind = self.table.lookup(env)
         for k in range(n * per):
-            S[:, 13:16] = wind(k0 + k, S[:, 0:3])
+            S[:, S_WIND] = wind(k0 + k, S[:, S_POS])
             control_step(P, S, T, C, 0, uav.substeps, h, clipped)
             if (k + 1) % per == 0:
-                positions[:, (k + 1) // per - 1] = S[:, 0:3]
+                positions[:, (k + 1) // per - 1] = S[:, S_POS]
         return S, positions
