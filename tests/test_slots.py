@@ -3,6 +3,7 @@ tiling each layout exactly, the state columns RotorPy's own, ``_packed`` putting
 vehicle's numbers at its named slot, the kernels compiled with the layout they are given,
 and no bare number indexing the layouts again."""
 import re
+import types
 from pathlib import Path
 
 import numpy as np
@@ -75,13 +76,39 @@ def test_the_kernels_were_compiled_with_this_layout():
     assert rk.compiled_layout() == _slots.LAYOUT
 
 
-def test_kernels_compiled_under_another_layout_are_refused(monkeypatch):
-    """numba's cache does not see _slots.py: a stale kernel is refused, not flown."""
+def _fake_kernels(tmp_path, layout, name="uavwind.sim._rotor_kernels"):
+    """A stand-in for the kernels' module: its compiled_layout reports ``layout`` and
+    names ``tmp_path`` as its numba cache folder."""
+    def compiled_layout():
+        return layout
+    compiled_layout._cache = types.SimpleNamespace(_cache_path=str(tmp_path))
+    return types.SimpleNamespace(__name__=name, compiled_layout=compiled_layout)
+
+
+def test_kernels_compiled_under_another_layout_are_compiled_again(tmp_path):
+    """numba's cache does not see _slots.py: a stale kernel is never flown; its cache files
+    are deleted (with a warning naming them) and the module imported again."""
+    stale = [tmp_path / "_rotor_kernels.step-41.py311.nbi",
+             tmp_path / "_rotor_kernels.step-41.py311.1.nbc"]
+    other = tmp_path / "_dynamics_kernels.step-9.py311.nbi"
+    for f in (*stale, other):
+        f.write_bytes(b"x")
+    old = _fake_kernels(tmp_path, _slots.LAYOUT[:-1] + (99,))
+    new = _fake_kernels(tmp_path, _slots.LAYOUT)
+    with pytest.warns(RuntimeWarning, match="2 stale file"):
+        got = _rotor_layout._recompiled(old, reload=lambda m: new)
+    assert got is new and not any(f.exists() for f in stale) and other.exists()
+    with pytest.warns(RuntimeWarning), pytest.raises(RuntimeError, match="still reports"):
+        _rotor_layout._recompiled(old, reload=lambda m: old)
+
+
+def test_a_stale_layout_reaches_the_recompiling_path(monkeypatch):
+    """_kernels() compares the compiled layout with _slots' and hands a mismatch over."""
     monkeypatch.setattr(_rotor_layout, "LAYOUT", _slots.LAYOUT[:-1] + (99,))
+    monkeypatch.setattr(_rotor_layout, "_recompiled", lambda m: ("recompiled", m))
     _rotor_layout._kernels.cache_clear()
     try:
-        with pytest.raises(RuntimeError, match="another layout"):
-            _rotor_layout._kernels()
+        assert _rotor_layout._kernels() == ("recompiled", rk)
     finally:
         _rotor_layout._kernels.cache_clear()
 

@@ -13,8 +13,11 @@ the aerodynamic force; ``_record_state``, ``_specific_force``, ``_aero_force``) 
 
 from __future__ import annotations
 
+import importlib
 import math
+import warnings
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
@@ -31,16 +34,34 @@ def _kernels():
     """:mod:`._rotor_kernels`, imported where a vehicle first flies: it imports numba (about
     1 s), which ``import uavwind`` does not need (the registry builds vehicles at import and
     flies none). The multirotor and its rollouts reach the kernels through here only.
-    ``RuntimeError`` if numba's cache holds kernels compiled under another layout of
-    ``uavwind.sim._slots`` than the present one (its cache does not see that file)."""
+    Kernels that numba's cache holds compiled under another layout of
+    ``uavwind.sim._slots`` than the present one (its cache does not see that file) are
+    compiled again (:func:`_recompiled`), never flown."""
     # the package's one import of the rotor kernels: kept in a function so that importing
     # uavwind, which builds multirotors but flies none, does not load numba
     from . import _rotor_kernels
     if _rotor_kernels.compiled_layout() != LAYOUT:
-        raise RuntimeError("numba's cache holds uavwind.sim._rotor_kernels compiled under "
-                           "another layout of uavwind.sim._slots than the present one: delete "
-                           "uavwind/sim/__pycache__/_rotor_kernels*.nbi and *.nbc and run again")
+        return _recompiled(_rotor_kernels)
     return _rotor_kernels
+
+
+def _recompiled(module, reload=importlib.reload):
+    """``module`` (the rotor kernels) imported again after deleting its stale entries from
+    numba's cache, with a warning naming them, so every kernel compiles under the present
+    layout; ``RuntimeError`` if the kernels still report another one."""
+    folder = Path(module.compiled_layout._cache._cache_path)
+    stem = module.__name__.rsplit(".", 1)[-1]
+    stale = sorted(folder.glob(f"{stem}.*.nb[ic]"))
+    for f in stale:
+        f.unlink(missing_ok=True)
+    warnings.warn(f"numba's cache held {stem} compiled under another layout of "
+                  f"uavwind.sim._slots: {len(stale)} stale file(s) deleted from {folder}, "
+                  f"the kernels compile again", RuntimeWarning, stacklevel=3)
+    module = reload(module)
+    if module.compiled_layout() != LAYOUT:
+        raise RuntimeError(f"{module.__name__} still reports another layout of "
+                           f"uavwind.sim._slots after its cache in {folder} was cleared")
+    return module
 
 
 @lru_cache(maxsize=32)
