@@ -259,3 +259,11 @@ def test_closed_loop_lines_stay_distinguishable():
     assert best.get_marker() != greedy.get_marker() and best.get_zorder() > greedy.get_zorder()
     assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
     plt.close(fig)
+
+
+def test_a_signed_number_never_reads_minus_zero():
+    from uavwind.report.display import signed
+    assert signed(-1e-17) == "+0.00" and signed(-0.0) == "+0.00" and signed(-0.004) == "+0.00"
+    assert signed(-0.006) == "-0.01" and signed(0.126, 1) == "+0.1" and signed(3) == "+3.00"
+    with pytest.raises(ValueError, match="digits must be an int"):
+        signed(1.0, 2.5)

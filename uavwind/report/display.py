@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from ..sim.setting import Setting
 
 __all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name",
-           "channel_name"]
+           "channel_name", "signed"]
 
 #: Observation channel (its code name) -> display name, where the code name does not read.
 CHANNEL_NAMES = {"imu": "IMU", "body_rates": "body rates", "position_velocity": "position + velocity"}
@@ -35,6 +35,14 @@ def channel_name(name: str) -> str:
     if not isinstance(name, str):
         raise ValueError(f"name must be a channel name (str), got {name!r}")
     return CHANNEL_NAMES.get(name, name.replace("_", " "))
+
+def signed(value: float, digits: int = 2) -> str:
+    """``value`` with its sign and ``digits`` decimals, as a page shows a difference: a value
+    that rounds to zero reads ``+0.00``, never ``-0.00`` (a bias of -1e-17 is no bias)."""
+    if not isinstance(digits, int) or not 0 <= digits <= 10:
+        raise ValueError(f"digits must be an int in [0, 10], got {digits!r}")
+    return f"{round(float(value), digits) + 0.0:+.{digits}f}"  # -0.0 + 0.0 is +0.0
+
 
 #: Column name -> display name.
 PRETTY = {
