@@ -51,6 +51,7 @@ def main():
         SECTIONS[only](fresh)
         report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
         report.setdefault("sections_measured_later", {})[only] = stamp
+        report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies
     else:
         for section in SECTIONS.values():  # the paper profile last
             section(report)

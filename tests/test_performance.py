@@ -78,6 +78,11 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
         "spread": "2026-11-24 03:00 UTC", "paper": "2026-11-24 04:44 UTC"}})["header"]
     assert header.endswith("since: spread 2026-11-24 03:00 UTC; paper 2026-11-24 04:44 UTC.")
+    header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
+        "exp13": "2026-11-28 03:50 UTC"}, "sections_host": {
+        "exp13": {"model": "Intel(R) Xeon(R) Processor @ 2.50GHz", "lanes": 8}}})["header"]
+    assert header.endswith("since: exp13 2026-11-28 03:50 UTC on Intel(R) Xeon(R) Processor "
+                           "@ 2.50GHz.")
 
 
 def test_the_closed_loop_section_shows_flights_and_the_measured_run():

@@ -226,10 +226,12 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                          f"{report.get('cores', '?')} cores ({report.get('machine', '?')}"
                          + (f", {cpu}" if cpu else "") + "), "
                          f"Python {report.get('python', '?')}, numpy {report.get('numpy', '?')}.")
+        hosts = report.get("sections_host", {})  # the host each was measured again on
         if later:
             out["header"] += " Sections measured again since: " + "; ".join(
-                f"{name} {when}" for name, when in sorted(later.items(),
-                                                          key=lambda kv: kv[1])) + "."
+                f"{name} {when}" + (f" on {hosts[name].get('model', '?')}" if name in hosts
+                                    else "")
+                for name, when in sorted(later.items(), key=lambda kv: kv[1])) + "."
     if "loop_seconds" in report:  # dated, and set beside the varied loops' speed-up, which
         # is timed on another footing: a reader must see why the two differ
         when = later.get("loops", report.get("measured", "(date not recorded)"))
