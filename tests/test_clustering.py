@@ -115,6 +115,8 @@ def test_a_scorer_scores_as_score_loop_and_checks_once_when_made(worked_example)
     assert np.array_equal(a.labels, b.labels)
     with pytest.raises(ValueError, match="groups must contain two non-empty classes"):
         LoopScorer(np.zeros(4, int), "fast", ClusteringParams())
+    with pytest.raises(ValueError, match=r"groups must be a 1-D array .* got shape \(\)"):
+        LoopScorer(1, "fast", ClusteringParams())
     with pytest.raises(ValueError, match="engine"):
         LoopScorer(s.groups, "slow", ClusteringParams())
     with pytest.raises(TypeError, match="params must be a ClusteringParams"):

@@ -280,7 +280,10 @@ class LoopScorer:
 
     def __post_init__(self):
         g = np.asarray(self.groups)
-        object.__setattr__(self, "groups", check_groups(g, g.shape[0] if g.ndim else -1))
+        if g.ndim != 1:
+            raise ValueError(f"groups must be a 1-D array of 0/1, one entry per trajectory, "
+                             f"got shape {g.shape}")
+        object.__setattr__(self, "groups", check_groups(g, g.shape[0]))
         object.__setattr__(self, "engine", check_engine(self.engine))
         if not isinstance(self.params, ClusteringParams):
             raise TypeError(f"params must be a ClusteringParams, got "
