@@ -15,6 +15,7 @@ import numbers
 import numpy as np
 from numpy.typing import ArrayLike
 from sklearn.base import BaseEstimator, ClusterMixin, TransformerMixin
+from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from ._checks import _as_dataset, _check_gamma, _same_features, _use_parallel
@@ -51,19 +52,6 @@ class KMeansResult:
     def __repr__(self):
         return ("KMeansResult(labels=%r, inertia=%r, n_iter=%r, success=%r)"
                 % (self.labels, self.inertia, self.n_iter, self.success))
-
-
-def _check_random_state(seed):
-    """sklearn.utils.check_random_state, verbatim semantics."""
-    import numbers
-    if seed is None or seed is np.random:
-        return np.random.mtrand._rand
-    if isinstance(seed, numbers.Integral):
-        return np.random.RandomState(seed)
-    if isinstance(seed, np.random.RandomState):
-        return seed
-    raise ValueError("%r cannot be used to seed a numpy.random.RandomState"
-                     " instance" % seed)
 
 
 def _k_init_metric(X, n_clusters, cdist_metric, random_state):
@@ -190,7 +178,7 @@ def _fit(X, n_clusters, gamma, max_iter, max_iter_barycenter, tol, n_init,
         inertia = np.sum(dists[arange, labels] ** 2) / n_ts
         return labels, inertia
 
-    rs = _check_random_state(random_state)
+    rs = check_random_state(random_state)
     max_attempts = max(n_init, 10)
 
     state_labels = None
