@@ -169,10 +169,14 @@ class LoopResult:
         return self.to_table().to_string(header=False)
 
 
-def check_groups(groups: ArrayLike, n_env: int) -> np.ndarray:
-    """Validate ``groups``: length ``n_env``, values 0/1, both present. Returns an int array."""
+def check_groups(groups: ArrayLike, n_env: int | None) -> np.ndarray:
+    """Validate ``groups``: one dimension of length ``n_env`` (any length for None), values
+    0/1, both present. Returns an int array."""
     g = np.asarray(groups)
-    if g.ndim != 1 or g.shape[0] != n_env:
+    if n_env is None and g.ndim != 1:
+        raise ValueError(f"groups must be a 1-D array of 0/1, one entry per trajectory, "
+                         f"got shape {g.shape}")
+    if g.ndim != 1 or (n_env is not None and g.shape[0] != n_env):
         raise ValueError(f"groups must have shape ({n_env},) (one entry per trajectory), got {g.shape}")
     if not np.issubdtype(g.dtype, np.number) and g.dtype != bool:
         raise TypeError(f"groups must hold 0/1 integers, got dtype {g.dtype}")
@@ -279,11 +283,7 @@ class LoopScorer:
     params: ClusteringParams
 
     def __post_init__(self):
-        g = np.asarray(self.groups)
-        if g.ndim != 1:
-            raise ValueError(f"groups must be a 1-D array of 0/1, one entry per trajectory, "
-                             f"got shape {g.shape}")
-        object.__setattr__(self, "groups", check_groups(g, g.shape[0]))
+        object.__setattr__(self, "groups", check_groups(self.groups, None))
         object.__setattr__(self, "engine", check_engine(self.engine))
         if not isinstance(self.params, ClusteringParams):
             raise TypeError(f"params must be a ClusteringParams, got "

@@ -135,8 +135,7 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
         raise ValueError(f"thrusts and wind_seeds must have the same length, "
                          f"got {len(thrusts)} and {len(wind_seeds)}")
     n_jobs = check_jobs(n_jobs)
-    scorer = LoopScorer(setting.groups, engine,
-                        ClusteringParams.from_kwargs(params, "clustering parameters"))
+    scorer = LoopScorer.of(setting.groups, engine, **params)
     tasks = [delayed(_one_loop)(setting, th, ws, scorer, pin=True)
              for th, ws in zip(thrusts, wind_seeds)]
     bar = None
