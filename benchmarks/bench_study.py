@@ -339,14 +339,9 @@ def _lap_length_check(rows, paper_rows, samples, paper_samples):
     channels each decides (their CIs over controllers apart) and how many it reverses."""
     from uavwind.analysis import real_flights as rf
 
-    def decided(r):
-        ch = rf.channel_table(r).set_index("channel")
-        return {(a, b) for a in ch.index for b in ch.index
-                if a != b and ch.loc[a, "ci_low"] > ch.loc[b, "ci_high"]}
-
     va = rf.controlled_table(rows).set_index("channel")["verdict"]
     vb = rf.controlled_table(paper_rows).set_index("channel")["verdict"].reindex(va.index)
-    da, db = decided(rows), decided(paper_rows)
+    da, db = (set(rf.decided_orders(rf.channel_table(r))) for r in (rows, paper_rows))
     return {"samples": samples, "paper_samples": paper_samples, "channels": len(va),
             "verdicts_same": int((va == vb).sum()), "decided": len(da),
             "decided_paper": len(db), "reversed": len({(a, b) for a, b in da if (b, a) in db}),

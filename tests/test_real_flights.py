@@ -374,3 +374,11 @@ def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, t
     assert df.equals(real) and list(df.columns) == list(real.columns)
     (twin_of, kw), = twins
     assert twin_of.equals(real) and kw == {"profile": "quick", "results": tmp_path, "n_jobs": 1}
+
+
+def test_decided_orders_are_the_pairs_whose_intervals_lie_apart():
+    ch = pd.DataFrame({"channel": ["b", "a", "c"], "mean": [50.0, 80.0, 45.0],
+                       "ci_low": [40.0, 70.0, 30.0], "ci_high": [60.0, 90.0, 60.0]})
+    assert rf.decided_orders(ch) == [("a", "b"), ("a", "c")]
+    ch.loc[0, "ci_high"] = 70.0  # b's interval now reaches a's: that order is undecided
+    assert rf.decided_orders(ch) == [("a", "c")]

@@ -57,7 +57,8 @@ from ..sim.references import Lemniscate
 from ..sim.rotor_params import NEURAL_FLY_CONTROL
 from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
-from .real_flights import STUDIES, compute_rows, flight_summaries, noise_columns
+from .real_flights import (STUDIES, compute_rows, decided_orders, flight_summaries,
+                           noise_columns)
 
 __all__ = ["FIGURE8", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREAD_CONDITION",
            "TwinCalibration", "calibrate_twin", "held_out_controller",
@@ -512,10 +513,11 @@ def ranking_verdict(real_channels: pd.DataFrame, sim_channels: pd.DataFrame,
     n = len(rr)
     rho = float(1 - 6 * ((rr - sr) ** 2).sum() / (n * (n * n - 1))) if n > 2 else float("nan")
     order = list(r.sort_values("mean", ascending=False).index)
+    decided = decided_orders(real_channels)
     agree, disagree, tied, unordered = [], [], [], []
     for i, a in enumerate(order):
         for b in order[i + 1:]:  # a above b in the real flights
-            if r.loc[a, "ci_low"] <= r.loc[b, "ci_high"]:
+            if (a, b) not in decided:
                 unordered.append((a, b))
                 continue
             d = s.loc[a, "mean"] - s.loc[b, "mean"]

@@ -56,6 +56,7 @@ from .wind_estimates import estimation_rows
 
 __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
            "pair_table", "channel_table", "controlled_table", "flight_table", "flights_digest",
+           "decided_orders",
            "NOISE_CHANNELS", "noise_columns", "flight_summaries"]
 
 #: Bump when a change alters the rows (part of the cache digest), including a change to how
@@ -460,6 +461,16 @@ def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
     df = pd.DataFrame(out).sort_values("mean", ascending=False, ignore_index=True)
     df.insert(1, "rank", np.arange(1, len(df) + 1))
     return df
+
+
+def decided_orders(channels: pd.DataFrame) -> list[tuple[str, str]]:
+    """The orders of two channels a :func:`channel_table` decides: ``(a, b)`` with ``a``
+    above ``b`` by mean and their CIs over controllers apart (``a``'s low bound not at or
+    below ``b``'s high one), best pair first."""
+    r = channels.set_index("channel")
+    order = list(r.sort_values("mean", ascending=False).index)
+    return [(a, b) for i, a in enumerate(order) for b in order[i + 1:]
+            if not r.loc[a, "ci_low"] <= r.loc[b, "ci_high"]]
 
 
 def controlled_table(rows: pd.DataFrame) -> pd.DataFrame:
