@@ -49,10 +49,13 @@ def test_the_paper_profile_runs_the_sized_counts():
         exp = EXPERIMENTS[exp_id]
         counts = {_runs(paper, exp, c) for c in exp.cases()}
         assert counts == {s.count}, exp_id
-    # what the sizing asked for, at the spreads measured (Exps 7 and 9 more than the
-    # paper's 50; Exp 11's sweep, decided loop by loop, its floor of 20: 82 when each case
-    # was sized on its own spread)
-    assert SIZINGS["exp7"].count == SIZINGS["exp9"].count == 128
+    # what the sizing asked for, at the spreads measured (Exps 7 and 9, sized on the share
+    # of correct groupings their pages decide, the paper's 50: their questions need 40 and
+    # 43; sized on a mean score 10 points apart they ran 128; Exp 11's sweep, decided loop
+    # by loop, its floor of 20: 82 when each case was sized on its own spread)
+    assert SIZINGS["exp7"].count == SIZINGS["exp9"].count == 50
+    assert SIZINGS["exp7"].needed < 50 and SIZINGS["exp9"].needed < 50
+    assert SIZINGS["exp7"].value == "correct" and SIZINGS["exp9"].value == "baseline_correct"
     assert SIZINGS["exp11"].count == SIZINGS["exp11"].floor == 20 > SIZINGS["exp11"].needed
     # the paper's own experiments keep the paper's 50 loops per case
     for exp_id in ("exp1", "exp2", "exp3", "exp4", "exp5"):
@@ -95,7 +98,7 @@ def test_sized_loops_are_checked():
         prof.sized_loops["exp7"] = 5
 
 
-def _frame(sd_a, sd_b, n, experiment="exp7"):
+def _frame(sd_a, sd_b, n, experiment="exp10"):
     rng = np.random.default_rng(0)
     a = rng.standard_normal(n)
     b = rng.standard_normal(n)
@@ -107,7 +110,7 @@ def _frame(sd_a, sd_b, n, experiment="exp7"):
 
 
 def test_sizing_note_states_the_choice_and_remeasures_it():
-    s = SIZINGS["exp7"]
+    s = SIZINGS["exp10"]
     # SD 20 in the most variable case: (1.96 * 20 / 5)^2 = 61.5 -> 62 loops
     text = sizing_note(_frame(10.0, 20.0, 70))
     assert s.question in text and "+-5 points" in text
@@ -120,12 +123,29 @@ def test_sizing_note_states_the_choice_and_remeasures_it():
     s8 = SIZINGS["exp8"]
     assert f"takes {s8.needed}, fewer than the 50 it runs at the least" in text8
     one = pd.DataFrame({"case": [0, 1], "score": [50.0, 60.0]})  # the quick Exp 11's one loop
-    one.attrs["experiment"] = "exp7"
+    one.attrs["experiment"] = "exp10"
     assert sizing_note(one).endswith(" This build ran 1 loop per case: too few to measure a spread.")
     with pytest.raises(ValueError, match="no sizing for experiment 'exp1'"):
         sizing_note(_frame(1.0, 1.0, 5, "exp1"))
     with pytest.raises(TypeError, match="sizing"):
-        sizing_note(_frame(1.0, 1.0, 5), sizing="exp7")
+        sizing_note(_frame(1.0, 1.0, 5), sizing="exp10")
+
+
+def test_sizing_note_of_exp7_measures_the_share_of_correct_groupings():
+    """Exps 7 and 9 are sized on the share their pages decide (0/1 per loop, in percentage
+    points), per noise case, not on the score."""
+    n = 50
+    rows = [{"scenario": "a", "noise_sigma": sig, "noise_bias": 0.0, "score": 99.0,
+             "correct": float(i < k), "baseline_correct": 1.0}
+            for sig, k in ((0.0, n), (2.0, n // 2)) for i in range(n)]
+    df = pd.DataFrame(rows)
+    df.attrs["experiment"] = "exp7"
+    text = sizing_note(df)
+    sd = float(pd.Series([1.0] * 25 + [0.0] * 25).std(ddof=1) * 100)  # 50.5 pp
+    assert f"varies by up to {sd:.1f} percentage points" in text
+    assert "runs **50 loops per case**" in text and "it ran 50" in text
+    df.attrs["experiment"] = "exp9"  # its baseline is right everywhere: no spread
+    assert "varies by up to 0.0 percentage points" in sizing_note(df)
 
 
 def test_sizing_note_of_a_closed_loop_counts_episodes_at_the_last_time():
@@ -160,10 +180,10 @@ def test_the_replication_notes_state_the_sized_counts():
     notes = (Path(__file__).parents[1] / "book" / "replication_notes.md").read_text()
     c = {e: s.count for e, s in SIZINGS.items()}
     n = {e: s.needed for e, s in SIZINGS.items()}
-    assert c["exp7"] == c["exp9"]
-    assert f"Exps 7 and 9 run {c['exp7']} loops per case, Exp 11's sweep {c['exp11']}" in notes
-    assert (f"Exps 8 and 10 the paper's 50 (their\nquestions need {n['exp8']} and "
-            f"{n['exp10']})") in notes
+    assert c["exp7"] == c["exp8"] == c["exp9"] == c["exp10"] == 50
+    assert (f"Exps 7, 8, 9 and 10 run the paper's 50 loops per case (their questions need "
+            f"{n['exp7']}, {n['exp8']}, {n['exp9']} and\n{n['exp10']};") in notes
+    assert f"ask), Exp 11's sweep {c['exp11']}" in notes
     assert f"Exp 12 its {c['exp12']} episodes (the accuracy question needs {n['exp12']};" in notes
 
 

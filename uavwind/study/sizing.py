@@ -111,15 +111,21 @@ _PAPER_FLOOR = "the paper's own 50 loops per case, which this experiment extends
 
 #: Exps 7-12's sizings, from the paper build :data:`SIZED_AT`.
 SIZINGS: dict[str, Sizing] = {s.experiment: s for s in (
-    Sizing(experiment="exp7", question="Telling a noise level that costs 10 points from one "
-           "that costs none", halfwidth=5, unit="points", sd=28.8, measured_with=50,
-           floor=50, floor_reason=_PAPER_FLOOR),
+    Sizing(experiment="exp7", question="Placing a noise level on its side of one half (the "
+           "page's verdict: where the share of correctly grouped loops falls below it) when "
+           "that share is 15 percentage points or more from one half", halfwidth=15,
+           unit="percentage points", sd=48.2, measured_with=128, floor=50,
+           floor_reason=_PAPER_FLOOR, value="correct", by=("scenario", "noise_sigma",
+                                                           "noise_bias"),
+           scale=100.0, measured_at="4e97d73"),
     Sizing(experiment="exp8", question="Ranking two observations whose means differ by 10 "
            "points", halfwidth=5, unit="points", sd=14.0, measured_with=50, floor=50,
            floor_reason=_PAPER_FLOOR),
-    Sizing(experiment="exp9", question="Comparing the clustering's mean score across "
-           "mis-specifications 10 points apart", halfwidth=5, unit="points", sd=28.8,
-           measured_with=50, floor=50, floor_reason=_PAPER_FLOOR),
+    Sizing(experiment="exp9", question="Telling the baseline's share of correctly grouped "
+           "loops from one half and from the clustering's when they differ by 30 percentage "
+           "points", halfwidth=15, unit="percentage points", sd=50.0, measured_with=128,
+           floor=50, floor_reason=_PAPER_FLOOR, value="baseline_correct",
+           by=("scenario", "noise_sigma", "noise_bias"), scale=100.0, measured_at="4e97d73"),
     Sizing(experiment="exp10", question="Telling a vehicle whose mean score is 10 points "
            "lower from one that matches the point mass", halfwidth=5, unit="points",
            sd=12.9, measured_with=50, floor=50, floor_reason=_PAPER_FLOOR),
