@@ -208,6 +208,21 @@ def _target_rows(targets):
     return pd.DataFrame(rows)
 
 
+def test_rows_without_a_condition_the_calibration_needs_are_a_clear_error():
+    """A data folder without the 70 m/s-fan flights (FIT_CONDITION) once gave a bare KeyError
+    deep in the fit; now the targets name what is missing."""
+    targets = {"offset": 1.0, "force_x": 2.0, "force_z": 0.5, "spread": 0.3}
+    rows = _target_rows(targets)
+    got = figure8.real_force_targets(rows, ["A", "B"])
+    assert got == pytest.approx(targets)
+    for cond in ("nowind", figure8.FIT_CONDITION, figure8.SPREAD_CONDITION):
+        short = rows[~((rows["controller"] == "B") & (rows["condition"] == cond))]
+        with pytest.raises(ValueError, match=rf"no flight row for .*\('B', '{cond}'\)"):
+            figure8.real_force_targets(short, ["A", "B"])
+        with pytest.raises(ValueError, match="calibration needs"):
+            figure8.calibrate_twin(short, controllers=["A", "B"])
+
+
 def test_the_calibration_hits_its_targets(monkeypatch):
     targets = {"force_x": -7.0, "force_z": -0.4, "offset": -2.5, "spread": 0.3}
     study = rf.RealFlightStudy(max_laps=2)

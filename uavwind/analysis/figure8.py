@@ -275,6 +275,15 @@ def real_force_targets(real_rows: pd.DataFrame, controllers, condition: str = FI
     of the force along x at :data:`SPREAD_CONDITION` [N]."""
     fl = real_rows[real_rows["kind"] == "flight"].set_index(["controller", "condition"])
     ctl = sorted(controllers)
+    need = [(c, cond) for c in ctl for cond in ("nowind", condition, SPREAD_CONDITION)]
+    missing = [k for k in need if k not in fl.index]
+    if missing:  # e.g. a data folder without the 70 or 100 wind flights
+        raise ValueError(
+            "the twin's calibration needs each training controller's flight at 0 m/s "
+            f"('nowind'), at {condition!r} and at {SPREAD_CONDITION!r}; real_rows has no "
+            "flight row for (controller, condition) "
+            + ", ".join(f"({c!r}, {cond!r})" for c, cond in missing[:6])
+            + (f" and {len(missing) - 6} more" if len(missing) > 6 else ""))
 
     def mean(col, cond, minus=None):
         return float(np.mean([fl.loc[(c, cond), col] - (fl.loc[(c, minus), col] if minus else 0.0)
