@@ -94,9 +94,11 @@ def test_the_closed_loop_section_shows_flights_and_the_measured_run():
     assert t.loc["point mass / greedy", "median (s)"] == 0.03
     assert "5.0 CPU-minutes" in summary_lines(report)["closed_loop"]
     report["closed_loop"].update(measured_seconds=261.0, measured_cpu_seconds=510.0,
-                                 measured_command="python -m uavwind run exp12")
+                                 measured_command="python -m uavwind run exp12 --profile paper")
     line = summary_lines(report)["closed_loop"]
     assert "4.3 min wall" in line and "8.5 CPU-minutes" in line
+    # a command as code: Markdown would turn its "--" into an en-dash a copy cannot run
+    assert "(`python -m uavwind run exp12 --profile paper`, empty cache)" in line
     assert "fill table" not in line  # no paper fill on file: nothing to reconcile
     report["paper"] = {"by_experiment": [  # the paper fill times Exp 12 too, under one reading
         {"experiment": "exp12", "reading": "halves", "entries": 6, "rows": 10, "share": 3.0,

@@ -301,7 +301,7 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
         line = (f"Experiment 12 at the paper profile: about {c['estimated_cpu_seconds'] / 60:.1f} "
                 f"CPU-minutes of flights, estimated from the mean of the flights timed above")
         if "measured_seconds" in c:
-            line = (f"Experiment 12 at the paper profile, measured ({c['measured_command']}, "
+            line = (f"Experiment 12 at the paper profile, measured (`{c['measured_command']}`, "
                     f"empty cache): {c['measured_seconds'] / 60:.1f} min wall, "
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
