@@ -89,9 +89,9 @@ ENTRY_PATHS = {
     "paper/inferred/exp5": "22b4a412a7cdd06d",
     "paper/inferred/exp6": "d00836cf68652e8a",
     "paper/inferred/exp6_raw": "6f8435c7511136c3",
-    "paper/inferred/exp7": "2d5ecf50677fc920",
+    "paper/inferred/exp7": "f6a86d54c4959fcf",  # 50 loops a case, sized (was 128)
     "paper/inferred/exp8": "0df52e69bd1d0ff9",
-    "paper/inferred/exp9": "2d5ecf50677fc920",
+    "paper/inferred/exp9": "f6a86d54c4959fcf",  # the same loops as exp7
     "paper/inferred/exp10": "c273d1a915d5f450",
     "paper/inferred/exp11": "b06d46f03fa28a4b",
     "paper/inferred/exp11_cem": "39c1abee3b9c85b9",
@@ -109,9 +109,9 @@ ENTRY_PATHS = {
     "paper/halves/exp5": "4f4fe9f0d256eacd",
     "paper/halves/exp6": "af5b1e15b1664857",
     "paper/halves/exp6_raw": "17fd33a9c6c8d000",
-    "paper/halves/exp7": "c1099abe99e5e23f",
+    "paper/halves/exp7": "f265297e3dc4e61b",  # 50 loops a case, sized (was 128)
     "paper/halves/exp8": "899b6fde6de46a3b",
-    "paper/halves/exp9": "c1099abe99e5e23f",
+    "paper/halves/exp9": "f265297e3dc4e61b",  # the same loops as exp7
     "paper/halves/exp10": "aa65a1e090669563",
     "paper/halves/exp11": "1e3a3c3984d63763",
     "paper/halves/exp11_cem": "7b9e1b77c8f7df3e",

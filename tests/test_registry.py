@@ -111,12 +111,12 @@ def test_profiles_and_loop_counts():
     assert ex.PROFILES["paper"].cem.to_dict() == {"n_samples": 30, "n_elite": 4, "max_iter": 20}
     # example 50, exp1 7x50 + 500, exp2/exp3 32x50 each, exp4 28x50, exp5 2x50,
     # exp6 and exp6_raw 30x20 each,
-    # exp7/exp9 33x128 each (sized), exp8 24x50,
+    # exp7/exp9 33x50 each (sized; 128 before they were sized on their share), exp8 24x50,
     # exp10 48x50, exp11 80 side-experiment cases x 20 (sized: its floor), exp11_cem 4 CEM searches x 30x10,
     # exp12 6 cases x 200 closed-loop episodes x 4 policies,
     # fit_layout 4 scenarios x 16 ratios x 20, fit_mixed 12 x 20, fit_turbulence 6 x 50
     assert ex.n_loops_total("paper") == (50 + 850 + 1600 + 1600 + 1400 + 100 + 2 * 600
-                                         + 2 * 33 * 128 + 24 * 50 + 48 * 50 + 80 * 20 + 4 * 300 + 6 * 200 * 4 + 4 * 16 * 20
+                                         + 2 * 33 * 50 + 24 * 50 + 48 * 50 + 80 * 20 + 4 * 300 + 6 * 200 * 4 + 4 * 16 * 20
                                          + 12 * 20 + 6 * 50
                                          # exp14: 21 waypoint cases x 20, 7 thrust/position x 50,
                                          # 4 thrust (Exp 11's) x 20; exp14_cem 2 x 10 x 5
