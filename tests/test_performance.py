@@ -78,7 +78,11 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
                 in line) and line.endswith(f"{word} work than this figure shows."), line
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
         "spread": "2026-11-24 03:00 UTC", "paper": "2026-11-24 04:44 UTC"}})["header"]
-    assert header.endswith("since: spread 2026-11-24 03:00 UTC; paper 2026-11-24 04:44 UTC.")
+    assert header.endswith("since: spread 2026-11-24 03:00 UTC (host not recorded); paper "
+                           "2026-11-24 04:44 UTC (host not recorded).")
+    assert "CPU model was not recorded" in header  # nor for the first measurement
+    assert "not recorded" not in summary_lines({"measured": "2026-11-22",
+                                                "cpu": {"model": "AMD EPYC"}})["header"]
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
         "exp13": "2026-11-28 03:50 UTC"}, "sections_host": {
         "exp13": {"model": "Intel(R) Xeon(R) Processor @ 2.50GHz", "lanes": 8}}})["header"]
@@ -101,7 +105,7 @@ def test_the_closed_loop_section_shows_flights_and_the_measured_run():
     # a command as code: Markdown would turn its "--" into an en-dash a copy cannot run
     assert "(`python -m uavwind run exp12 --profile paper`, empty cache)" in line
     assert "fill table" not in line  # no paper fill on file: nothing to reconcile
-    report["paper"] = {"by_experiment": [  # the paper fill times Exp 12 too, under one reading
+    report["paper_profile"] = {"by_experiment": [  # the paper fill times Exp 12 too, under one reading
         {"experiment": "exp12", "reading": "halves", "entries": 6, "rows": 10, "share": 3.0,
          "cpu_seconds": 258.0}]}
     line = summary_lines(report)["closed_loop"]
@@ -139,8 +143,9 @@ def test_the_cells_sentence_splits_the_gradients_extra_cost_from_the_report():
     line = summary_lines({"time_shares": shares})["cells"]
     assert "3 vectors of 8 lanes) takes 2.42 ns" in line and "1.62 ns more" in line
     # the cells table shows 2.90 for the same run: the sentence says why it reads 2.42
-    assert "(the table's 2.90 ns counts all 24 lanes, 4 of them idle in the last vector; " \
-           "this figure counts the 20 in use)" in line
+    # 2.42 = 2.90 * 20 / 24: the table divides by the 20 series, the sentence by 24 lanes
+    assert "(the table's 2.90 ns divides the time by the 20 series in use; this figure " \
+           "divides it by all 24 lanes computed, 4 of them idle in the last vector)" in line
     del shares["ns_per_cell_costs"]  # a record from before the split: no such sentence
     assert "square root" not in summary_lines({"time_shares": shares})["cells"]
 

@@ -226,11 +226,15 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                          f"{report.get('cores', '?')} cores ({report.get('machine', '?')}"
                          + (f", {cpu}" if cpu else "") + "), "
                          f"Python {report.get('python', '?')}, numpy {report.get('numpy', '?')}.")
+        if not cpu:  # the first records named no CPU: a reader must not take them for one
+            out["header"] += (" Its CPU model was not recorded: this machine kind comes as an "
+                              "AMD EPYC or an Intel Xeon, and a figure measured then may be "
+                              "of either.")
         hosts = report.get("sections_host", {})  # the host each was measured again on
         if later:
             out["header"] += " Sections measured again since: " + "; ".join(
                 f"{name} {when}" + (f" on {hosts[name].get('model', '?')}" if name in hosts
-                                    else "")
+                                    else " (host not recorded)")
                 for name, when in sorted(later.items(), key=lambda kv: kv[1])) + "."
     if "loop_seconds" in report:  # dated, and set beside the varied loops' speed-up, which
         # is timed on another footing: a reader must see why the two differ
@@ -305,7 +309,7 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                     f"empty cache): {c['measured_seconds'] / 60:.1f} min wall, "
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
-            fill = [r for r in report.get("paper", {}).get("by_experiment", [])
+            fill = [r for r in report.get("paper_profile", {}).get("by_experiment", [])
                     if r.get("experiment") == "exp12"]
             if fill:  # the paper build's fill table times Exp 12 too: say why they differ
                 in_fill = sum(r["cpu_seconds"] for r in fill) / 60
@@ -403,10 +407,13 @@ def _gradient_split(t: Mapping[str, Any]) -> str:
     raw = t["ns_per_cell_value_and_gradient_both_clusters"]
     both = raw * k / slots
     added = both - t["ns_per_cell_value"]
-    # the cells table shows ``raw`` (every lane counted, idle ones too): say why the two differ
+    # the cells table shows ``raw`` (the time over the series in use; the benchmark divides
+    # by them), this sentence ``both`` (the time over every lane computed, idle ones too, as
+    # a value's full vectors are): say why the two differ
     footing = ("" if slots == k else
-               f" (the table's {raw:.2f} ns counts all {slots} lanes, {slots - k} of them idle "
-               f"in the last vector; this figure counts the {k} in use)")
+               f" (the table's {raw:.2f} ns divides the time by the {k} series in use; this "
+               f"figure divides it by all {slots} lanes computed, {slots - k} of them idle in "
+               f"the last vector)")
     costs = t["ns_per_cell_costs"]
     root = costs["sqrt(.) ** 2"] - costs["squared distance"]
     return (f"Per lane of a vector at one cell, a k-means round (both clusters' {k} series in "

@@ -220,8 +220,9 @@ FUTURE_NOISE = {"none": None, "consumer": CONSUMER_SENSORS}
 
 
 def _future_scenarios(reading):
-    """Where position alone struggles (light constant vs light constant, light constant vs
-    light shear, light constant vs strong turbulence), and the worked example."""
+    """The worked example and three pairs of light winds where position was expected to
+    struggle (light constant vs light constant, light constant vs light shear, light
+    constant vs strong turbulence); Exp 11's heat map shows where it does."""
     out = [("Strong shear vs light constant (Table 3)", table3_setting(uav=FUTURE_VEHICLE))]
     for a, b in (("light constant", "light constant"), ("light constant", "light shear"),
                  ("light constant", "strong turbulence")):
