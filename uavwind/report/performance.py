@@ -230,7 +230,13 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
             out["header"] += (" Its CPU model was not recorded: this machine kind comes as an "
                               "AMD EPYC or an Intel Xeon, and a figure measured then may be "
                               "of either.")
-        hosts = report.get("sections_host", {})  # the host each was measured again on
+        # the host each was measured again on (a section may also record its own, e.g.
+        # heldout's "host")
+        def host_of(name):
+            section = report.get(name)
+            return (report.get("sections_host", {}).get(name)
+                    or (section.get("host") if isinstance(section, dict) else None))
+        hosts = {name: h for name in later if (h := host_of(name))}
         if later:
             out["header"] += " Sections measured again since: " + "; ".join(
                 f"{name} {when}" + (f" on {hosts[name].get('model', '?')}" if name in hosts
