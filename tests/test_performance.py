@@ -82,8 +82,8 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
                            "2026-11-24 04:44 UTC (host not recorded).")
     assert "CPU model was not recorded" in header  # nor for the first measurement
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
-        "heldout": "2026-11-27 22:47 UTC"}, "heldout": {"host": {"model": "Xeon"}}})["header"]
-    assert header.endswith("heldout 2026-11-27 22:47 UTC on Xeon.")  # its own record
+        "probe": "2026-11-27 22:47 UTC"}, "probe": {"host": {"model": "Xeon"}}})["header"]
+    assert header.endswith("probe 2026-11-27 22:47 UTC on Xeon.")  # its own record (heldout)
     assert "not recorded" not in summary_lines({"measured": "2026-11-22",
                                                 "cpu": {"model": "AMD EPYC"}})["header"]
     header = summary_lines({"measured": "2026-11-22", "sections_measured_later": {
