@@ -37,6 +37,15 @@ def test_claims_verdicts_on_synthetic_results():
     results["exp5"]["score"] = 0.0
     assert evaluate_claims(results).loc["C7", "verdict"] == "not reproduced"
     assert evaluate_claims({"exp1": results["exp1"]}).loc["C4", "verdict"] == "not run"
+    # C3's evidence names the long run's group size when the rows carry their labels: the
+    # long run is not the five-environment row (issue 44: 81.80 read beside 86.71)
+    assert "long run" not in evaluate_claims(results).loc["C3", "evidence"]
+    for per, said in ((10, "(10 environments a group, not the five of Exp 1's other rows)"),
+                      (5, "(5 environments a group)")):
+        e1 = results["exp1"].copy()
+        e1["labels"] = [[0] * per + [1] * per] * len(e1)
+        ev = evaluate_claims({**results, "exp1": e1}).loc["C3", "evidence"]
+        assert f"max of the first 50 loops of the long run {said}" in ev, ev
 
 
 def test_c1_cannot_decide_when_both_light_pairs_score_zero():

@@ -190,3 +190,59 @@ def test_no_bare_decimal_in_a_pages_prose(path):
     found = page_bare_numbers(path)
     assert found == [], ("a number typed into prose: glue it from the results, or mark it "
                          "{abbr}`x (paper)` / {abbr}`x (input)`:\n" + "\n".join(found))
+
+
+# --------------------------------------------------------------------------- #
+# a solution's code is the code a reader can run: every name it uses is defined or imported
+# in its own cells (issue 44: eleven solutions used the page's hidden `np`, `uw`, ...)
+# --------------------------------------------------------------------------- #
+#: Names a solution may take from its page, each saying so in a comment where it is used.
+PAGE_NAMES = {("inference.md", "ex-fit-target"): {"fit_results"}}
+
+
+def _undefined_names(code: str) -> set[str]:
+    import ast
+    import builtins
+
+    tree = ast.parse(code)
+    defined, used = set(dir(builtins)), set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            defined |= {(a.asname or a.name).split(".")[0] for a in node.names}
+        elif isinstance(node, ast.Name):
+            (defined if isinstance(node.ctx, ast.Store) else used).add(node.id)
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            defined.add(node.name)
+        elif isinstance(node, ast.arg):
+            defined.add(node.arg)
+        elif isinstance(node, ast.ExceptHandler) and node.name:
+            defined.add(node.name)
+    return used - defined
+
+
+def _solutions(text: str):
+    """(label, [(tags, code)]) of every solution block of a MyST page."""
+    for m in re.finditer(r"```\{solution-start\}\s*(\S+)(.*?)```\{solution-end\}", text, re.S):
+        cells = [(c.group(1), c.group(2)) for c in re.finditer(
+            r"```\{code-cell\}[^\n]*\n((?::tags:[^\n]*\n)?)(.*?)```", m.group(2), re.S)]
+        yield m.group(1), cells
+
+
+def test_the_solution_checker_finds_a_hidden_name():
+    page = ("```{solution-start} ex-a\n```\n\n```{code-cell} ipython3\nx = np.ones(2)\n```\n\n"
+            "```{solution-end}\n```\n")
+    (label, cells), = _solutions(page)
+    assert label == "ex-a" and _undefined_names(cells[0][1]) == {"np"}
+    assert _undefined_names("import numpy as np\nx = np.ones(2)\n") == set()
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.name)
+def test_every_solution_imports_what_it_uses(path):
+    for label, cells in _solutions(path.read_text()):
+        defined_here = "\n".join(code for _, code in cells)
+        shown = "\n".join(code for tags, code in cells if "remove-input" not in tags)
+        # names a later (hidden) cell reads from an earlier shown one count as defined
+        missing = _undefined_names(shown) & _undefined_names(defined_here) \
+            - PAGE_NAMES.get((path.name, label), set())
+        assert not missing, (f"{path.name} {label}: its code uses {sorted(missing)} without "
+                             "importing or defining them (a reader's fresh kernel fails)")

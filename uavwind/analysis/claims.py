@@ -122,7 +122,11 @@ def claim_c3(r: Mapping[str, pd.DataFrame]) -> Verdict:
     gain = long.max() - short.max()
     verdict = "reproduced" if gain <= 1.0 else "partly" if gain <= 3.0 else "not reproduced"
     first = "the first loop" if short.size == 1 else f"the first {short.size} loops"
-    ev = (f"max of {first} {short.max():.2f}; max of all {long.size} loops "
+    rows = df[df["long_run"]] if "long_run" in df.columns else df.iloc[:0]
+    per = len(rows["labels"].iloc[0]) // 2 if "labels" in rows.columns and len(rows) else 0
+    size = (f" of the long run ({per} environments a group"
+            + (", not the five of Exp 1's other rows)" if per != 5 else ")") if per else "")
+    ev = (f"max of {first}{size} {short.max():.2f}; max of all {long.size} loops "
           f"{long.max():.2f} (gain {gain:.2f}); mean {_fmt(bootstrap_ci(long))}")
     return Verdict("C3", "Running 500 loops instead of 50 does not raise the light-vs-light "
                    "maximum.", "reproduced: the maximum over all loops exceeds the maximum over "
@@ -163,12 +167,12 @@ def claim_c5(r: Mapping[str, pd.DataFrame]) -> Verdict:
     verdict = ("reproduced" if all(more) and all(plat) else
                "partly" if any(more) else "not reproduced")
     ev = ("mean(20 env) - mean(6 env): " + ", ".join(f"S{k} {_fmt(c)}" for k, c in d.items())
-          + "; gain 16->20 env vs 6->20 env: "
+          + "; change 16->20 env vs gain 6->20 env: "
           + ", ".join(f"S{k} {a:.1f}/{b:.1f}" for k, (a, b) in plateau.items()))
     return Verdict("C5", "More environments score higher, plateauing near 15-20 environments "
                    "(Exp 3).", "reproduced: every scenario's paired difference 20 minus 6 env "
-                   "has a CI above 0 and the gain from 16 to 20 env is at most a quarter of the "
-                   "gain from 6 to 20; partly: more environments help in some scenarios", ev,
+                   "has a CI above 0 and the change from 16 to 20 env, up or down, is at most a "
+                   "quarter of the gain from 6 to 20 (a plateau, not a fall); partly: more environments help in some scenarios", ev,
                    verdict)
 
 
@@ -260,7 +264,7 @@ def claim_c9(r: Mapping[str, pd.DataFrame]) -> Verdict:
                       f"[{100 * row.correct_low:.0f}, {100 * row.correct_high:.0f}] "
                       f"(sigma {row.noise_sigma:g} m, bias {row.noise_bias:g} m)"
                       for row in worst.itertuples())
-          + "; correct grouping first below 50% at: "
+          + "; under white noise alone, correct grouping first below 50% at: "
           + ", ".join(f"{s} {'beyond ' + format(row.last_ok, 'g') if np.isnan(row.first_broken) else format(row.first_broken, 'g')} m"
                       for s, row in brk.iterrows()))
     return Verdict("C9", "The method works with sub-metre position accuracy (Exp 7, beyond the "
