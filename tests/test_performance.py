@@ -90,7 +90,7 @@ def test_the_paper_profile_says_which_targets_it_meets_and_by_how_much_it_misses
         "exp13": "2026-11-28 03:50 UTC"}, "sections_host": {
         "exp13": {"model": "Intel(R) Xeon(R) Processor @ 2.50GHz", "lanes": 8}}})["header"]
     assert header.endswith("since: exp13 2026-11-28 03:50 UTC on Intel(R) Xeon(R) Processor "
-                           "@ 2.50GHz.")
+                           "@ 2.50GHz (shown on the Exp 13 page).")
 
 
 def test_the_closed_loop_section_shows_flights_and_the_measured_run():

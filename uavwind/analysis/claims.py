@@ -286,7 +286,8 @@ CLAIMS = {"C1": (("exp1",), claim_c1), "C2": (("exp1",), claim_c2), "C3": (("exp
 #: those come from the verdicts' evidence).
 LESSONS = {
     "C1": "Under eqs 2-8 constant-wind separability is a matter of layout geometry, not of "
-          "wind strength: a constant layout scaled by 10 keeps its silhouette (a test), and "
+          "wind strength: a constant layout scaled by 10 keeps its mean silhouette over loops "
+          "(a test; single loops move by a few points, the inference page's scale check), and "
           "shear behaves the same way for a pair of one kind. Light pairs score lowest only "
           "where their groups sit closer together, so under the inferred reading the claim "
           "holds by construction of the fit, not as an independent finding.",

@@ -214,6 +214,10 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     return {k: show_missing(v) for k, v in out.items()}
 
 
+#: Sections of the benchmark another page shows instead of this one.
+SHOWN_ELSEWHERE = {"exp13": "the Exp 13 page"}
+
+
 def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     """The sentences the performance page prints around its tables, by section (each
     built from the report's numbers, so none is typed)."""
@@ -241,6 +245,7 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
             out["header"] += " Sections measured again since: " + "; ".join(
                 f"{name} {when}" + (f" on {hosts[name].get('model', '?')}" if name in hosts
                                     else " (host not recorded)")
+                + (f" (shown on {SHOWN_ELSEWHERE[name]})" if name in SHOWN_ELSEWHERE else "")
                 for name, when in sorted(later.items(), key=lambda kv: kv[1])) + "."
     if "loop_seconds" in report:  # dated, and set beside the varied loops' speed-up, which
         # is timed on another footing: a reader must see why the two differ
