@@ -156,7 +156,21 @@ def _figure_functions():
 
 
 def test_every_figure_function_has_a_smoke_call():
-    assert _figure_functions() == set(CALLS) | {"panel_grid", "integer_ticks"}  # helpers
+    assert _figure_functions() == set(CALLS) | {"panel_grid", "integer_ticks",
+                                                "cem_lines"}  # helpers
+
+
+def test_cem_lines_keep_a_coinciding_max_and_mean_apart():
+    """A CEM run in which every draw scored 0: the maximum and the mean coincide, and one
+    line hid the other (Exps 11 and 14, issue 44); the maximum is drawn with large open
+    markers, the mean small and dashed, both labelled."""
+    fig, ax = plt.subplots()
+    plotting.cem_lines(ax, pd.DataFrame({"max": [0.0, 0.0], "mean": [0.0, 0.0]}, index=[1, 2]))
+    hi, lo = ax.get_lines()
+    assert hi.get_label() == "CEM maximum" and lo.get_label() == "CEM mean"
+    assert hi.get_markersize() > 2 * lo.get_markersize() and hi.get_markerfacecolor() == "none"
+    assert lo.get_linestyle() == "--"
+    plt.close(fig)
 
 
 def test_panel_grid_shows_n_axes_and_hides_the_rest():
@@ -244,6 +258,33 @@ def test_the_flyable_bars_keep_their_legend_off_the_bars():
                           for a in ("waypoints", "thrust")])
     fig = plotting.flyable_scores(table)
     assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
+    plt.close(fig)
+    # a pair that scored 0 reads "0"; one not run stays blank
+    table.loc[0, "mean"] = table.loc[0, "ci_low"] = table.loc[0, "ci_high"] = 0.0
+    table = table.drop(index=1)
+    fig = plotting.flyable_scores(table)
+    assert sum([t.get_text() for t in ax.texts].count("0") for ax in fig.axes) == 1
+    plt.close(fig)
+
+
+def test_score_panels_put_one_legend_above_them():
+    """Exps 1-5: a legend inside a panel sat over its data (exp3 (d), exp5 (a), issue 44);
+    one figure legend above the panels names every line once, the paper's grey ones too,
+    and each panel's maximum and mean are in its title."""
+    df = pd.DataFrame({"scenario": ["a"] * 3 + ["b"] * 3, "loop": [0, 1, 2] * 2,
+                       "score": [10.0, 20.0, 30.0, 0.0, 0.0, 90.0]})
+    paper = pd.DataFrame({"scenario": ["a", "b"], "maximum": [40.0, 95.0], "mean": [30.0, 80.0]})
+    fig = plotting.score_per_loop(df, paper=paper)
+    assert all(ax.get_legend() is None for ax in fig.axes if ax.get_visible())
+    (legend,) = fig.legends
+    assert [t.get_text() for t in legend.get_texts()] == ["score", "maximum", "mean",
+                                                          "paper maximum", "paper mean"]
+    assert fig.axes[0].get_title().endswith("max 30.00, mean 20.00")
+    plt.close(fig)
+    sweep = pd.DataFrame({"scenario": "a", "n_env": [6, 6, 8, 8], "loop": [0, 1, 0, 1],
+                          "score": [50.0, 60.0, 70.0, 80.0]})
+    fig = plotting.score_vs_parameter(sweep, "n_env")
+    assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
     plt.close(fig)
 
 

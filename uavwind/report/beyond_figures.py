@@ -23,6 +23,7 @@ test cannot reach elsewhere.
 from __future__ import annotations
 
 import math
+import textwrap
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -79,12 +80,19 @@ def observation_bars(table: pd.DataFrame) -> Figure:
         for j, (noise, colour) in enumerate((("none", "tab:blue"), ("consumer", "tab:orange"))):
             s = sub[sub["noise"] == noise].set_index("observation").reindex(obs)
             err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
-            ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err, capsize=2, color=colour,
-                   label=f"noise: {noise}")
-        ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=8)
+            bars = ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err, capsize=2,
+                          color=colour, label=f"noise: {noise}")
+            for patch in bars.patches:  # a "0" over a bar of 0: it ran and scored 0
+                if patch.get_height() == 0:
+                    ax.text(patch.get_x() + patch.get_width() / 2, 1.0, "0", ha="center",
+                            va="bottom", fontsize=9, color="0.2")
+        ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=10)
         ax.set(title=sc, ylim=(0, 102))
-    axes[0].set_ylabel("mean score")
-    axes[0].legend(fontsize=7, loc="lower left")
+        ax.title.set_fontsize(10)
+    axes[0].set_ylabel("mean score", fontsize=10)
+    # above the panels: inside the first one it covered the position bars
+    fig.legend(*axes[0].get_legend_handles_labels(), fontsize=9, loc="outside upper center",
+               ncol=2)
     return fig
 
 
@@ -94,20 +102,28 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     plt = _plt()
     t = table[table["noise_bias"] == 0]
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
-    for scen, sub in t.groupby("scenario", sort=False):
+    # lines that coincide (the worked example: 100% at every level for both methods) stay
+    # visible: each scenario its own marker size, open markers after the first
+    for k, (scen, sub) in enumerate(t.groupby("scenario", sort=False)):
         x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
-        line, = axes[0].plot(x, sub["rmse"], marker="o", ms=3, label=scen)
+        line, = axes[0].plot(x, sub["rmse"], marker="o", ms=3 + 1.5 * k, label=scen,
+                             zorder=3 + k)
         c = line.get_color()
-        axes[1].plot(x, 100 * sub["baseline_correct_rate"], marker="s", ms=3, color=c,
-                     label=f"{scen}: baseline")
-        axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=3, ls="--", color=c,
-                     label=f"{scen}: causal curiosity")
+        axes[1].plot(x, 100 * sub["baseline_correct_rate"], marker="s", ms=3 + 1.5 * k,
+                     color=c, zorder=3 + k, mfc="none" if k else c)
+        axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=3 + 1.5 * k, ls="--",
+                     color=c, zorder=3 + k, mfc="none" if k else c)
     axes[0].set(xscale="log", yscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
                 ylabel="baseline wind RMSE [m/s]")
     axes[1].set(xscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
                 ylabel="correctly grouped loops (%)", ylim=(-2, 102))
-    axes[0].legend(fontsize=7)
-    axes[1].legend(fontsize=6, loc="lower left")
+    # one legend above both panels: the scenarios' colours, and the two methods' line styles
+    from matplotlib.lines import Line2D
+    handles, labels = axes[0].get_legend_handles_labels()
+    handles += [Line2D([], [], color="0.3", marker="s", ls="-"),
+                Line2D([], [], color="0.3", marker="o", ls="--")]
+    labels += ["baseline (right)", "causal curiosity (right)"]
+    fig.legend(handles, labels, fontsize=9, loc="outside upper center", ncol=3)
     return fig
 
 
@@ -182,8 +198,9 @@ def future_grid(table) -> Figure:
             for (r, c), v in np.ndenumerate(grid.to_numpy()):
                 ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
-            ax.set_xticks(range(len(scen)), [s.replace(" vs ", "\nvs ").replace(" (", "\n(")
-                                             for s in scen], fontsize=8)
+            # wrapped narrower than a column: "light constant vs light shear" and "vs strong
+            # turbulence" ran into each other on one line each (issue 44)
+            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 13) for s in scen], fontsize=7.5)
             ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
@@ -209,9 +226,10 @@ def flyable_scores(table) -> Figure:
             s = s.set_index("scenario").reindex(scen)
             err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0,
                           None)
-            ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h, xerr=err, capsize=2,
-                    label=a)
-        ax.set(title=o, xlabel="mean score", xlim=(0, 100))
+            # a "0" beside a case that scored 0; a pair not run stays blank
+            _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
+                                        xerr=err, capsize=2, label=a))
+        ax.set(title=o, xlabel="mean score (blank: not run)", xlim=(0, 100))
     axes[0, 0].set_yticks(y, scen, fontsize=8)
     axes[0, 0].invert_yaxis()
     # above the panels: inside the last one it covered the bottom scenario's bars
@@ -294,7 +312,9 @@ def reliability_diagram(table) -> Figure:
         ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="reported P(group 1)",
                ylabel="observed share in group 1", title=v)
         ax.title.set_fontsize(9)
-        ax.legend(fontsize=7, loc="upper left")
+    # above the panels: inside, it covered the first bin's bar (issue 44)
+    fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8,
+               loc="outside upper center", ncol=5)
     return fig
 
 

@@ -51,7 +51,7 @@ if TYPE_CHECKING:
 __all__ = ["fig1_trajectory_and_wind", "fig1_velocity_projections", "fig2_flowcharts",
            "fig3_loop", "score_per_loop", "score_vs_parameter", "fig9_cem", "dryden_spectrum",
            "paper_vs_replication", "panel_grid", "silhouette_vs_ratio", "predicted_vs_paper",
-           "stamp", "integer_ticks"]
+           "stamp", "integer_ticks", "cem_lines"]
 
 
 def stamp(fig: Figure, results: pd.DataFrame, note: str = "") -> Figure:
@@ -208,16 +208,20 @@ def integer_ticks(ax, axis: str = "x") -> None:
         (ax.set_xlim if axis == "x" else ax.set_ylim)(mid - 0.5, mid + 0.5)
 
 
-def _score_axes(ax, scores, title=None, ylim=(-2, 102)):
+def _score_axes(ax, scores, title=None, ylim=(-2, 102), legend=True):
+    """Score per loop with its maximum and mean; their values in the title. ``legend``: a
+    legend inside the axes (``False``: the caller puts one beside the panels, where no data
+    lies under it)."""
     loops = np.arange(1, len(scores) + 1)
     ax.plot(loops, scores, marker="o", ms=2.5, lw=0.8, color="tab:blue", label="score")
-    ax.axhline(scores.max(), color="tab:red", ls="--", lw=1, label=f"max {scores.max():.2f}")
-    ax.axhline(scores.mean(), color="tab:green", ls=":", lw=1.2, label=f"mean {scores.mean():.2f}")
+    ax.axhline(scores.max(), color="tab:red", ls="--", lw=1, label="maximum")
+    ax.axhline(scores.mean(), color="tab:green", ls=":", lw=1.2, label="mean")
     ax.set(xlabel="loop", ylabel="silhouette score", ylim=ylim)
     integer_ticks(ax)
-    if title:
-        ax.set_title(title, fontsize=9)
-    ax.legend(fontsize=7, loc="best")
+    values = f"max {scores.max():.2f}, mean {scores.mean():.2f}"
+    ax.set_title(f"{title}\n{values}" if title else values, fontsize=9)
+    if legend:
+        ax.legend(fontsize=7, loc="best")
 
 
 def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
@@ -231,13 +235,27 @@ def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
     fig, axes = panel_grid(len(keys), ncols=ncols)
     for ax, key, letter in zip(axes, keys, "abcdefghijklmnop"):
         scores = df.loc[df[by] == key].sort_values("loop")["score"].to_numpy()
-        _score_axes(ax, scores, title=f"({letter}) {key}")
+        _score_axes(ax, scores, title=f"({letter}) {key}", legend=False)
         if paper is not None:
             row = paper.loc[paper["scenario"] == key]
             if len(row):
-                ax.axhline(row["maximum"].iloc[0], color="0.5", lw=0.8, ls="--")
-                ax.axhline(row["mean"].iloc[0], color="0.5", lw=0.8, ls=":")
+                ax.axhline(row["maximum"].iloc[0], color="0.5", lw=0.8, ls="--",
+                           label="paper maximum")
+                ax.axhline(row["mean"].iloc[0], color="0.5", lw=0.8, ls=":", label="paper mean")
+    _legend_above(fig, axes)
     return fig
+
+
+def _legend_above(fig, axes):
+    """One legend for every panel, above them (inside, a panel's data would pass under it):
+    each label once, from whichever panel drew it."""
+    seen = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), fontsize=8, loc="outside upper center",
+                   ncol=min(len(seen), 5))
 
 
 def score_vs_parameter(df: pd.DataFrame, x: str, by: str = "scenario", ncols: int = 2,
@@ -265,8 +283,20 @@ def score_vs_parameter(df: pd.DataFrame, x: str, by: str = "scenario", ncols: in
         ax.set(xlabel=xlabel or x, ylabel="silhouette score", title=f"({letter}) {key}",
                ylim=(-2, 102))
         ax.set_xticks(xs)
-        ax.legend(fontsize=7, loc="lower left")
+    _legend_above(fig, axes)
     return fig
+
+
+def cem_lines(ax, history: pd.DataFrame) -> None:
+    """A CEM run's maximum and mean score per iteration on ``ax`` (``history``: one row per
+    iteration, columns ``max`` and ``mean``, the iteration as index or column): the maximum
+    with large open markers, the mean small and dashed inside them, so where they coincide
+    (a run in which every draw scored 0) both stay visible."""
+    it = history.index.to_numpy() if "iteration" not in history else history["iteration"]
+    ax.plot(it, history["max"], marker="^", ms=8, mfc="none", mew=1.3, color="tab:red",
+            label="CEM maximum")
+    ax.plot(it, history["mean"], marker="o", ms=3.5, ls="--", color="tab:blue",
+            label="CEM mean")
 
 
 def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
@@ -275,8 +305,7 @@ def fig9_cem(history: pd.DataFrame, random_scores: ArrayLike | None = None,
     plt = _plt()
     fig, ax = plt.subplots(figsize=(6.5, 4), constrained_layout=True)
     it = history.index.to_numpy() if "iteration" not in history else history["iteration"]
-    ax.plot(it, history["max"], marker="^", color="tab:red", label="CEM maximum")
-    ax.plot(it, history["mean"], marker="o", color="tab:blue", label="CEM mean")
+    cem_lines(ax, history)
     if "elite_mean" in history:
         ax.plot(it, history["elite_mean"], ls="--", color="tab:purple", label="CEM elite mean")
     if random_scores is not None:
@@ -377,11 +406,15 @@ def predicted_vs_paper(table: pd.DataFrame) -> Figure:
     point per row of ``table`` (:func:`uavwind.analysis.inference.out_of_sample`), by table."""
     plt = _plt()
     fig, ax = plt.subplots(figsize=(5.2, 5), constrained_layout=True)
-    for (label, sub), m in zip(table.groupby(level="table", sort=False), "osD^v"):
+    for k, ((label, sub), m) in enumerate(zip(table.groupby(level="table", sort=False),
+                                              "osD^v")):
         err = np.clip(np.vstack([sub["mean"] - sub["ci_low"],
                                  sub["ci_high"] - sub["mean"]]), 0, None)
-        ax.errorbar(sub["paper_mean"], sub["mean"], yerr=err, fmt=m, ms=5, capsize=2,
-                    label=label)
+        # the earlier tables on top, a lone row's marker larger: Table 4's one 500-loop row
+        # sat hidden under a Table 6 marker at the same point (issue 44)
+        ax.errorbar(sub["paper_mean"], sub["mean"], yerr=err, fmt=m,
+                    ms=9 if len(sub) == 1 else 5, mfc="none" if len(sub) == 1 else None,
+                    mew=1.5, capsize=2, label=label, zorder=10 - k)
     lims = (min(table["paper_mean"].min(), table["ci_low"].min()) - 3, 101)
     ax.plot(lims, lims, color="0.5", lw=0.8, ls="--", label="prediction = paper")
     ax.set(xlim=lims, ylim=lims, xlabel="paper's mean score", ylabel="predicted mean score",
