@@ -70,7 +70,7 @@ def observation_bars(table: pd.DataFrame) -> Figure:
     with consumer-grade noise."""
     plt = _plt()
     scen = list(dict.fromkeys(table["scenario"]))
-    fig, axes = plt.subplots(1, len(scen), figsize=(4.2 * len(scen), 3.6), sharey=True,
+    fig, axes = plt.subplots(1, len(scen), figsize=(3.1 * len(scen), 3.4), sharey=True,
                              constrained_layout=True)
     axes = np.atleast_1d(axes)
     for ax, sc in zip(axes, scen):
@@ -103,16 +103,19 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     t = table[table["noise_bias"] == 0]
     fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
     # lines that coincide (the worked example: 100% at every level for both methods) stay
-    # visible: each scenario its own marker size, open markers after the first
-    for k, (scen, sub) in enumerate(t.groupby("scenario", sort=False)):
+    # visible: concentric markers, the first scenario's largest and open, the last's
+    # smallest, filled and on top
+    groups = list(t.groupby("scenario", sort=False))
+    for k, (scen, sub) in enumerate(groups):
+        ms, last = 3.5 + 2.5 * (len(groups) - 1 - k), k == len(groups) - 1
         x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
-        line, = axes[0].plot(x, sub["rmse"], marker="o", ms=3 + 1.5 * k, label=scen,
-                             zorder=3 + k)
+        line, = axes[0].plot(x, sub["rmse"], marker="o", ms=ms, label=scen, zorder=3 + k,
+                             mfc=None if last else "none", mew=1.3)
         c = line.get_color()
-        axes[1].plot(x, 100 * sub["baseline_correct_rate"], marker="s", ms=3 + 1.5 * k,
-                     color=c, zorder=3 + k, mfc="none" if k else c)
-        axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=3 + 1.5 * k, ls="--",
-                     color=c, zorder=3 + k, mfc="none" if k else c)
+        axes[1].plot(x, 100 * sub["baseline_correct_rate"], marker="s", ms=ms, color=c,
+                     zorder=3 + k, mfc=c if last else "none", mew=1.3)
+        axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=ms, ls="--", color=c,
+                     zorder=3 + k, mfc=c if last else "none", mew=1.3)
     axes[0].set(xscale="log", yscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
                 ylabel="baseline wind RMSE [m/s]")
     axes[1].set(xscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
@@ -300,8 +303,9 @@ def reliability_diagram(table) -> Figure:
         sub = table[table["vehicle"] == v]
         for pol, d in sub.groupby("policy", sort=False):
             colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-            ax.plot(d["predicted"], d["observed"], color=colour, ls=ls, marker="o", ms=3,
-                    lw=1.2, label=POLICY_NAMES.get(pol, pol))
+            marker, z = POLICY_MARKERS.get(pol, ("o", 2))  # as the curves: coinciding lines
+            ax.plot(d["predicted"], d["observed"], color=colour, ls=ls, marker=marker, ms=4,
+                    lw=1.2, zorder=z, label=POLICY_NAMES.get(pol, pol))  # stay visible
         counts = sub.groupby(["bin_low", "bin_high"])["count"].sum().reset_index()
         ax2 = ax.twinx()
         ax2.bar((counts["bin_low"] + counts["bin_high"]) / 2, counts["count"],
