@@ -22,8 +22,8 @@ import numpy as np
 from bench_common import host_cpu
 from bench_engine import (bench_agreement, bench_cold_compile, bench_heldout, bench_loops,
                           bench_spread, bench_where_time_goes)
-from bench_study import (bench_closed_loop, bench_cluster, bench_exp13, bench_paper_profile,
-                         bench_search, bench_simulation)
+from bench_study import (bench_builds, bench_closed_loop, bench_cluster, bench_exp13,
+                         bench_paper_profile, bench_search, bench_simulation)
 from uavwind.method.clustering import default_engine
 
 OUT = Path(__file__).resolve().parent / "benchmark.json"
@@ -35,6 +35,8 @@ SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": benc
             "closed_loop": bench_closed_loop, "exp13": bench_exp13, "cluster": bench_cluster,
             "heldout": bench_heldout,
             "paper": lambda report: bench_paper_profile(report, default_engine())}
+#: Sections a plain `make bench` leaves out (tens of minutes): run them with ONLY=<name>.
+ON_REQUEST = {"builds": bench_builds}
 
 
 def main():
@@ -45,10 +47,11 @@ def main():
               "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
     if only:  # one section, measured now, merged into the figures already on file
-        if only not in SECTIONS:
-            raise ValueError(f"ONLY must be one of {sorted(SECTIONS)}, got {only!r}")
+        if only not in SECTIONS and only not in ON_REQUEST:
+            raise ValueError(f"ONLY must be one of {sorted({**SECTIONS, **ON_REQUEST})}, "
+                             f"got {only!r}")
         fresh = {}
-        SECTIONS[only](fresh)
+        {**SECTIONS, **ON_REQUEST}[only](fresh)
         report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies

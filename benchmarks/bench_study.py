@@ -400,3 +400,83 @@ def bench_cluster(report):
           f"{statistics.median(tasks):.1f} s ({min(tasks):.1f}-{max(tasks):.1f}); "
           f"same rows: {same}")
     report["cluster"] = out
+
+
+#: Targets of the build timings (issue 46): seconds of wall time on the machine's 2 cores.
+BUILD_TARGETS = {"make test": 7 * 60, "quick book": 3 * 60}
+#: Each build's own timeout [s]: a hung step fails the section instead of hanging it.
+BUILD_TIMEOUT = 1800
+
+
+def _fresh_clone(root: Path, where: Path) -> Path:
+    """A clean clone of ``root``'s HEAD at ``where``, sharing ``root``'s virtual environment
+    (its build is not what is timed: CI builds it once) and never rebuilding it."""
+    import subprocess
+
+    subprocess.run(["git", "clone", "-q", str(root), str(where)], check=True)
+    (where / ".venv").symlink_to(root / ".venv")
+    old = time.mktime(time.strptime("2020-01-01", "%Y-%m-%d"))
+    os.utime(where / "environment.txt", (old, old))  # older than the venv's stamp
+    return where
+
+
+def _timed(cmd, cwd, env) -> dict:
+    """Run ``cmd`` (a list) in ``cwd``; wall seconds, the children's CPU seconds, the exit
+    code and the last line of its output."""
+    import resource
+    import subprocess
+
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    try:
+        p = subprocess.run(cmd, cwd=cwd, env=env, capture_output=True, text=True,
+                           timeout=BUILD_TIMEOUT)
+        code, out = p.returncode, (p.stdout + p.stderr).strip().splitlines()
+    except subprocess.TimeoutExpired:
+        code, out = "timeout", [f"over {BUILD_TIMEOUT} s"]
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    last = next((line for line in reversed(out) if " passed" in line), out[-1] if out else "")
+    return {"wall_seconds": wall, "cpu_seconds": cpu, "exit": code, "last_line": last}
+
+
+def bench_builds(report, runs: int = 2):
+    """``make test`` and ``make book PROFILE=quick`` (empty result cache), each on a fresh
+    clone of HEAD, ``runs`` times, taking turns: the README's two commands as CI and a
+    reader run them, against :data:`BUILD_TARGETS`. Neural-Fly's flights are read where
+    ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
+    import shutil
+    import tempfile
+
+    from bench_common import host_cpu
+
+    root = Path(__file__).resolve().parents[1]
+    print(f"\n== the README's commands on a fresh clone ({runs} runs each, taking turns) ==")
+    rows = {"make test": [], "quick book": []}
+    for i in range(runs):
+        for name in rows:
+            tmp = Path(tempfile.mkdtemp(prefix="uavwind-build-"))
+            try:
+                clone = _fresh_clone(root, tmp / "clone")
+                env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
+                env.pop("MPLBACKEND", None)
+                cmd = (["make", "test"] if name == "make test" else
+                       ["make", "book", "PROFILE=quick",
+                        f"RUN_FLAGS=--times {tmp / 'times.json'}"])
+                r = _timed(cmd, clone, env)
+                if name == "quick book" and (tmp / "times.json").exists():
+                    r["fill_wall_seconds"] = json.loads((tmp / "times.json").read_text())[
+                        "wall_seconds"]
+                rows[name].append(r)
+                print(f"  {name}, run {i + 1}: {r['wall_seconds']:.0f} s wall, "
+                      f"{r['cpu_seconds']:.0f} CPU-s, exit {r['exit']} ({r['last_line'][:70]})")
+            finally:
+                shutil.rmtree(tmp, ignore_errors=True)
+    report["builds"] = {
+        name: {"runs": rs, "target_seconds": BUILD_TARGETS[name],
+               "median_wall_seconds": statistics.median(r["wall_seconds"] for r in rs)}
+        for name, rs in rows.items()}
+    report["builds"]["host"] = host_cpu()
+    report["builds"]["commit"] = source_commit()
+    report["builds"]["neuralfly"] = bool(os.environ.get("UAVWIND_NEURALFLY"))

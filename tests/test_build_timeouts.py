@@ -106,7 +106,7 @@ def test_every_long_build_step_has_a_timeout():
     defs = {m.group(1): ln for ln in code if (m := re.match(r"([A-Z_]+)\s*:?=", ln))}
     runs = [ln for ln in code if ln not in defs.values()]
     for step in ("pip install", "-m uavwind run all", "-m uavwind.report.pages",
-                 "jupyter-book build"):
+                 "jupyter-book build", "benchmarks/bench.py"):
         names = [step] + [f"$({n})" for n, ln in defs.items() if step in ln]
         lines = [ln for ln in runs if any(n in ln for n in names)]
         assert lines and all("$(TIMEOUT)" in ln for ln in lines), step

@@ -183,3 +183,17 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     assert t["speed-up"].tolist() == [20.0, 16.0] and t["identical"].tolist() == ["12/12",
                                                                                   "11/12"]
     assert "AVX2" in t.index[1]
+
+
+def test_the_builds_sentence_gives_every_run_against_its_target():
+    run = lambda w, code=0: {"wall_seconds": w, "cpu_seconds": 2 * w, "exit": code,
+                             "last_line": "1075 passed"}
+    b = {"make test": {"runs": [run(600.0), run(650.0)], "target_seconds": 420},
+         "quick book": {"runs": [run(170.0), run(175.0, 2)], "target_seconds": 180},
+         "host": {"model": "Xeon", "lanes": 8}, "commit": "abc1234", "neuralfly": True}
+    line = summary_lines({"builds": b})["builds"]
+    assert line.startswith("*Measured on Xeon* (8 float64 lanes), each on a fresh clone of "
+                           "abc1234")
+    assert "`make test` 600 s and 650 s (target 7 min: missed by 230 s (1.5x))" in line
+    assert "`make book PROFILE=quick` 170 s and 175 s (target 3 min: met), **1 run(s) failed**" \
+        in line

@@ -188,6 +188,8 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                 "rows (loops, CEM samples, belief reports)": t["rows"],
                 "CPU (min)": (t["cpu_seconds"] / 60).round(1), "share (%)": t["share"],
                 "CPU per row (ms)": (t["cpu_seconds"] / t["rows"] * 1e3).round(1)})
+    if "builds" in report:
+        out["builds"] = _builds_line(report["builds"])
     if "closed_loop" in report:
         c = report["closed_loop"]
         out["closed_loop"] = pd.DataFrame({
@@ -311,6 +313,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                 + "That, not Python, is where a clustering loop spends its time; the "
                 "multirotor's flights and Experiment 12's closed-loop episodes (no clustering) "
                 "add their own, experiment by experiment below.")
+    if "builds" in report:
+        out["builds"] = _builds_line(report["builds"])
     if "closed_loop" in report:
         c = report["closed_loop"]
         line = (f"Experiment 12 at the paper profile: about {c['estimated_cpu_seconds'] / 60:.1f} "
@@ -406,6 +410,31 @@ def _paper_verdicts(p, compile_=None):
         out.append(f"cold compile (import and the kernels a loop uses) {c:.1f} s, "
                    + (f"under {limit:g} s" if c < limit else f"{c - limit:.1f} s over {limit:g} s"))
     return out
+
+
+def _builds_line(b: Mapping[str, Any]) -> str:
+    """The README's two commands, each run on a fresh clone (``make bench ONLY=builds``):
+    every run's wall time, against its target, and the host."""
+    host = b.get("host", {})
+    parts = []
+    for name in ("make test", "quick book"):
+        if name not in b:
+            continue
+        rec, target = b[name], b[name]["target_seconds"]
+        walls = [r["wall_seconds"] for r in rec["runs"]]
+        failed = [r for r in rec["runs"] if r["exit"] != 0]
+        worst = max(walls)
+        verdict = ("met" if worst <= target else
+                   f"missed by {worst - target:.0f} s ({worst / target:.1f}x)")
+        parts.append(f"`{'make test' if name == 'make test' else 'make book PROFILE=quick'}` "
+                     + " and ".join(f"{w:.0f} s" for w in walls)
+                     + f" (target {target / 60:g} min: {verdict})"
+                     + (f", **{len(failed)} run(s) failed**" if failed else ""))
+    return (f"*Measured on {host.get('model', '?')}* ({host.get('lanes', '?')} float64 lanes), "
+            f"each on a fresh clone of {b.get('commit', '?')} with an empty result cache, "
+            f"the runs taking turns (`make bench ONLY=builds`; the virtual environment "
+            f"already built; Neural-Fly's flights {'present' if b.get('neuralfly') else 'absent'}"
+            "): " + "; ".join(parts) + ".")
 
 
 def _gradient_split(t: Mapping[str, Any]) -> str:
