@@ -408,12 +408,13 @@ BUILD_TARGETS = {"make test": 7 * 60, "quick book": 3 * 60}
 BUILD_TIMEOUT = 1800
 
 
-def _fresh_clone(root: Path, where: Path) -> Path:
-    """A clean clone of ``root``'s HEAD at ``where``, sharing ``root``'s virtual environment
-    (its build is not what is timed: CI builds it once) and never rebuilding it."""
+def _fresh_clone(root: Path, where: Path, commit: str) -> Path:
+    """A clean clone of ``root`` at ``commit`` at ``where``, sharing ``root``'s virtual
+    environment (its build is not what is timed: CI builds it once) and never rebuilding it."""
     import subprocess
 
     subprocess.run(["git", "clone", "-q", str(root), str(where)], check=True)
+    subprocess.run(["git", "-C", str(where), "checkout", "-q", commit], check=True)
     (where / ".venv").symlink_to(root / ".venv")
     old = time.mktime(time.strptime("2020-01-01", "%Y-%m-%d"))
     os.utime(where / "environment.txt", (old, old))  # older than the venv's stamp
@@ -451,14 +452,20 @@ def bench_builds(report, runs: int = 2):
 
     from bench_common import host_cpu
 
+    import subprocess
+
     root = Path(__file__).resolve().parents[1]
-    print(f"\n== the README's commands on a fresh clone ({runs} runs each, taking turns) ==")
+    # every run the same commit, whatever is committed meanwhile
+    commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], check=True,
+                            capture_output=True, text=True).stdout.strip()
+    print(f"\n== the README's commands on a fresh clone of {commit[:7]} ({runs} runs each, "
+          "taking turns) ==")
     rows = {"make test": [], "quick book": []}
     for i in range(runs):
         for name in rows:
             tmp = Path(tempfile.mkdtemp(prefix="uavwind-build-"))
             try:
-                clone = _fresh_clone(root, tmp / "clone")
+                clone = _fresh_clone(root, tmp / "clone", commit)
                 env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
                 env.pop("MPLBACKEND", None)
                 cmd = (["make", "test"] if name == "make test" else
@@ -478,5 +485,5 @@ def bench_builds(report, runs: int = 2):
                "median_wall_seconds": statistics.median(r["wall_seconds"] for r in rs)}
         for name, rs in rows.items()}
     report["builds"]["host"] = host_cpu()
-    report["builds"]["commit"] = source_commit()
+    report["builds"]["commit"] = commit[:7]
     report["builds"]["neuralfly"] = bool(os.environ.get("UAVWIND_NEURALFLY"))
