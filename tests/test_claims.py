@@ -111,3 +111,33 @@ def test_c9_reads_bias_below_a_metre_too_and_its_intervals():
     assert claim_c9(_c9_inputs(both)).verdict == "not reproduced"
     edge = {**good, ("B", 0.0, 0.5): 0.9}  # a CI straddling 90%
     assert claim_c9(_c9_inputs(edge)).verdict == "cannot decide"
+
+
+def test_too_few_loops_or_intervals_across_zero_cannot_decide():
+    """A quick build's claims (issue 44): two loops a case gave 'not reproduced' from point
+    means whose intervals span 0, and C3 and C7 verdicts from a maximum of one loop and from
+    shares of two; each reads 'cannot decide' now, and an interval never shows -0.00."""
+    from uavwind.analysis import claims as C
+
+    exp1 = []
+    for k, pair in {1: (0.0, 50.0), 2: (90, 91), 3: (0.0, 0.0), 4: (0.0, 54.0), 5: (92, 93),
+                    6: (0.0, 0.0), 7: (0.0, 0.0)}.items():
+        exp1 += [{"scenario_id": k, "long_run": False, "loop": i, "score": float(v)}
+                 for i, v in enumerate(pair)]
+    exp1 += [{"scenario_id": 1, "long_run": True, "loop": i, "score": v}
+             for i, v in enumerate([50.0, 60.0, 70.0, 80.0])]
+    df = _fake("exp1", exp1)
+    # S1 and S4 above the lowest others on their means, with intervals reaching 0
+    assert C.claim_c1({"exp1": df}).verdict == "cannot decide"
+    assert C.claim_c2({"exp1": df}).verdict == "cannot decide"
+    c3 = C.claim_c3({"exp1": df})  # the first tenth of 4 loops is one loop
+    assert c3.verdict == "cannot decide" and "fewer than 5 loops" in c3.rule
+    exp5 = _fake("exp5", [{"direction": d, "loop": i, "score": s}
+                          for d, ss in (("similar", (0.0, 80.0)), ("opposite", (90.0, 91.0)))
+                          for i, s in enumerate(ss)])
+    assert C.claim_c7({"exp5": exp5}).verdict == "cannot decide"
+    # with decided intervals on the wrong side the verdicts stand
+    far = df.copy()
+    far.loc[(far["scenario_id"].isin([1, 4])) & ~far["long_run"], "score"] = [50.0, 51.0, 54.0, 55.0]
+    assert C.claim_c1({"exp1": far}).verdict == "not reproduced"
+    assert C._fmt((-1e-17, -0.001, 0.5)) == "0.00 [0.00, 0.50]"

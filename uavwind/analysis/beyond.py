@@ -56,7 +56,9 @@ def noise_table(df: pd.DataFrame) -> pd.DataFrame:
 def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
     """Per scenario, the white-noise level [m] at which the share of correctly grouped
     loops first falls below ``threshold``: ``last_ok`` (the largest level before it),
-    ``first_broken`` (NaN: never within the levels run) and the shares at both."""
+    ``first_broken`` (NaN: never within the levels run), the shares at both, and ``decided``:
+    whether the share's 95% interval lies at or above the threshold at ``last_ok`` and below
+    it at ``first_broken`` (else these loops cannot place the break)."""
     t = noise_table(df)
     t = t[t["noise_bias"] == 0].sort_values(["scenario", "noise_sigma"])
     rows = []
@@ -64,13 +66,20 @@ def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
         below = sub[sub["correct_rate"] < threshold]
         first = below["noise_sigma"].min() if len(below) else float("nan")
         ok = sub[sub["noise_sigma"] < first] if len(below) else sub
+        # does the share's 95% interval put each of the two levels on its side of the
+        # threshold? (with a few loops it spans it, and the break cannot be placed)
+        at_ok = ok.iloc[-1] if len(ok) else None
+        at_broken = below.iloc[0] if len(below) else None
+        decided = ((at_ok is None or at_ok["correct_low"] >= threshold)
+                   and (at_broken is None or at_broken["correct_high"] < threshold))
         rows.append({"scenario": scen,
                      "last_ok": float(ok["noise_sigma"].max()) if len(ok) else float("nan"),
                      "first_broken": float(first),
                      "correct_rate_at_last_ok": float(ok["correct_rate"].iloc[-1]) if len(ok)
                      else float("nan"),
                      "correct_rate_at_first_broken": float(below["correct_rate"].iloc[0])
-                     if len(below) else float("nan")})
+                     if len(below) else float("nan"),
+                     "decided": bool(decided)})
     return pd.DataFrame(rows).set_index("scenario")
 
 
@@ -88,6 +97,9 @@ def breaking_sentences(levels: pd.DataFrame) -> dict:
                          f"({100 * row['correct_rate_at_last_ok']:.0f}% correct) and "
                          f"{row['first_broken']:g} m "
                          f"({100 * row['correct_rate_at_first_broken']:.0f}%)")
+        if not row.get("decided", True):
+            out[scen] += (" on these loops' shares, but their 95% intervals reach across one "
+                          "half: **cannot decide** where it breaks")
     return out
 
 

@@ -23,5 +23,5 @@ def _mark_zero_bars(ax, bars) -> None:
     so a case that ran and scored 0 does not look like a case that did not run."""
     for patch in bars.patches:
         if patch.get_width() == 0:
-            ax.text(0.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
+            ax.text(1.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
                     fontsize=7, color="0.2")

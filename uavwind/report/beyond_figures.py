@@ -86,7 +86,9 @@ def observation_bars(table: pd.DataFrame) -> Figure:
                 if patch.get_height() == 0:
                     ax.text(patch.get_x() + patch.get_width() / 2, 1.0, "0", ha="center",
                             va="bottom", fontsize=9, color="0.2")
-        ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=10)
+        # slanted: "velocity" and "acceleration" ran into each other at this width
+        ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=9, rotation=30,
+                      ha="right", rotation_mode="anchor")
         ax.set(title=sc, ylim=(0, 102))
         ax.title.set_fontsize(10)
     axes[0].set_ylabel("mean score", fontsize=10)
@@ -229,6 +231,8 @@ def flyable_scores(table) -> Figure:
             s = s.set_index("scenario").reindex(scen)
             err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0,
                           None)
+            if "n_loops" in s:  # one loop has no interval: no error bar either
+                err[:, (s["n_loops"] < 2).to_numpy()] = np.nan
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))
@@ -278,7 +282,10 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             ax.set_title(f"{s}\n{v}", fontsize=8)
             if value == "accuracy":
                 ax.axhline(50, color="0.8", lw=0.8, zorder=0)
-                ax.set_ylim(40, 101)
+                # from 40% unless some curve or band goes lower (early reports of a few
+                # episodes can): then from 0, so nothing falls off a panel (axes shared)
+                low = min(curves[f"{value}_low"].min(), curves[value].min()) * scale
+                ax.set_ylim(40 if low >= 40 else -2, 101)
             if i == len(scen) - 1:
                 ax.set_xlabel("flight time (s)")
             if j == 0:

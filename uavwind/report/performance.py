@@ -288,7 +288,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
             f"{sp['identical']} of them"
             + (f"; its scalar kernels, timed on the same loops, are {sp['scalar']['median']:.1f}x "
                f"(so the lockstep kernels gain {sp['lockstep_over_scalar']['median']:.2f}x per "
-               f"loop)" if "scalar" in sp else "")
+               f"loop, the median of the per-loop ratios, not the ratio of the two medians)"
+               if "scalar" in sp else "")
             + f". On 2 cores, {tp['loops']} loops take "
             f"{tp['tslearn_2_threads']:.1f} s with tslearn on its own 2 numba threads and "
             f"{tp['fast_2_workers']:.1f} s with the fast engine on 2 workers "
