@@ -197,3 +197,19 @@ def test_the_builds_sentence_gives_every_run_against_its_target():
     assert "`make test` 600 s and 650 s (target 7 min: missed by 230 s (1.5x))" in line
     assert "`make book PROFILE=quick` 170 s and 175 s (target 3 min: met), **1 run(s) failed**" \
         in line
+
+
+def test_the_benchmark_on_file_gives_tables_and_sentences():
+    """The performance page reads benchmarks/benchmark.json: every table a DataFrame, every
+    sentence a string (a sentence once landed among the tables and the page failed)."""
+    from pathlib import Path
+
+    import pandas as pd
+
+    from uavwind.report.performance import load_report
+
+    report = load_report(Path(__file__).parents[1] / "benchmarks" / "benchmark.json")
+    assert report
+    assert all(isinstance(t, pd.DataFrame) for t in report_tables(report).values())
+    lines = summary_lines(report)
+    assert all(isinstance(v, str) for v in lines.values()) and "builds" in lines

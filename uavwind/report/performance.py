@@ -188,8 +188,6 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                 "rows (loops, CEM samples, belief reports)": t["rows"],
                 "CPU (min)": (t["cpu_seconds"] / 60).round(1), "share (%)": t["share"],
                 "CPU per row (ms)": (t["cpu_seconds"] / t["rows"] * 1e3).round(1)})
-    if "builds" in report:
-        out["builds"] = _builds_line(report["builds"])
     if "closed_loop" in report:
         c = report["closed_loop"]
         out["closed_loop"] = pd.DataFrame({
