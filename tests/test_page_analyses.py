@@ -144,3 +144,37 @@ def test_exp12_exercise_cell_is_the_call_the_fill_makes(monkeypatch):
             if isinstance(k.value, (ast.Constant, ast.List))}
     assert ast.literal_eval(calls[0].args[0]) == got["exp_id"] == "exp12"
     assert page == {k: got[k] for k in ("profile", "reading", "cases")}
+
+
+def test_a_derived_table_is_recomputed_when_its_code_changes(tmp_path, monkeypatch):
+    """The claims page once read verdicts cached under an older claims module (their rules
+    printed as they were); a derived table is keyed by its code's source too."""
+    import importlib.util
+    import sys
+
+    import pandas as pd
+
+    from uavwind.analysis.memo import code_digest, derived
+
+    src = tmp_path / "rule_mod.py"
+    src.write_text("LIMIT = 1\n")
+    spec = importlib.util.spec_from_file_location("rule_mod", src)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    monkeypatch.setitem(sys.modules, "rule_mod", mod)
+    inputs = {"t": pd.DataFrame({"x": [1.0, 2.0]})}
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return pd.DataFrame({"n": [len(calls)]})
+    first = derived("rule_table", compute, inputs, results=tmp_path / "r", code=(mod,))
+    again = derived("rule_table", compute, inputs, results=tmp_path / "r", code=(mod,))
+    assert len(calls) == 1 and again.equals(first)
+    before = code_digest((mod,))
+    src.write_text("LIMIT = 2\n")  # the rule changed, the inputs did not
+    assert code_digest((mod,)) != before
+    derived("rule_table", compute, inputs, results=tmp_path / "r", code=(mod,))
+    assert len(calls) == 2
+    with pytest.raises(TypeError, match="code must hold modules"):
+        derived("rule_table", compute, inputs, results=tmp_path / "r", code=("claims",))

@@ -8,7 +8,9 @@ with the digest of its own content (index included); a missing, damaged or alter
 recomputed (the latter two moved aside, with a warning naming the file), and under
 ``UAVWIND_PAGES_READ_ONLY`` a page that would compute it fails naming it
 (:func:`uavwind.core.io.refuse_to_compute`). :func:`derived` and :func:`derived_many` key a
-table computed from result tables alone by those tables' content digests.
+table computed from result tables alone by those tables' content digests and by the source
+of the modules that compute it (``code``): a changed rule in them is a new entry, never a
+stale table read back (the claims page once showed rules older than its code).
 
 The analyses the pages read, and the fill's tasks for them, are
 :mod:`uavwind.analysis.page_analyses`; Exp 13's tables (:mod:`.real_flights`,
@@ -17,13 +19,16 @@ The analyses the pages read, and the fill's tasks for them, are
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import hashlib
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from types import ModuleType
 
 import pandas as pd
 
 from ..core.store import content_digest, get_or_compute
 
-__all__ = ["memo", "derived", "derived_many", "MEMO_VERSION"]
+__all__ = ["memo", "derived", "derived_many", "code_digest", "MEMO_VERSION"]
 
 #: Bump when an analysis routed through :func:`memo` changes its numbers.
 MEMO_VERSION = "1"
@@ -52,23 +57,38 @@ def _legacy_memo(df) -> bool:
 
 
 def derived(name: str, compute: Callable[[], pd.DataFrame], inputs: Mapping[str, pd.DataFrame],
-            results=None) -> pd.DataFrame:
-    """:func:`memo` for a table computed from result tables alone: cached under ``name`` and
-    the content digests of ``inputs`` (name -> the tables ``compute`` reads), so a page and
-    the fill that load the same results find the same entry, and a changed result is a new
-    one."""
-    return memo(name, _input_key(inputs), compute, results)
+            results=None, code: Sequence[ModuleType] = ()) -> pd.DataFrame:
+    """:func:`memo` for a table computed from result tables alone: cached under ``name``, the
+    content digests of ``inputs`` (name -> the tables ``compute`` reads) and the source
+    digests of ``code`` (the modules whose functions compute it), so a page and the fill that
+    load the same results find the same entry, and a changed result or rule is a new one."""
+    return memo(name, _input_key(inputs, code), compute, results)
 
 
-def _input_key(inputs: Mapping[str, pd.DataFrame]) -> dict:
-    """:func:`derived`'s parameters: the content digest of each input table."""
-    return {"inputs": {k: content_digest(df.reset_index(drop=True)) for k, df in inputs.items()}}
+def code_digest(modules: Sequence[ModuleType]) -> dict[str, str]:
+    """Module name -> the SHA-256 of its source file (16 hex digits)."""
+    out = {}
+    for m in modules:
+        if not isinstance(m, ModuleType) or not getattr(m, "__file__", None):
+            raise TypeError(f"code must hold modules with a source file, got {m!r}")
+        out[m.__name__] = hashlib.sha256(Path(m.__file__).read_bytes()).hexdigest()[:16]
+    return out
+
+
+def _input_key(inputs: Mapping[str, pd.DataFrame], code: Sequence[ModuleType] = ()) -> dict:
+    """:func:`derived`'s parameters: the content digest of each input table (and, given
+    ``code``, the source digest of each module)."""
+    key = {"inputs": {k: content_digest(df.reset_index(drop=True)) for k, df in inputs.items()}}
+    if code:
+        key["code"] = code_digest(code)
+    return key
 
 
 def derived_many(computes: Mapping[str, Callable[[], pd.DataFrame]],
-                 inputs: Mapping[str, pd.DataFrame], results=None) -> dict[str, pd.DataFrame]:
-    """:func:`derived` for several tables of the same ``inputs``: name -> ``compute``, each
-    cached as :func:`derived` caches it (the same entries), the inputs' content digests taken
-    once for all."""
-    key = _input_key(inputs)
+                 inputs: Mapping[str, pd.DataFrame], results=None,
+                 code: Sequence[ModuleType] = ()) -> dict[str, pd.DataFrame]:
+    """:func:`derived` for several tables of the same ``inputs`` and ``code``: name ->
+    ``compute``, each cached as :func:`derived` caches it (the same entries), the digests
+    taken once for all."""
+    key = _input_key(inputs, code)
     return {name: memo(name, key, compute, results) for name, compute in computes.items()}

@@ -36,10 +36,15 @@ from ..study.fill import Analysis
 from ..study.readings import DEFAULT_READING
 from ..study.registry import EXPERIMENTS
 from ..study.runner import run_experiment
-from . import inference, manoeuvres
+from ..core import stats
+from . import beyond, claims, inference, manoeuvres
+from . import closed_loop as closed_loop_analysis
 from .claims import c1_by_vehicle, compare_readings, needed_experiments
 from .closed_loop import accuracy_over_time, closing_the_loop, time_to_confidence
 from .memo import derived, derived_many, memo
+
+#: The modules whose rules make the claims' verdicts: a change in any is a new cache entry.
+_CLAIMS_CODE = (claims, beyond, stats)
 
 __all__ = ["PAGE_ANALYSES", "fills", "page_analyses",
            "CLAIMS_READINGS", "C1_READING", "claims_inputs", "claims_verdicts", "c1_vehicles",
@@ -140,13 +145,13 @@ def claims_verdicts(by_reading: Mapping[str, Mapping[str, pd.DataFrame]],
     """:func:`uavwind.analysis.claims.compare_readings` (its bootstraps), cached."""
     inputs = {f"{r}/{i}": df for r, res in by_reading.items() for i, df in res.items()}
     return derived("claims_verdicts", lambda: compare_readings(by_reading), inputs,
-                   results=results)
+                   results=results, code=_CLAIMS_CODE)
 
 
 def c1_vehicles(exp10: pd.DataFrame, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.claims.c1_by_vehicle` on Exp 10's table, cached."""
     return derived("claims_c1_by_vehicle", lambda: c1_by_vehicle(exp10), {"exp10": exp10},
-                   results=results)
+                   results=results, code=_CLAIMS_CODE)
 
 
 @fills("claims", reads=(*needed_experiments(), "exp10"))
@@ -167,7 +172,7 @@ SCALE_ENVIRONMENTS = 5
 def layout_fits(fit_results: pd.DataFrame, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.inference.fit_layouts` (its bootstraps), cached."""
     return derived("inference_layout_fits", lambda: inference.fit_layouts(fit_results),
-                   {"fit_layout": fit_results}, results=results)
+                   {"fit_layout": fit_results}, results=results, code=(inference, stats))
 
 
 def scale_invariance_loops(profile: str) -> int:
@@ -212,7 +217,7 @@ def exp12_summaries(exp12: pd.DataFrame, results=None) -> dict[str, pd.DataFrame
     summaries = {"curves": accuracy_over_time, "time_to_confidence": time_to_confidence,
                  "closing": closing_the_loop}
     made = derived_many({f"exp12_{k}": (lambda f=f: f(exp12)) for k, f in summaries.items()},
-                        {"exp12": exp12}, results)
+                        {"exp12": exp12}, results, code=(closed_loop_analysis, stats))
     return {k: made[f"exp12_{k}"] for k in summaries}
 
 
