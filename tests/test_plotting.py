@@ -267,6 +267,20 @@ def test_the_flyable_bars_keep_their_legend_off_the_bars():
     plt.close(fig)
 
 
+def test_exp8_bars_mark_a_zero_bar_and_keep_their_legend_above():
+    """Exp 8's vertical bars: a bar of 0 reads "0" (issue 44: the zero acceleration bars were
+    invisible), the legend sits above the panels."""
+    table = pd.DataFrame([{"scenario": "S1", "observation": o, "noise": n, "mean": m,
+                           "ci_low": m, "ci_high": m}
+                          for o, n, m in (("position", "none", 90.0), ("position", "consumer", 0.0),
+                                          ("velocity", "none", 80.0),
+                                          ("velocity", "consumer", 70.0))])
+    fig = plotting.observation_bars(table)
+    assert [t.get_text() for t in fig.axes[0].texts] == ["0"]
+    assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
+    plt.close(fig)
+
+
 def test_score_panels_put_one_legend_above_them():
     """Exps 1-5: a legend inside a panel sat over its data (exp3 (d), exp5 (a), issue 44);
     one figure legend above the panels names every line once, the paper's grey ones too,

@@ -4,7 +4,7 @@ This module owns the drawing helpers :mod:`uavwind.report.plotting` (the paper's
 :mod:`uavwind.report.beyond_figures` (the figures beyond it) both use: ``_plt``, pyplot
 imported when a figure is drawn (a page that only reads results never loads matplotlib),
 :data:`GROUP_COLOURS`, the two groups' colours, and ``_mark_zero_bars``, the "0" beside a bar
-that scored 0.
+that scored 0, and ``_legend_above``, one legend above a figure's panels.
 """
 
 from __future__ import annotations
@@ -18,10 +18,29 @@ def _plt():
     return plt
 
 
-def _mark_zero_bars(ax, bars) -> None:
-    """A "0" beside every bar of ``bars`` (a horizontal ``BarContainer``) whose value is 0,
-    so a case that ran and scored 0 does not look like a case that did not run."""
+def _mark_zero_bars(ax, bars, fontsize: float = 7) -> None:
+    """A "0" beside every bar of ``bars`` (a ``BarContainer``, horizontal or vertical) whose
+    value is 0, so a case that ran and scored 0 does not look like a case that did not run
+    (a NaN bar, not run, stays blank)."""
+    horizontal = bars.orientation == "horizontal"
     for patch in bars.patches:
-        if patch.get_width() == 0:
+        if (patch.get_width() if horizontal else patch.get_height()) != 0:
+            continue
+        if horizontal:
             ax.text(1.5, patch.get_y() + patch.get_height() / 2, "0", va="center", ha="left",
-                    fontsize=7, color="0.2")
+                    fontsize=fontsize, color="0.2")
+        else:
+            ax.text(patch.get_x() + patch.get_width() / 2, 1.0, "0", ha="center",
+                    va="bottom", fontsize=fontsize, color="0.2")
+
+
+def _legend_above(fig, axes, fontsize: float = 8) -> None:
+    """One legend for every panel of ``axes``, above them (inside, a panel's data would pass
+    under it): each label once, from whichever panel drew it, at most five to a row."""
+    seen = {}
+    for ax in axes:
+        for h, lab in zip(*ax.get_legend_handles_labels()):
+            seen.setdefault(lab, h)
+    if seen:
+        fig.legend(list(seen.values()), list(seen), fontsize=fontsize,
+                   loc="outside upper center", ncol=min(len(seen), 5))

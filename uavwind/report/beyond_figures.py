@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..analysis.closed_loop import POLICY_NAMES
-from ._drawing import GROUP_COLOURS, _mark_zero_bars, _plt
+from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
 from .display import channel_name
 
 if TYPE_CHECKING:
@@ -80,21 +80,16 @@ def observation_bars(table: pd.DataFrame) -> Figure:
         for j, (noise, colour) in enumerate((("none", "tab:blue"), ("consumer", "tab:orange"))):
             s = sub[sub["noise"] == noise].set_index("observation").reindex(obs)
             err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
-            bars = ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err, capsize=2,
-                          color=colour, label=f"noise: {noise}")
-            for patch in bars.patches:  # a "0" over a bar of 0: it ran and scored 0
-                if patch.get_height() == 0:
-                    ax.text(patch.get_x() + patch.get_width() / 2, 1.0, "0", ha="center",
-                            va="bottom", fontsize=9, color="0.2")
+            _mark_zero_bars(ax, ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err,
+                                       capsize=2, color=colour, label=f"noise: {noise}"),
+                            fontsize=9)
         # slanted: "velocity" and "acceleration" ran into each other at this width
         ax.set_xticks(x, [o.replace("+", "+\n") for o in obs], fontsize=9, rotation=30,
                       ha="right", rotation_mode="anchor")
         ax.set(title=sc, ylim=(0, 102))
         ax.title.set_fontsize(10)
     axes[0].set_ylabel("mean score", fontsize=10)
-    # above the panels: inside the first one it covered the position bars
-    fig.legend(*axes[0].get_legend_handles_labels(), fontsize=9, loc="outside upper center",
-               ncol=2)
+    _legend_above(fig, axes[:1], fontsize=9)  # inside the first panel it covered bars
     return fig
 
 
@@ -323,9 +318,7 @@ def reliability_diagram(table) -> Figure:
         ax.set(xlim=(0, 1), ylim=(0, 1), xlabel="reported P(group 1)",
                ylabel="observed share in group 1", title=v)
         ax.title.set_fontsize(9)
-    # above the panels: inside, it covered the first bin's bar (issue 44)
-    fig.legend(*axes[0, 0].get_legend_handles_labels(), fontsize=8,
-               loc="outside upper center", ncol=5)
+    _legend_above(fig, axes[0, :1])  # inside, it covered the first bin's bar (issue 44)
     return fig
 
 

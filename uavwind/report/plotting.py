@@ -32,7 +32,7 @@ import numpy as np
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.dryden import dryden_psd
-from ._drawing import GROUP_COLOURS, _mark_zero_bars, _plt
+from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
 # the figures beyond the paper, re-exported: this module's names before they had a module
 from .beyond_figures import (POLICY_MARKERS, POLICY_STYLES, baseline_vs_clustering,  # noqa: F401
                              channel_pair_heatmap, closed_loop_curves, flyable_scores,
@@ -244,18 +244,6 @@ def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
                 ax.axhline(row["mean"].iloc[0], color="0.5", lw=0.8, ls=":", label="paper mean")
     _legend_above(fig, axes)
     return fig
-
-
-def _legend_above(fig, axes):
-    """One legend for every panel, above them (inside, a panel's data would pass under it):
-    each label once, from whichever panel drew it."""
-    seen = {}
-    for ax in axes:
-        for h, lab in zip(*ax.get_legend_handles_labels()):
-            seen.setdefault(lab, h)
-    if seen:
-        fig.legend(list(seen.values()), list(seen), fontsize=8, loc="outside upper center",
-                   ncol=min(len(seen), 5))
 
 
 def score_vs_parameter(df: pd.DataFrame, x: str, by: str = "scenario", ncols: int = 2,
