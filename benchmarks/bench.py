@@ -47,11 +47,11 @@ def main():
               "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
     if only:  # one section, measured now, merged into the figures already on file
-        if only not in SECTIONS and only not in ON_REQUEST:
-            raise ValueError(f"ONLY must be one of {sorted({**SECTIONS, **ON_REQUEST})}, "
-                             f"got {only!r}")
+        every = {**SECTIONS, **ON_REQUEST}
+        if only not in every:
+            raise ValueError(f"ONLY must be one of {sorted(every)}, got {only!r}")
         fresh = {}
-        {**SECTIONS, **ON_REQUEST}[only](fresh)
+        every[only](fresh)
         report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies

@@ -16,15 +16,19 @@ from __future__ import annotations
 
 import json
 import os
+import resource
+import shutil
 import statistics
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
 import uavwind as uw
-from bench_common import loop_inputs, timeit
+from bench_common import host_cpu, loop_inputs, timeit
 from uavwind.analysis.tables import source_commit
 from uavwind.method.clustering import default_engine
 
@@ -157,9 +161,6 @@ def _measure_paper_book():
     ``BENCH_KEEP=<empty folder>`` builds there instead and keeps the book, its results and
     the build's output (to read the paper pages afterwards)."""
     import contextlib
-    import shutil
-    import subprocess
-    import tempfile
 
     import psutil
 
@@ -176,7 +177,6 @@ def _measure_paper_book():
                 shutil.copy(f, book / f.name)
         env = {**os.environ, "UAVWIND_RESULTS": str(Path(tmp) / "results")}
         env.pop("MPLBACKEND", None)
-        import resource
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         times = Path(tmp) / "times.json"
@@ -257,9 +257,6 @@ def bench_closed_loop(report, per_scenario=4):
     report["closed_loop"] = {"per_flight": rows, "estimated_cpu_seconds": total,
                              "flights_timed_per_scenario": per_scenario}
     if os.environ.get("FULL") == "1":
-        import subprocess
-        import tempfile
-        import resource
         with tempfile.TemporaryDirectory() as tmp:
             env = {**os.environ, "UAVWIND_RESULTS": tmp}
             cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -283,9 +280,6 @@ def bench_exp13(report):
     real-flight row at the paper profile with the k-means capped as the study caps it and
     at 100 (the paper's clustering), side by side, and with the laps resampled to the
     study's samples and to the paper's series length (:func:`_lap_length_check`)."""
-    import subprocess
-    import tempfile
-
     from uavwind.data.neuralfly import ENV_VAR
     folder = os.environ.get(ENV_VAR)
     print("\n== Experiment 13 (real flights) ==")
@@ -364,8 +358,6 @@ def bench_cluster(report):
     task (``fill._compute_remote`` of the whole entry, how the fill ran a CEM run before
     its samples were tasks) and as the fill runs it now (each sample a task of its own).
     Alternated, 3 each, after each worker loaded the kernels; the rows are checked equal."""
-    import tempfile
-
     from distributed import Client, LocalCluster
 
     from uavwind.study import fill
@@ -411,8 +403,6 @@ BUILD_TIMEOUT = 1800
 def _fresh_clone(root: Path, where: Path, commit: str) -> Path:
     """A clean clone of ``root`` at ``commit`` at ``where``, sharing ``root``'s virtual
     environment (its build is not what is timed: CI builds it once) and never rebuilding it."""
-    import subprocess
-
     subprocess.run(["git", "clone", "-q", str(root), str(where)], check=True)
     subprocess.run(["git", "-C", str(where), "checkout", "-q", commit], check=True)
     (where / ".venv").symlink_to(root / ".venv")
@@ -424,9 +414,6 @@ def _fresh_clone(root: Path, where: Path, commit: str) -> Path:
 def _timed(cmd, cwd, env) -> dict:
     """Run ``cmd`` (a list) in ``cwd``; wall seconds, the children's CPU seconds, the exit
     code and the last line of its output."""
-    import resource
-    import subprocess
-
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     try:
@@ -447,13 +434,6 @@ def bench_builds(report, runs: int = 2):
     clone of HEAD, ``runs`` times, taking turns: the README's two commands as CI and a
     reader run them, against :data:`BUILD_TARGETS`. Neural-Fly's flights are read where
     ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
-    import shutil
-    import tempfile
-
-    from bench_common import host_cpu
-
-    import subprocess
-
     root = Path(__file__).resolve().parents[1]
     # every run the same commit, whatever is committed meanwhile
     commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], check=True,
