@@ -203,6 +203,11 @@ def test_profile_note_counts_loops_per_case_and_flags_a_quick_build():
     cem = pd.DataFrame({"case": [0] * 8})  # Exp 6's quick CEM: one case, 8 samples
     cem.attrs.update(experiment="exp6", profile="quick")
     assert "8 CEM samples per case over 1 case." in profile_note(cem)
+    # the claims page's counts say the same (tables.case_counts): a range over cases
+    from uavwind.analysis.tables import case_counts
+    long = pd.DataFrame({"case": [0] * 50 + [1] * 500, "loop": list(range(50)) + list(range(500))})
+    long.attrs.update(experiment="exp1", profile="paper")
+    assert case_counts(long) == "50-500 loops" and case_counts(cem) == "8 CEM samples"
 
 
 def _channels(n, spread):

@@ -66,19 +66,20 @@ def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
         below = sub[sub["correct_rate"] < threshold]
         first = below["noise_sigma"].min() if len(below) else float("nan")
         ok = sub[sub["noise_sigma"] < first] if len(below) else sub
+        at_ok = ok.iloc[-1] if len(ok) else None  # the rows of the two levels
+        at_broken = below.iloc[0] if len(below) else None
         # does the share's 95% interval put each of the two levels on its side of the
         # threshold? (with a few loops it spans it, and the break cannot be placed)
-        at_ok = ok.iloc[-1] if len(ok) else None
-        at_broken = below.iloc[0] if len(below) else None
         decided = ((at_ok is None or at_ok["correct_low"] >= threshold)
                    and (at_broken is None or at_broken["correct_high"] < threshold))
+        nan = float("nan")
         rows.append({"scenario": scen,
-                     "last_ok": float(ok["noise_sigma"].max()) if len(ok) else float("nan"),
+                     "last_ok": nan if at_ok is None else float(at_ok["noise_sigma"]),
                      "first_broken": float(first),
-                     "correct_rate_at_last_ok": float(ok["correct_rate"].iloc[-1]) if len(ok)
-                     else float("nan"),
-                     "correct_rate_at_first_broken": float(below["correct_rate"].iloc[0])
-                     if len(below) else float("nan"),
+                     "correct_rate_at_last_ok":
+                         nan if at_ok is None else float(at_ok["correct_rate"]),
+                     "correct_rate_at_first_broken":
+                         nan if at_broken is None else float(at_broken["correct_rate"]),
                      "decided": bool(decided)})
     return pd.DataFrame(rows).set_index("scenario")
 

@@ -19,20 +19,21 @@ import pandas as pd
 from ..core.stats import bootstrap_ci, correct_share, difference_ci, paired_difference
 from ..study.registry import EXPERIMENTS
 from .beyond import breaking_level, noise_table
+from .manoeuvres import MIN_VERDICT_LOOPS
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
            "LESSONS", "compare_readings", "needed_experiments", "c1_by_vehicle"]
 
 def _fmt(ci):
-    est, lo, hi = ci
-    z = lambda v: 0.0 if round(v, 2) == 0 else v  # never "-0.00": a bias of -1e-17 is none
-    return f"{z(est):.2f} [{z(lo):.2f}, {z(hi):.2f}]"
+    # round(., 2) + 0.0: never "-0.00" (a bias of -1e-17 is none), as display.signed does
+    est, lo, hi = (round(float(v), 2) + 0.0 for v in ci)
+    return f"{est:.2f} [{lo:.2f}, {hi:.2f}]"
 
 
-#: Fewer loops than this per condition: a claim read off shares or maxima cannot decide (with
-#: every loop right, the exact one-sided 95% bound 0.05 ** (1 / n) clears one half only from
-#: n = 5; a maximum over a tenth of the loops needs a tenth of some size).
-MIN_CLAIM_LOOPS = 5
+#: Fewer loops than this per condition: a claim read off shares or maxima cannot decide, for
+#: the reason Exp 14's verdicts need them (:data:`.manoeuvres.MIN_VERDICT_LOOPS`); a maximum
+#: over a tenth of the loops needs a tenth of some size too.
+MIN_CLAIM_LOOPS = MIN_VERDICT_LOOPS
 
 
 @dataclass

@@ -522,7 +522,7 @@ def ranking_verdict(real_channels: pd.DataFrame, sim_channels: pd.DataFrame,
     n = len(rr)
     rho = float(1 - 6 * ((rr - sr) ** 2).sum() / (n * (n * n - 1))) if n > 2 else float("nan")
     order = list(r.sort_values("mean", ascending=False).index)
-    decided = decided_orders(real_channels)
+    decided = set(decided_orders(real_channels))
     agree, disagree, tied, unordered = [], [], [], []
     for i, a in enumerate(order):
         for b in order[i + 1:]:  # a above b in the real flights

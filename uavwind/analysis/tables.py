@@ -29,7 +29,7 @@ from .beyond import baseline_table, future_table, loop_differences, vehicle_tabl
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
 
-__all__ = ["profile_note", "loops_needed", "sizing_note", "paired_spread", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+__all__ = ["profile_note", "case_counts", "loops_needed", "sizing_note", "paired_spread", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
 
 
@@ -154,29 +154,41 @@ def profile_note(df: pd.DataFrame) -> str:
     prof = a.get("profile", "?")
     paper = PROFILES["paper"]
     if exp.search == "closed_loop":
-        n = df.groupby("case")["episode"].nunique()
-        unit, ref = "held-out episodes", [paper.episodes]
+        ref = [paper.episodes]
     elif exp.search == "cem":
-        n = df.groupby("case").size()
-        unit, ref = "CEM samples", [paper.cem.n_samples * paper.cem.max_iter]
+        ref = [paper.cem.n_samples * paper.cem.max_iter]
     else:
-        n = df.groupby("case")["loop"].nunique()
-        unit = "loops"
         ref = sorted({case_loops(paper, c, exp.id) for c in exp.cases()})
-
-    def span(v):
-        v = sorted(set(int(x) for x in v))
-        return f"{v[0]}" if len(v) == 1 else f"{v[0]}-{v[-1]}"
-
-    one = {int(x) for x in n} == {1}  # "1 loop per case", not "1 loops"
     n_cases = df["case"].nunique()
-    text = (f"**This page shows the *{prof}* profile:** {span(n)} {unit[:-1] if one else unit} "
+    text = (f"**This page shows the *{prof}* profile:** {case_counts(df)} "
             f"per case over {n_cases} case{'' if n_cases == 1 else 's'}.")
     if prof != "paper":
-        text += (f" **Its verdicts are provisional**: the paper profile runs {span(ref)} "
-                 f"{unit} per case (`make book`), and a CI from this few cannot decide most "
-                 f"questions.")
+        text += (f" **Its verdicts are provisional**: the paper profile runs {_span(ref)} "
+                 f"{_COUNTED[exp.search][1]} per case (`make book`), and a CI from this few "
+                 f"cannot decide most questions.")
     return text
+
+
+#: Per search: the column whose distinct values count a case's runs (None: its rows), and
+#: what they are called.
+_COUNTED = {"closed_loop": ("episode", "held-out episodes"), "cem": (None, "CEM samples"),
+            "random": ("loop", "loops")}
+
+
+def _span(values) -> str:
+    """``"50"`` for one count, ``"50-500"`` for several."""
+    v = sorted(set(int(x) for x in values))
+    return f"{v[0]}" if len(v) == 1 else f"{v[0]}-{v[-1]}"
+
+
+def case_counts(df: pd.DataFrame) -> str:
+    """How many loops, CEM samples or held-out episodes each case of an experiment's results
+    ran (``df.attrs["experiment"]`` says which): ``"50 loops"``, ``"50-500 loops"``,
+    ``"1 loop"``, ``"600 CEM samples"``."""
+    col, unit = _COUNTED[get_experiment(df.attrs["experiment"]).search]
+    n = df.groupby("case").size() if col is None else df.groupby("case")[col].nunique()
+    one = {int(x) for x in n} == {1}  # "1 loop per case", not "1 loops"
+    return f"{_span(n)} {unit[:-1] if one else unit}"
 
 
 def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:

@@ -23,7 +23,7 @@ from ..study.runner import n_loops_total
 from .display import show_missing
 
 __all__ = ["TARGETS", "PAPER_TARGET", "PaperTarget", "load_report", "report_tables",
-           "summary_lines"]
+           "summary_lines", "fill_cpu_seconds"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,14 @@ TARGETS = {
     "closed_loop": "Experiment 12's paper profile (200 flights per case and policy) in at "
                    "most 5 min on 2 cores",
 }
+
+
+def fill_cpu_seconds(report: Mapping[str, Any], experiments) -> float | None:
+    """The CPU seconds the paper build's fill (``report["paper_profile"]["by_experiment"]``,
+    every reading) spent on ``experiments`` (ids); None when it timed none of them."""
+    rows = [r for r in report.get("paper_profile", {}).get("by_experiment", [])
+            if r.get("experiment") in experiments]
+    return sum(r["cpu_seconds"] for r in rows) if rows else None
 
 
 def load_report(path: os.PathLike | str) -> dict:
@@ -323,12 +331,10 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                     f"empty cache): {c['measured_seconds'] / 60:.1f} min wall, "
                     f"{c['measured_cpu_seconds'] / 60:.1f} CPU-minutes (target: "
                     f"{TARGETS['closed_loop']})")
-            fill = [r for r in report.get("paper_profile", {}).get("by_experiment", [])
-                    if r.get("experiment") == "exp12"]
-            if fill:  # the paper build's fill table times Exp 12 too: say why they differ
-                in_fill = sum(r["cpu_seconds"] for r in fill) / 60
-                line += (f"; the paper build's fill table above shows {in_fill:.1f} CPU-minutes "
-                         f"for it, from another run (the whole book's fill, timed entry by "
+            in_fill = fill_cpu_seconds(report, ("exp12",))
+            if in_fill is not None:  # the fill table times Exp 12 too: say why they differ
+                line += (f"; the paper build's fill table above shows {in_fill / 60:.1f} "
+                         f"CPU-minutes for it, from another run (the whole book's fill, timed entry by "
                          f"entry with `--times`), not this one")
         out["closed_loop"] = line + "."
     if "cluster" in report:
