@@ -141,3 +141,47 @@ def test_too_few_loops_or_intervals_across_zero_cannot_decide():
     far.loc[(far["scenario_id"].isin([1, 4])) & ~far["long_run"], "score"] = [50.0, 51.0, 54.0, 55.0]
     assert C.claim_c1({"exp1": far}).verdict == "not reproduced"
     assert C._fmt((-1e-17, -0.001, 0.5)) == "0.00 [0.00, 0.50]"
+
+
+def test_first_loops_cuts_every_case_and_the_long_run_tenfold():
+    import pytest
+    from uavwind.analysis.claims import first_loops
+    exp1 = _fake("exp1", [{"scenario_id": k, "long_run": lr, "loop": i, "score": 1.0}
+                          for k in (1, 2) for lr, n in ((False, 50), (True, 500))
+                          for i in range(n)])
+    exp6 = _fake("exp6", [{"iteration": t, "sample": j, "score": 1.0}
+                          for t in range(3) for j in range(4)])
+    cut = first_loops({"exp1": exp1, "exp6": exp6}, 20)
+    sizes = cut["exp1"].groupby(["scenario_id", "long_run"]).size().to_dict()
+    assert sizes == {(1, False): 20, (1, True): 200, (2, False): 20, (2, True): 200}
+    assert cut["exp1"]["loop"].max() == 199
+    assert cut["exp6"] is exp6  # no loops: kept whole
+    for bad in (0, -3, 2.5, True, "20"):
+        with pytest.raises(ValueError, match="n must be an integer >= 1"):
+            first_loops({"exp1": exp1}, bad)
+
+
+def test_verdicts_at_fewer_loops_names_what_a_cut_would_change(monkeypatch):
+    from uavwind.analysis import claims
+    from uavwind.analysis.tables import fewer_loops_note
+
+    def judge(r):  # reproduced while the mean score stays above 50
+        s = r["expA"]["score"]
+        return claims.Verdict("CA", "", "mean > 50", f"{s.mean():.1f}",
+                              "reproduced" if s.mean() > 50 else "not reproduced")
+    monkeypatch.setattr(claims, "CLAIMS", {"CA": (("expA",), judge)})
+    # the first 25 loops score 40, the rest 100: the whole mean (at 50 loops, 70) passes, the
+    # mean of the first 25 or fewer (40) does not
+    expA = _fake("expA", [{"loop": i, "score": 40.0 if i < 25 else 100.0} for i in range(50)])
+    fewer = claims.verdicts_at_fewer_loops({"expA": expA}, counts=(40, 25, 60))
+    assert list(fewer.index) == [40, 25]  # 60 >= the 50 loops run: nothing to cut
+    assert fewer.loc[40, "changed"] == 0 and fewer.loc[40, "which"] == "none"
+    assert fewer.loc[25, "changed"] == 1
+    assert fewer.loc[25, "which"] == "CA: reproduced -> not reproduced"
+    note = fewer_loops_note(fewer, "50 loops")
+    assert "0 of 1 verdicts change at 40 loops and 1 change at 25 loops (CA: reproduced -> " \
+           "not reproduced)" in note
+    # a build of 2 loops a case has no smaller count to try, and says so
+    two = claims.verdicts_at_fewer_loops({"expA": expA[expA["loop"] < 2]})
+    assert two.empty
+    assert "too few loops a case" in fewer_loops_note(two, "2 loops")

@@ -22,7 +22,8 @@ from .beyond import breaking_level, noise_table
 from .manoeuvres import MIN_VERDICT_LOOPS
 
 __all__ = ["bootstrap_ci", "paired_difference", "Verdict", "CLAIMS", "evaluate_claims",
-           "LESSONS", "compare_readings", "needed_experiments", "c1_by_vehicle"]
+           "LESSONS", "compare_readings", "needed_experiments", "c1_by_vehicle", "first_loops",
+           "verdicts_at_fewer_loops", "FEWER_LOOPS", "LONG_RUN_FACTOR"]
 
 def _fmt(ci):
     # round(., 2) + 0.0: never "-0.00" (a bias of -1e-17 is none), as display.signed does
@@ -373,3 +374,49 @@ def evaluate_claims(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
             rows.append({"claim": cid, "statement": "", "verdict": "not run",
                          "evidence": f"needs {', '.join(needs)}", "rule": ""})
     return pd.DataFrame(rows).set_index("claim")
+
+
+#: The counts a case is cut to by :func:`verdicts_at_fewer_loops` (the paper's 50 and below).
+FEWER_LOOPS = (30, 25, 20)
+#: Exp 1's long run flies this many times a case's loops (500 against 50).
+LONG_RUN_FACTOR = 10
+
+
+def first_loops(results: Mapping[str, pd.DataFrame], n: int) -> dict[str, pd.DataFrame]:
+    """Every table with a ``loop`` column cut to its cases' first ``n`` loops (Exp 1's long
+    run to its first ``LONG_RUN_FACTOR * n``), as a build running ``n`` loops a case would
+    have scored them: a loop's seed is its address, so its result does not depend on how many
+    others ran. Tables without loops (Exp 6's CEM samples) are kept whole."""
+    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+        raise ValueError(f"n must be an integer >= 1 (loops a case), got {n!r}")
+    out = {}
+    for k, df in results.items():
+        if "loop" not in df.columns:
+            out[k] = df
+            continue
+        limit = (np.where(df["long_run"].to_numpy(bool), LONG_RUN_FACTOR * n, n)
+                 if "long_run" in df.columns else n)
+        out[k] = df.loc[df["loop"].to_numpy() < limit]
+    return out
+
+
+def verdicts_at_fewer_loops(results: Mapping[str, pd.DataFrame],
+                            counts=FEWER_LOOPS) -> pd.DataFrame:
+    """What a smaller count would have decided: the verdicts of :func:`evaluate_claims` on
+    :func:`first_loops` of ``results`` for each count, against the verdicts on all of them.
+    One row per count: ``loops a case``, ``changed`` (how many of the claims' verdicts
+    differ) and ``which`` (``"C5: partly -> reproduced; ..."`` or ``"none"``); counts at or
+    above the most loops any case ran are left out (no rows on a quick build)."""
+    full = evaluate_claims(results)["verdict"]
+    rows = []
+    most = max((int(df.loc[~df["long_run"].to_numpy(bool) if "long_run" in df.columns
+                           else slice(None), "loop"].max()) + 1
+                for df in results.values() if "loop" in df.columns and len(df)), default=0)
+    for n in (c for c in counts if c < most):  # a cut that keeps every loop decides nothing
+        cut = evaluate_claims(first_loops(results, n))["verdict"]
+        changed = [f"{c}: {full[c]} -> {cut[c]}" for c in full.index if cut[c] != full[c]]
+        rows.append({"loops a case": int(n), "long run": LONG_RUN_FACTOR * int(n),
+                     "changed": len(changed), "of": len(full),
+                     "which": "; ".join(changed) or "none"})
+    return pd.DataFrame(rows, columns=["loops a case", "long run", "changed", "of", "which"]
+                        ).set_index("loops a case")

@@ -148,6 +148,18 @@ def claims_verdicts(by_reading: Mapping[str, Mapping[str, pd.DataFrame]],
                    results=results, code=_CLAIMS_CODE)
 
 
+def fewer_loops(by_reading: Mapping[str, Mapping[str, pd.DataFrame]], reading: str = "halves",
+                results=None) -> pd.DataFrame:
+    """:func:`uavwind.analysis.claims.verdicts_at_fewer_loops` of one reading, cached: how
+    the claims' verdicts would change if every case had run fewer loops (the question a
+    reading's loop count is sized on)."""
+    res = by_reading[reading]
+    return derived(f"claims_fewer_loops_{reading}",
+                   lambda: claims.verdicts_at_fewer_loops(res),
+                   {f"{reading}/{i}": df for i, df in res.items()}, results=results,
+                   code=_CLAIMS_CODE)
+
+
 def c1_vehicles(exp10: pd.DataFrame, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.claims.c1_by_vehicle` on Exp 10's table, cached."""
     return derived("claims_c1_by_vehicle", lambda: c1_by_vehicle(exp10), {"exp10": exp10},
@@ -156,7 +168,9 @@ def c1_vehicles(exp10: pd.DataFrame, results=None) -> pd.DataFrame:
 
 @fills("claims", reads=(*needed_experiments(), "exp10"))
 def _fill_claims(profile, seed, results):
-    claims_verdicts(claims_inputs(profile, seed, results=results), results)
+    inputs = claims_inputs(profile, seed, results=results)
+    claims_verdicts(inputs, results)
+    fewer_loops(inputs, "halves", results)
     c1_vehicles(_read("exp10", profile, seed, results, C1_READING), results)
 
 

@@ -29,7 +29,7 @@ from .beyond import baseline_table, future_table, loop_differences, vehicle_tabl
 from .closed_loop import accuracy_table
 from .manoeuvres import flyable_table
 
-__all__ = ["profile_note", "case_counts", "loops_needed", "sizing_note", "paired_spread", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
+__all__ = ["profile_note", "case_counts", "loops_needed", "sizing_note", "fewer_loops_note", "paired_spread", "summary_table", "comparison_table", "provenance", "source_commit", "SUMMARIES",
            "REFERENCES", "maxmean_table", "cem_table"]
 
 
@@ -189,6 +189,26 @@ def case_counts(df: pd.DataFrame) -> str:
     n = df.groupby("case").size() if col is None else df.groupby("case")[col].nunique()
     one = {int(x) for x in n} == {1}  # "1 loop per case", not "1 loops"
     return f"{_span(n)} {unit[:-1] if one else unit}"
+
+
+def fewer_loops_note(fewer: pd.DataFrame, runs: str, reading: str = "halves") -> str:
+    """The claims page's sizing of a reading's count: what it runs (``runs``, as
+    :func:`case_counts` gives it), and how many verdicts a smaller count would have changed
+    (``fewer``: :func:`uavwind.analysis.claims.verdicts_at_fewer_loops`), count by count."""
+    head = (f"*Sizing ({reading} reading):* its rows of Exps 1-7 are read only by this page's "
+            f"*verdict ({reading})* column and Exp 1's side-by-side table; it runs {runs} a "
+            f"case (Exp 1's long run ten times as many).")
+    if fewer.empty:
+        return (head + " This build runs too few loops a case for a smaller count to be "
+                "tried: the paper profile's build says what a cut would change.")
+    parts = [f"{int(r['changed'])}" + (f" of {int(r['of'])} verdicts" if i == 0 else "")
+             + f" change at {n} loops" + ("" if r["which"] == "none" else f" ({r['which']})")
+             for i, (n, r) in enumerate(fewer.iterrows())]
+    return (head + " Judged on each case's first loops only (the same loops: a loop's seed is "
+            "its address), " + ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "")
+            + parts[-1] + ". The count stays "
+            "at the paper's 50: these rows are set against the paper's Tables, whose maxima "
+            "are over 50 loops, and a maximum over fewer loops is biased low.")
 
 
 def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:
