@@ -183,6 +183,13 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     assert t["speed-up"].tolist() == [20.0, 16.0] and t["identical"].tolist() == ["12/12",
                                                                                   "11/12"]
     assert "AVX2" in t.index[1]
+    assert "rounds" not in line  # a record of one round says nothing of a range
+    rep["heldout"]["rounds"] = [{"fast_seconds": f, "tslearn_seconds": ts, "speedup": ts / f}
+                                for f, ts in ((2.0, 40.0), (1.9, 30.4), (2.1, 44.1))]
+    rep["heldout"]["speedup_range"] = [16.0, 21.0]
+    line = summary_lines(rep)["heldout"]
+    assert ("the median of 3 rounds, which ranged 16.0-21.0 times (tslearn 30.4-44.1 s, "
+            "fast 1.90-2.10 s)") in line
 
 
 def test_the_builds_sentence_gives_every_run_against_its_target():

@@ -275,9 +275,16 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                           f"lanes): {h['loops']} loops, the engines taking turns on each, "
                           f"the fast engine {h['speedup']:.1f} times faster in wall time "
                           f"({h['cpu_speedup']:.1f} times in CPU time), labels and scores "
-                          f"identical on {h['identical']} of {h['loops']}. The same machine "
-                          "kind comes as an AMD EPYC or an Intel Xeon: a speed-up is a "
-                          "figure of one host.")
+                          f"identical on {h['identical']} of {h['loops']}"
+                          + (f"; the median of {len(h['rounds'])} rounds, which ranged "
+                             f"{h['speedup_range'][0]:.1f}-{h['speedup_range'][1]:.1f} times "
+                             f"(tslearn {min(r['tslearn_seconds'] for r in h['rounds']):.1f}-"
+                             f"{max(r['tslearn_seconds'] for r in h['rounds']):.1f} s, fast "
+                             f"{min(r['fast_seconds'] for r in h['rounds']):.2f}-"
+                             f"{max(r['fast_seconds'] for r in h['rounds']):.2f} s)"
+                             if h.get("rounds") else "")
+                          + ". The same machine kind comes as an AMD EPYC or an Intel Xeon: a "
+                          "speed-up is a figure of one host.")
     if "agreement" in report:
         a = report["agreement"]
         out["agreement"] = (f"Identical labels (up to a swap) on {a['identical_labels']} of "
