@@ -159,6 +159,10 @@ def test_first_loops_cuts_every_case_and_the_long_run_tenfold():
     for bad in (0, -3, 2.5, True, "20"):
         with pytest.raises(ValueError, match="n must be an integer >= 1"):
             first_loops({"exp1": exp1}, bad)
+    with pytest.raises(ValueError, match="long_run_factor must be an integer >= 1"):
+        first_loops({"exp1": exp1}, 20, 0)
+    short = first_loops({"exp1": exp1}, 20, long_run_factor=2)["exp1"]
+    assert short.groupby("long_run").size().to_dict() == {False: 40, True: 80}
 
 
 def test_verdicts_at_fewer_loops_names_what_a_cut_would_change(monkeypatch):
@@ -178,7 +182,13 @@ def test_verdicts_at_fewer_loops_names_what_a_cut_would_change(monkeypatch):
     assert fewer.loc[40, "changed"] == 0 and fewer.loc[40, "which"] == "none"
     assert fewer.loc[25, "changed"] == 1
     assert fewer.loc[25, "which"] == "CA: reproduced -> not reproduced"
-    note = fewer_loops_note(fewer, "50 loops")
+    assert fewer["long run"].tolist() == [400, 250]  # no long run here: the paper's factor
+    # the long run's factor is read off the results: 100 long loops beside 50 is twice
+    expL = _fake("expL", [{"long_run": lr, "loop": i, "score": 1.0}
+                          for lr, k in ((False, 50), (True, 100)) for i in range(k)])
+    twice = claims.verdicts_at_fewer_loops({"expA": expA, "expL": expL}, counts=(25,))
+    assert twice["long run"].tolist() == [50] and twice.loc[25, "changed"] == 1
+    note = fewer_loops_note(fewer, "50 loops a case")
     assert "0 of 1 verdicts change at 40 loops and 1 change at 25 loops (CA: reproduced -> " \
            "not reproduced)" in note
     # a build of 2 loops a case has no smaller count to try, and says so

@@ -378,23 +378,26 @@ def evaluate_claims(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
 
 #: The counts a case is cut to by :func:`verdicts_at_fewer_loops` (the paper's 50 and below).
 FEWER_LOOPS = (30, 25, 20)
-#: Exp 1's long run flies this many times a case's loops (500 against 50).
+#: Exp 1's long run flies this many times a case's loops at the paper profile (500 against
+#: 50); :func:`verdicts_at_fewer_loops` reads the factor off the results it is given.
 LONG_RUN_FACTOR = 10
 
 
-def first_loops(results: Mapping[str, pd.DataFrame], n: int) -> dict[str, pd.DataFrame]:
+def first_loops(results: Mapping[str, pd.DataFrame], n: int,
+                long_run_factor: int = LONG_RUN_FACTOR) -> dict[str, pd.DataFrame]:
     """Every table with a ``loop`` column cut to its cases' first ``n`` loops (Exp 1's long
-    run to its first ``LONG_RUN_FACTOR * n``), as a build running ``n`` loops a case would
+    run to its first ``long_run_factor * n``), as a build running ``n`` loops a case would
     have scored them: a loop's seed is its address, so its result does not depend on how many
     others ran. Tables without loops (Exp 6's CEM samples) are kept whole."""
-    if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
-        raise ValueError(f"n must be an integer >= 1 (loops a case), got {n!r}")
+    for name, v in (("n", n), ("long_run_factor", long_run_factor)):
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
     out = {}
     for k, df in results.items():
         if "loop" not in df.columns:
             out[k] = df
             continue
-        limit = (np.where(df["long_run"].to_numpy(bool), LONG_RUN_FACTOR * n, n)
+        limit = (np.where(df["long_run"].to_numpy(bool), long_run_factor * n, n)
                  if "long_run" in df.columns else n)
         out[k] = df.loc[df["loop"].to_numpy() < limit]
     return out
@@ -409,13 +412,18 @@ def verdicts_at_fewer_loops(results: Mapping[str, pd.DataFrame],
     above the most loops any case ran are left out (no rows on a quick build)."""
     full = evaluate_claims(results)["verdict"]
     rows = []
-    most = max((int(df.loc[~df["long_run"].to_numpy(bool) if "long_run" in df.columns
-                           else slice(None), "loop"].max()) + 1
-                for df in results.values() if "loop" in df.columns and len(df)), default=0)
-    for n in (c for c in counts if c < most):  # a cut that keeps every loop decides nothing
-        cut = evaluate_claims(first_loops(results, n))["verdict"]
+    plain, long = 0, 0  # the most loops a case ran, and Exp 1's long run
+    for df in results.values():
+        if "loop" in df.columns and len(df):
+            lr = df["long_run"].to_numpy(bool) if "long_run" in df.columns else np.zeros(len(df), bool)
+            loops = df["loop"].to_numpy()
+            plain = max(plain, int(loops[~lr].max()) + 1 if (~lr).any() else 0)
+            long = max(long, int(loops[lr].max()) + 1 if lr.any() else 0)
+    factor = max(1, round(long / plain)) if plain and long else LONG_RUN_FACTOR
+    for n in (c for c in counts if c < plain):  # a cut that keeps every loop decides nothing
+        cut = evaluate_claims(first_loops(results, n, factor))["verdict"]
         changed = [f"{c}: {full[c]} -> {cut[c]}" for c in full.index if cut[c] != full[c]]
-        rows.append({"loops a case": int(n), "long run": LONG_RUN_FACTOR * int(n),
+        rows.append({"loops a case": int(n), "long run": factor * int(n),
                      "changed": len(changed), "of": len(full),
                      "which": "; ".join(changed) or "none"})
     return pd.DataFrame(rows, columns=["loops a case", "long run", "changed", "of", "which"]

@@ -192,12 +192,11 @@ def case_counts(df: pd.DataFrame) -> str:
 
 
 def fewer_loops_note(fewer: pd.DataFrame, runs: str, reading: str = "halves") -> str:
-    """The claims page's sizing of a reading's count: what it runs (``runs``, as
-    :func:`case_counts` gives it), and how many verdicts a smaller count would have changed
+    """The claims page's sizing of a reading's count: what it runs (``runs``: "50 loops a case
+    (Exp 1's long run 500)"), and how many verdicts a smaller count would have changed
     (``fewer``: :func:`uavwind.analysis.claims.verdicts_at_fewer_loops`), count by count."""
     head = (f"*Sizing ({reading} reading):* its rows of Exps 1-7 are read only by this page's "
-            f"*verdict ({reading})* column and Exp 1's side-by-side table; it runs {runs} a "
-            f"case (Exp 1's long run ten times as many).")
+            f"*verdict ({reading})* column and Exp 1's side-by-side table; it runs {runs}.")
     if fewer.empty:
         return (head + " This build runs too few loops a case for a smaller count to be "
                 "tried: the paper profile's build says what a cut would change.")
