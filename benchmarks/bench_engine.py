@@ -400,7 +400,7 @@ def bench_heldout(report, n_loops=12, rounds=3):
           f"{avx2_same}/{n_loops}")
     report["heldout"] = {
         "host": host, "loops": n_loops, "identical": same, **med,
-        "rounds": runs, "speedup_range": [min(ratios), max(ratios)],
+        "rounds": runs,
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
                  "identical": avx2_same},
         "command": "ONLY=heldout make bench"}

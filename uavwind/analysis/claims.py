@@ -392,15 +392,14 @@ def first_loops(results: Mapping[str, pd.DataFrame], n: int,
     for name, v in (("n", n), ("long_run_factor", long_run_factor)):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ValueError(f"{name} must be an integer >= 1, got {v!r}")
-    out = {}
-    for k, df in results.items():
-        if "loop" not in df.columns:
-            out[k] = df
-            continue
-        limit = (np.where(df["long_run"].to_numpy(bool), long_run_factor * n, n)
-                 if "long_run" in df.columns else n)
-        out[k] = df.loc[df["loop"].to_numpy() < limit]
-    return out
+    return {k: df.loc[df["loop"].to_numpy() < np.where(_long_run(df), long_run_factor * n, n)]
+            if "loop" in df.columns else df for k, df in results.items()}
+
+
+def _long_run(df: pd.DataFrame) -> np.ndarray:
+    """Which rows are Exp 1's long run (none, in a table without the column)."""
+    return (df["long_run"].to_numpy(bool) if "long_run" in df.columns
+            else np.zeros(len(df), bool))
 
 
 def verdicts_at_fewer_loops(results: Mapping[str, pd.DataFrame],
@@ -415,8 +414,7 @@ def verdicts_at_fewer_loops(results: Mapping[str, pd.DataFrame],
     plain, long = 0, 0  # the most loops a case ran, and Exp 1's long run
     for df in results.values():
         if "loop" in df.columns and len(df):
-            lr = df["long_run"].to_numpy(bool) if "long_run" in df.columns else np.zeros(len(df), bool)
-            loops = df["loop"].to_numpy()
+            lr, loops = _long_run(df), df["loop"].to_numpy()
             plain = max(plain, int(loops[~lr].max()) + 1 if (~lr).any() else 0)
             long = max(long, int(loops[lr].max()) + 1 if lr.any() else 0)
     factor = max(1, round(long / plain)) if plain and long else LONG_RUN_FACTOR

@@ -195,6 +195,7 @@ def fewer_loops_note(fewer: pd.DataFrame, runs: str, reading: str = "halves") ->
     """The claims page's sizing of a reading's count: what it runs (``runs``: "50 loops a case
     (Exp 1's long run 500)"), and how many verdicts a smaller count would have changed
     (``fewer``: :func:`uavwind.analysis.claims.verdicts_at_fewer_loops`), count by count."""
+    paper = PROFILES["paper"].loops
     head = (f"*Sizing ({reading} reading):* its rows of Exps 1-7 are read only by this page's "
             f"*verdict ({reading})* column and Exp 1's side-by-side table; it runs {runs}.")
     if fewer.empty:
@@ -205,9 +206,9 @@ def fewer_loops_note(fewer: pd.DataFrame, runs: str, reading: str = "halves") ->
              for i, (n, r) in enumerate(fewer.iterrows())]
     return (head + " Judged on each case's first loops only (the same loops: a loop's seed is "
             "its address), " + ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "")
-            + parts[-1] + ". The count stays "
-            "at the paper's 50: these rows are set against the paper's Tables, whose maxima "
-            "are over 50 loops, and a maximum over fewer loops is biased low.")
+            + parts[-1] + f". The count stays at the paper's {paper}: these rows are set "
+            f"against the paper's Tables, whose maxima are over {paper} loops, and a maximum "
+            "over fewer loops is biased low.")
 
 
 def sizing_note(df: pd.DataFrame, sizing: Sizing | None = None) -> str:

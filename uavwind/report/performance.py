@@ -222,6 +222,12 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     return {k: show_missing(v) for k, v in out.items()}
 
 
+def _span(rows, key, fmt):
+    """``"low-high"`` of ``key`` over ``rows`` (a section's rounds), each as ``fmt``."""
+    v = [r[key] for r in rows]
+    return f"{min(v):{fmt}}-{max(v):{fmt}}"
+
+
 #: Sections of the benchmark another page shows instead of this one.
 SHOWN_ELSEWHERE = {"exp13": "the Exp 13 page"}
 
@@ -277,11 +283,9 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                           f"({h['cpu_speedup']:.1f} times in CPU time), labels and scores "
                           f"identical on {h['identical']} of {h['loops']}"
                           + (f"; the median of {len(h['rounds'])} rounds, which ranged "
-                             f"{h['speedup_range'][0]:.1f}-{h['speedup_range'][1]:.1f} times "
-                             f"(tslearn {min(r['tslearn_seconds'] for r in h['rounds']):.1f}-"
-                             f"{max(r['tslearn_seconds'] for r in h['rounds']):.1f} s, fast "
-                             f"{min(r['fast_seconds'] for r in h['rounds']):.2f}-"
-                             f"{max(r['fast_seconds'] for r in h['rounds']):.2f} s)"
+                             f"{_span(h['rounds'], 'speedup', '.1f')} times (tslearn "
+                             f"{_span(h['rounds'], 'tslearn_seconds', '.1f')} s, fast "
+                             f"{_span(h['rounds'], 'fast_seconds', '.2f')} s)"
                              if h.get("rounds") else "")
                           + ". The same machine kind comes as an AMD EPYC or an Intel Xeon: a "
                           "speed-up is a figure of one host.")
