@@ -340,14 +340,22 @@ def _heldout_loop(i):
     return loop_inputs(2 * (5, 10)[i % 2], 20_000 + i, scenario=i % 7 + 1)
 
 
-def heldout_times(engines=("fast", "tslearn"), n_loops=12):
+def heldout_times(engines=("fast", "tslearn"), n_loops=12, side_by_side=False):
     """``{engine: (wall seconds, CPU seconds, [(labels, score)])}`` over the held-out loops,
-    the engines taking turns on each loop (so a burst of load falls on both)."""
+    the engines taking turns on each loop (so a burst of load falls on both). With
+    ``side_by_side``, also ``"side by side"``: the fast engine on all the loops at once
+    (:func:`uavwind.score_loops`, as a search scores a block of its loops), timed between
+    the first and the second half of the loops one by one."""
     loops = [_heldout_loop(i) for i in range(n_loops)]
     for e in engines:
         uw.score_loop(*loops[0], engine=e)  # compile / load caches
     out = {e: [0.0, 0.0, []] for e in engines}
-    for X, g in loops:
+    for i, (X, g) in enumerate(loops):
+        if side_by_side and i == n_loops // 2:
+            w0, c0 = time.perf_counter(), time.process_time()
+            rs = uw.score_loops([X for X, _ in loops], [g for _, g in loops], engine="fast")
+            out["side by side"] = [time.perf_counter() - w0, time.process_time() - c0,
+                                   [(r.labels.tolist(), r.score) for r in rs]]
         for e in engines:
             w0, c0 = time.perf_counter(), time.process_time()
             r = uw.score_loop(X, g, engine=e)
@@ -373,19 +381,28 @@ def bench_heldout(report, n_loops=12, rounds=3):
           f"rounds, on {host['model']} ({host['llvm_cpu']}, {host['lanes']} lanes) ==")
     runs = []
     for k in range(rounds):
-        t = heldout_times(n_loops=n_loops)
+        t = heldout_times(n_loops=n_loops, side_by_side=True)
         same = sum(a == b for a, b in zip(t["fast"][2], t["tslearn"][2]))
+        both = sum(a == b for a, b in zip(t["side by side"][2], t["tslearn"][2]))
         runs.append({"fast_seconds": t["fast"][0], "tslearn_seconds": t["tslearn"][0],
                      "speedup": t["tslearn"][0] / t["fast"][0],
-                     "cpu_speedup": t["tslearn"][1] / t["fast"][1], "identical": same})
+                     "cpu_speedup": t["tslearn"][1] / t["fast"][1], "identical": same,
+                     "side_by_side_seconds": t["side by side"][0],
+                     "side_by_side_speedup": t["tslearn"][0] / t["side by side"][0],
+                     "side_by_side_identical": both})
         print(f"  round {k + 1}: fast {t['fast'][0]:.2f} s, tslearn {t['tslearn'][0]:.2f} s: "
               f"{runs[-1]['speedup']:.1f}x (CPU time {runs[-1]['cpu_speedup']:.1f}x); "
-              f"identical labels and scores on {same}/{n_loops}")
+              f"identical labels and scores on {same}/{n_loops}; the loops side by side "
+              f"(score_loops) {t['side by side'][0]:.2f} s: "
+              f"{runs[-1]['side_by_side_speedup']:.1f}x, identical on {both}/{n_loops}")
     med = {key: statistics.median(r[key] for r in runs)
-           for key in ("fast_seconds", "tslearn_seconds", "speedup", "cpu_speedup")}
+           for key in ("fast_seconds", "tslearn_seconds", "speedup", "cpu_speedup",
+                       "side_by_side_seconds", "side_by_side_speedup")}
     same = min(r["identical"] for r in runs)
     ratios = [r["speedup"] for r in runs]
-    print(f"  median {med['speedup']:.1f}x (rounds {min(ratios):.1f}x-{max(ratios):.1f}x)")
+    sbs = [r["side_by_side_speedup"] for r in runs]
+    print(f"  median {med['speedup']:.1f}x (rounds {min(ratios):.1f}x-{max(ratios):.1f}x); "
+          f"side by side {med['side_by_side_speedup']:.1f}x ({min(sbs):.1f}x-{max(sbs):.1f}x)")
     with tempfile.TemporaryDirectory() as cache:
         code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
                 f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
@@ -399,7 +416,8 @@ def bench_heldout(report, n_loops=12, rounds=3):
           f"{med['tslearn_seconds'] / avx2[0]:.1f}x the median tslearn; identical on "
           f"{avx2_same}/{n_loops}")
     report["heldout"] = {
-        "host": host, "loops": n_loops, "identical": same, **med,
+        "host": host, "loops": n_loops, "identical": same,
+        "side_by_side_identical": min(r["side_by_side_identical"] for r in runs), **med,
         "rounds": runs,
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
                  "identical": avx2_same},

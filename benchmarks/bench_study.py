@@ -356,7 +356,7 @@ def _warm_worker():
 def bench_cluster(report):
     """One CEM run on a dask ``LocalCluster`` of 2 one-thread workers, side by side: as one
     task (``fill._compute_remote`` of the whole entry, how the fill ran a CEM run before
-    its samples were tasks) and as the fill runs it now (each sample a task of its own).
+    its samples were tasks) and as the fill runs it now (its samples a few to a task).
     Alternated, 3 each, after each worker loaded the kernels; the rows are checked equal."""
     from distributed import Client, LocalCluster
 

@@ -126,3 +126,51 @@ def test_a_scorer_scores_as_score_loop_and_checks_once_when_made(worked_example)
     with pytest.raises(ValueError, match=r"trajectories must have shape \(%d, n_steps, d\)"
                        % len(s.groups)):
         scorer(X[:-1])
+
+
+# ---- loops side by side: score_loops and LoopScorer.many ---------------------------------- #
+def test_loops_side_by_side_score_as_each_loop_alone_and_as_tslearn():
+    """score_loops and LoopScorer.many give score_loop's results, field for field with ==,
+    whatever the mix: loops of 3 and 4 environments a group, another length, one whose
+    clusters are not the groups, a softdtw silhouette; the tslearn engine too."""
+    loops = [_short(a, b, seed=seed) for a, b, seed in CASES]
+    loops.append(_short("light constant", "strong constant", n=4, seed=5))
+    X, g = _short("light constant", "strong shear", seed=6)
+    loops.append((X[:, :12], g))
+    loops.append((loops[0][0], np.array([0, 1, 0, 1, 0, 1])))  # groups the clusters are not
+    for engine, params in (("fast", {}), ("fast", {"silhouette_metric": "softdtw"}),
+                           ("tslearn", {})):
+        many = uw.score_loops([X for X, _ in loops], [g for _, g in loops], engine=engine,
+                              **params)
+        for (X, g), r in zip(loops, many):
+            one = score_loop(X, g, engine=engine, **params)
+            assert (r.score, r.silhouette, r.n_iter, r.correct) == (
+                one.score, one.silhouette, one.n_iter, one.correct)
+            assert np.array_equal(r.labels, one.labels) and np.array_equal(r.groups, g)
+        if engine == "fast" and not params:
+            fast = many
+    assert any(not r.correct for r in fast) and any(r.correct for r in fast)
+    labels, sil = _reference(loops[0][0])
+    assert np.array_equal(fast[0].labels, labels) and fast[0].silhouette == sil
+    from uavwind.method.clustering import LoopScorer
+    X, g = loops[0]
+    scorer = LoopScorer.of(g)
+    assert [r.score for r in scorer.many([X, X[:, :10]])] == [scorer(X).score,
+                                                               scorer(X[:, :10]).score]
+    assert uw.score_loops([], []) == []
+
+
+@pytest.mark.parametrize("call, err, match", [
+    (lambda X, g: uw.score_loops(X, [g]), TypeError, "trajectories must be a sequence of loops"),
+    (lambda X, g: uw.score_loops([X, X], [g]), ValueError, "groups must hold one array of 0/1 "
+                                                           "per loop"),
+    (lambda X, g: uw.score_loops([X, X[:2]], [g, g[:2]]), ValueError,
+     r"trajectories\[1\] must hold at least 3 series"),
+    (lambda X, g: uw.score_loops([X], [g[:-1]]), ValueError, "groups must have shape"),
+    (lambda X, g: uw.score_loops([X], [g], engine="gpu"), ValueError, "engine"),
+    (lambda X, g: uw.score_loops([X], [g], gama=1.0), TypeError, "gama"),
+])
+def test_loops_side_by_side_refuse_bad_input(call, err, match):
+    X, g = _short("light constant", "strong shear", seed=0)
+    with pytest.raises(err, match=match):
+        call(X, g)

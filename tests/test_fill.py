@@ -84,18 +84,19 @@ def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
 
 
 def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch):
-    """Two workers, run in this process by an executor that records what it is handed: each
-    CEM sample is a task of its own, a run's next iteration is handed out only after its
-    last sample returned, and ahead of every chunk still waiting; the rows are
-    run_experiment's to the double."""
+    """Two workers, run in this process by an executor that records what it is handed: a
+    CEM iteration's samples are tasks of SAMPLES_PER_TASK (here 2: 3 samples make a task of
+    2 and one of 1), a run's next iteration is handed out only after its last sample
+    returned, and ahead of every chunk still waiting; the rows are run_experiment's to the
+    double."""
     from concurrent.futures import Future
 
     handed = []
 
     class Recorder:
         def submit(self, fn, *args):
-            if fn is fill._cem_sample:
-                handed.append(("sample", args[0].key(), args[2].spawn_key))
+            if fn is fill._cem_samples:
+                handed.append(("sample", args[0].key(), [w.spawn_key for w in args[2]]))
             elif not args:  # the compile, first (recorded by the test below)
                 pass
             else:
@@ -107,6 +108,7 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
     pool = fill._LocalPool
     monkeypatch.setattr(fill, "_LocalPool", lambda n: pool(n, executor=Recorder()))
     monkeypatch.setattr(fill, "pin_threads", lambda: None)  # this process keeps its threads
+    monkeypatch.setattr(fill, "SAMPLES_PER_TASK", 2)
     ids = ["exp6", "exp5"]
     done = fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                            readings="all", progress=False)
@@ -114,17 +116,18 @@ def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch)
                    if e.search == "cem"]
     n_samples, n_iter = TINY["cem"]["n_samples"], TINY["cem"]["max_iter"]
     samples = [h for h in handed if h[0] == "sample"]
-    assert len(cem_entries) == 2 and len(samples) == 2 * n_samples * n_iter
+    assert len(cem_entries) == 2 and n_samples == 3 and len(samples) == 2 * 2 * n_iter
+    assert [len(h[2]) for h in samples[:2]] == [2, 1]
     # every sample before any chunk: a run's next iteration goes ahead of the waiting chunks
     assert [h[0] for h in handed] == ["sample"] * len(samples) + ["chunk"] * (
         len(handed) - len(samples))
     for run in {h[1] for h in samples}:  # one run's samples: iteration by iteration
-        keys = [h[2] for h in samples if h[1] == run]
+        keys = [k for h in samples if h[1] == run for k in h[2]]
         assert sorted(keys) == [(it, j) for it in range(1, n_iter + 1)
                                 for j in range(1, n_samples + 1)]
         assert [k[0] for k in keys] == sorted(k[0] for k in keys)
     cem_times = [t for t in done["times"] if t["search"] == "cem"]
-    assert [t["tasks"] for t in cem_times] == [n_samples * n_iter] * 2
+    assert [t["tasks"] for t in cem_times] == [2 * n_iter] * 2
     assert all(t["tasks"] == 1 for t in done["times"] if t["search"] != "cem")
     for reading in ("inferred", "halves"):
         for eid in ids:
@@ -153,7 +156,7 @@ def test_closed_loop_entries_fly_while_the_kernels_compile(tmp_path, monkeypatch
                 handed.append("warm")
                 compiling.append(fut)  # returns after three closed-loop entries
                 return fut
-            if fn is fill._cem_sample:
+            if fn is fill._cem_samples:
                 handed.append("sample")
                 fut.set_result(fn(*args))
             else:

@@ -29,6 +29,8 @@ CALLS = {
         [object()], **BAD),
     "uavwind.method.clustering.score_loop": lambda: uw.score_loop(
         np.random.default_rng(0).normal(size=(4, 5, 3)), [0, 0, 1, 1], **BAD),
+    "uavwind.method.clustering.score_loops": lambda: uw.score_loops(
+        [np.random.default_rng(0).normal(size=(4, 5, 3))], [[0, 0, 1, 1]], **BAD),
     "uavwind.method.search.evaluate": lambda: __import__(
         "uavwind.method.search", fromlist=["evaluate"]).evaluate(
         _setting(), [uw.PAPER_EXAMPLE], [np.random.SeedSequence(0)], n_jobs=1, progress=False,

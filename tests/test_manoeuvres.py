@@ -285,6 +285,25 @@ def test_a_reference_loop_the_vehicle_cannot_fly_is_recorded_as_crashed_not_fata
     assert r["crashed"] == 2 and r["n_loops"] == 1 and r["mean"] == 80.0
 
 
+def test_a_crash_inside_a_block_leaves_its_neighbours_as_they_are_alone(monkeypatch):
+    """A search clusters its loops a block at a time (search.BLOCK); loops 5-7 of the case
+    above, loop 6 crashed in the middle of their block, give the rows each gives alone:
+    the crash recorded, the flown loops' scores and flight metrics unchanged."""
+    from uavwind.method import search
+    from uavwind.study.registry import FUTURE_VEHICLE
+
+    _, case = _strong_case()
+    s = replace(case.setting, uav=FUTURE_VEHICLE, flyable=uw.FLYABLE, wind_ramp=0.0)
+    rows = {}
+    for block in (1, 3):
+        monkeypatch.setattr(search, "BLOCK", block)
+        rows[block] = uw.random_search(s, n_loops=3, seed=20240101, loop_offset=5, n_jobs=1,
+                                       progress=False)
+    pd.testing.assert_frame_equal(rows[1], rows[3])
+    assert rows[3]["crashed"].tolist() == [0.0, 1.0, 0.0]
+    assert rows[3]["max_tilt"].notna().sum() == 2
+
+
 def test_exp14_flies_its_strong_winds_without_a_crash_or_a_flip(tmp_path):
     """The same scenario as Exp 14 flies it now (the Neural-Fly quadrotor with its fitted
     drag, SE3 with an integral term, a thrust cone and yaw given up first, the wind ramped in

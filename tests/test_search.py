@@ -38,6 +38,17 @@ def test_workers_do_not_change_results():
     pd.testing.assert_frame_equal(one, two)
 
 
+@pytest.mark.parametrize("block", [1, 4])
+def test_blocks_of_loops_clustered_side_by_side_do_not_change_results(monkeypatch, block):
+    """evaluate() with n_jobs=1 clusters search.BLOCK loops side by side: 6 loops in blocks
+    of 1 or 4 (the last block short) give the rows of one process per loop."""
+    s = small("light constant", "strong turbulence")
+    spread = uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
+    monkeypatch.setattr(search, "BLOCK", block)
+    pd.testing.assert_frame_equal(
+        uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False), spread)
+
+
 def test_loops_are_prefix_stable_and_extendable():
     s = small()
     full = uw.random_search(s, n_loops=4, seed=1, n_jobs=1, progress=False)

@@ -117,6 +117,49 @@ def test_fast_equals_tslearn_k_means_directly():
     assert sil_soft == pytest.approx(ref_soft, abs=1e-9)
 
 
+def test_fits_side_by_side_are_each_fit_and_tslearn_to_the_double(monkeypatch):
+    """fit_many runs several k-means fits in one barycentre kernel call per round; each
+    result is the fit's alone, and tslearn's, with ==: loops of 3 and 5 environments a
+    group, three scenarios, a dataset of another length (its own batch) and n_init = 2.
+    The calls are counted: side by side they are fewer than one fit after another."""
+    from uavwind.method.softdtw import kmeans
+
+    Xs = [_loop(s, seed=20 + s, n_per_group=n)[0] for s, n in ((1, 3), (4, 5), (7, 3))]
+    Xs.append(Xs[1][:, :40])
+    calls = []
+    objgrad = kmeans._objgrad_many
+    monkeypatch.setattr(kmeans, "_objgrad_many", lambda *a: calls.append(1) or objgrad(*a))
+    for par in (False, True):
+        for n_init in (1, 2):
+            calls.clear()
+            many = fk.fit_many(Xs, random_state=0, n_init=n_init, parallel=par)
+            side_by_side = len(calls)
+            for X, r in zip(Xs, many):
+                one = fk.fit(X, random_state=0, n_init=n_init, parallel=par)
+                assert np.array_equal(r.labels, one.labels)
+                assert np.array_equal(r.cluster_centers, one.cluster_centers)
+                assert (r.inertia, r.n_iter, r.n_attempts) == (one.inertia, one.n_iter,
+                                                               one.n_attempts)
+            assert side_by_side < len(calls) - side_by_side
+    km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 0.5},
+                          max_iter=100, max_iter_barycenter=5, random_state=0, n_init=2)
+    assert np.array_equal(km.fit_predict(Xs[2]), many[2].labels)
+    assert np.array_equal(km.cluster_centers_, many[2].cluster_centers)
+    assert fk.fit_many([]) == []
+
+
+def test_fits_side_by_side_refuse_a_shared_random_state_and_check_every_dataset():
+    X, _ = _loop(2, seed=3, n_per_group=3)
+    with pytest.raises(TypeError, match="random_state must be None or an int for fit_many"):
+        fk.fit_many([X, X], random_state=np.random.RandomState(0))
+    with pytest.raises(TypeError, match="Xs must be a sequence of datasets"):
+        fk.fit_many(X[0])
+    with pytest.raises(ValueError, match="X"):
+        fk.fit_many([X, X[:, :, 0:0]])
+    with pytest.raises(ValueError, match="n_clusters = 9 needs at least as many series"):
+        fk.fit_many([X, X], n_clusters=9)
+
+
 def test_parallel_kernels_give_the_same_answer():
     X, _ = _loop(4, seed=5, n_per_group=6)
     a = fk.fit(X, parallel=False)

@@ -32,7 +32,7 @@ from .data.neuralfly import RealFlight, load_neuralfly  # noqa: E402
 from .method.baseline import estimate_wind  # noqa: E402
 from .method.wind_estimator import WindEstimator  # noqa: E402
 from .method.closed_loop import ClosedLoop, run_episodes  # noqa: E402
-from .method.clustering import ClusteringParams, LoopResult, score_loop  # noqa: E402
+from .method.clustering import ClusteringParams, LoopResult, score_loop, score_loops  # noqa: E402
 from .method.search import CEMResult, cem, random_search  # noqa: E402
 from .report.display import pretty  # noqa: E402
 from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, AttitudeSequence,  # noqa: E402
@@ -75,7 +75,8 @@ __all__ = [
     # data
     "load_neuralfly", "RealFlight",
     # method
-    "score_loop", "LoopResult", "ClusteringParams", "random_search", "cem", "CEMResult",
+    "score_loop", "score_loops", "LoopResult", "ClusteringParams", "random_search", "cem",
+    "CEMResult",
     "estimate_wind", "WindEstimator", "ClosedLoop", "run_episodes",
     # study
     "SPEED_RANGES", "WindCondition", "PAPER_SCENARIOS", "scenario_table", "table3_setting",

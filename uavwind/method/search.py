@@ -6,7 +6,7 @@ This module owns the loops of the paper (replication notes, decisions 7 and 8):
 * :func:`random_search` -- ``n_loops`` fresh random thrust sequences, one row each;
 * :func:`cem` -- the Cross-Entropy Method over magnitudes and direction components;
 * :class:`CEMRun` -- one CEM run stepped from outside (ask for an iteration's samples, tell
-  their results), which the fill uses to hand each sample out as a task of its own.
+  their results), which the fill uses to hand an iteration's samples out as tasks.
 
 Randomness: one ``numpy.random.SeedSequence`` per call. Loop ``i`` draws its
 thrust from the child with spawn key ``(i, 0)`` and its turbulence from
@@ -55,16 +55,35 @@ def _one_loop(setting, thrust, wind_seed, scorer, pin=False):
     :func:`evaluate`)."""
     if pin:  # inside a worker process: do not oversubscribe the cores
         pin_threads()
+    obs, finish = _fly(setting, thrust, wind_seed)
+    return finish(None if obs is None else scorer(obs))
+
+
+def _block(setting, thrusts, wind_seeds, scorer):
+    """The loops of one block, flown one after another, then clustered side by side
+    (:meth:`~uavwind.method.clustering.LoopScorer.many`): the results :func:`_one_loop`
+    gives each, in order."""
+    flown = [_fly(setting, th, ws) for th, ws in zip(thrusts, wind_seeds)]
+    todo = [i for i, (obs, _) in enumerate(flown) if obs is not None]
+    scored = dict(zip(todo, scorer.many([flown[i][0] for i in todo])))
+    return [finish(scored.get(i)) for i, (_, finish) in enumerate(flown)]
+
+
+def _fly(setting, thrust, wind_seed):
+    """``(trajectories, finish)`` of one loop: what the scorer clusters (None for a loop
+    that has none: a reference the vehicle could not fly) and ``finish``, which makes the
+    loop's :class:`~uavwind.method.clustering.LoopResult` from the scored one (adding the
+    flight's metrics, measured here, so the flight itself is not kept)."""
     multirotor = isinstance(setting.uav, Multirotor)
     if setting.plain and not multirotor:
-        return scorer(setting.simulate(thrust, seed=wind_seed))
+        return setting.simulate(thrust, seed=wind_seed), _as_scored
     try:
         obs, flight, positions = setting.observe(thrust, seed=wind_seed)
     except GroundContact as exc:
         if not isinstance(thrust, Reference):
             raise
-        return _crashed(setting, exc)
-    res = scorer(obs)
+        crashed = _crashed(setting, exc)
+        return None, lambda _: crashed
     metrics = {}
     if multirotor:  # how often the vehicle's limits bound in this loop
         metrics.update(tilt_limited=flight.tilt_limited, motor_limited=flight.motor_limited)
@@ -73,7 +92,13 @@ def _one_loop(setting, thrust, wind_seed, scorer, pin=False):
     if setting.baseline:
         metrics.update(baseline_metrics(flight, positions, thrust, setting.uav, setting.dt,
                                         setting.groups, start_position=flight.start))
-    return replace(res, metrics=metrics) if metrics else res
+    if not metrics:
+        return obs, _as_scored
+    return obs, lambda res: replace(res, metrics=metrics)
+
+
+def _as_scored(res):
+    return res
 
 
 def _crashed(setting, exc):
@@ -105,6 +130,12 @@ def _reference_metrics(flight):
             "min_thrust": float(flight.thrust_commands.min())}
 
 
+#: Loops clustered side by side in :func:`evaluate` with ``n_jobs=1`` (the fill's tasks):
+#: their k-means fits share the barycentre kernel's vectors, which one loop's two clusters
+#: of 5 or 10 series leave a quarter to a third idle; the results do not depend on it.
+BLOCK = 16
+
+
 def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
              wind_seeds: Sequence[np.random.SeedSequence], engine: str | None = None,
              n_jobs: int | None = None, progress: bool = True, desc: str = "loops",
@@ -120,7 +151,8 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
     engine : str, optional
         Clustering engine (see :func:`uavwind.method.clustering.score_loop`).
     n_jobs : int, optional
-        Worker processes (joblib); -1 or None = all cores, 1 = in this process.
+        Worker processes (joblib); -1 or None = all cores, 1 = in this process, in blocks
+        of :data:`BLOCK` loops clustered side by side (the same results).
     progress : bool
         Show a tqdm progress bar.
 
@@ -145,11 +177,11 @@ def evaluate(setting: Setting, thrusts: Sequence[ThrustSequence],
         from tqdm import tqdm
         bar = tqdm(total=len(tasks), desc=desc, leave=False, file=sys.stderr)
     results = []
-    if n_jobs == 1:
-        for th, ws in zip(thrusts, wind_seeds):
-            results.append(_one_loop(setting, th, ws, scorer))
+    if n_jobs == 1:  # blocks of BLOCK loops, each clustered side by side
+        for b in range(0, len(thrusts), BLOCK):
+            results += _block(setting, thrusts[b:b + BLOCK], wind_seeds[b:b + BLOCK], scorer)
             if bar is not None:
-                bar.update()
+                bar.update(len(results) - bar.n)
     else:
         try:
             for res in Parallel(n_jobs=n_jobs, return_as="generator")(tasks):

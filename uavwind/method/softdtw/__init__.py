@@ -16,7 +16,8 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
   vector (:mod:`._simd`), one pair per lane, and :mod:`._dispatch`, which chooses;
 * :mod:`.metrics` -- the kernels as functions of series and batches;
 * :mod:`._lbfgsb` -- the L-BFGS-B driver of the barycentres, with a scipy-version guard;
-* :mod:`.kmeans` -- :class:`SoftDTWKMeans` and its loop;
+* :mod:`.kmeans` -- :class:`SoftDTWKMeans` and its loop, and :func:`fit_many`, several fits
+  side by side;
 * :mod:`.silhouette` -- :func:`silhouette_score`.
 
 The replication notes ("The fast engine") say why the arithmetic is the same and where it
@@ -28,11 +29,11 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .kmeans import EmptyClusterError, KMeansResult, SoftDTWKMeans, fit
+from .kmeans import EmptyClusterError, KMeansResult, SoftDTWKMeans, fit, fit_many
 from .metrics import dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad
 from .silhouette import silhouette
 
-__all__ = ["SoftDTWKMeans", "silhouette_score", "EmptyClusterError", "soft_dtw",
+__all__ = ["SoftDTWKMeans", "fit_many", "silhouette_score", "EmptyClusterError", "soft_dtw",
            "soft_dtw_cross", "soft_dtw_grad", "soft_dtw_objgrad", "dtw", "dtw_pdist",
            "warmup"]
 
