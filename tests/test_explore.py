@@ -86,3 +86,24 @@ def test_the_static_explorer_escapes_what_it_writes_into_its_script():
     assert len(scripts) == 1 and "alert" in scripts[0] and "</script>" not in scripts[0]
     with pytest.raises(ValueError, match="element_id"):
         explorer_html(grid, element_id='x" onload="alert(1)')
+
+
+def test_the_grid_scores_its_loops_side_by_side_as_each_loop_alone():
+    """explore_grid scores its loops together (score_loops); each cell holds what
+    score_loop gives the loop alone, and the trajectory it was flown along."""
+    import numpy as np
+
+    import uavwind as uw
+    from uavwind.report.explore import _grid_settings, explore_grid, explore_thrusts
+
+    pairs, n, layouts = (("light constant", "strong shear"),), (3,), ("halves",)
+    grid = explore_grid(pairs=pairs, n_per_group=n, layouts=layouts)
+    (key, s), = _grid_settings(pairs, n, layouts)
+    thrusts = list(explore_thrusts().values())
+    assert len(grid["loops"]) == len(thrusts)
+    for j, thrust in enumerate(thrusts):
+        traj = s.simulate(thrust, seed=0)
+        alone = uw.score_loop(traj, s.groups)
+        cell = grid["loops"][f"0|3|{j}|halves"]
+        assert (cell["score"], cell["correct"]) == (round(alone.score, 2), alone.correct)
+        assert cell["x"] == np.round(traj[:, ::3, 0], 2).tolist()

@@ -22,7 +22,7 @@ import numpy as np
 
 from ..core.checks import check_scalar
 from ..core.store import get_or_compute
-from ..method.clustering import score_loop
+from ..method.clustering import score_loop, score_loops
 from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 from ..study.builders import make_setting
 from ..study.cache import RESULTS_VERSION
@@ -124,17 +124,19 @@ def explore_grid(pairs: Sequence[tuple[str, str]] = EXPLORE_PAIRS,
         if isinstance(value, str) or not len(value):
             raise ValueError(f"{name} must be a non-empty sequence, got {value!r}")
     thrusts = explore_thrusts()
+    flown = [(key, j, s.groups, s.simulate(thrust, seed=seed))
+             for key, s in _grid_settings(pairs, n_per_group, layouts)
+             for j, thrust in enumerate(thrusts.values())]
+    # scored side by side (score_loop's results): the grid's small loops share the vectors
+    scored = score_loops([traj for *_, traj in flown], [g for _, _, g, _ in flown],
+                         engine=engine)
     loops = {}
-    for key, s in _grid_settings(pairs, n_per_group, layouts):
-        for j, thrust in enumerate(thrusts.values()):
-            traj = s.simulate(thrust, seed=seed)
-            res = score_loop(traj, s.groups, engine=engine)
-            pts = np.round(traj[:, ::every], 2)
-            i, n, layout = key
-            loops[f"{i}|{n}|{j}|{layout}"] = {
-                "x": pts[..., 0].tolist(), "y": pts[..., 1].tolist(),
-                "z": pts[..., 2].tolist(), "groups": s.groups.tolist(),
-                "score": round(res.score, 2), "correct": res.correct}
+    for ((i, n, layout), j, groups, traj), res in zip(flown, scored):
+        pts = np.round(traj[:, ::every], 2)
+        loops[f"{i}|{n}|{j}|{layout}"] = {
+            "x": pts[..., 0].tolist(), "y": pts[..., 1].tolist(),
+            "z": pts[..., 2].tolist(), "groups": groups.tolist(),
+            "score": round(res.score, 2), "correct": res.correct}
     return {"controls": {"pair": [f"{a} vs {b}" for a, b in pairs],
                          "n": list(n_per_group), "thrust": list(thrusts),
                          "layout": list(layouts)},
