@@ -403,16 +403,23 @@ def bench_heldout(report, n_loops=12, rounds=3):
     sbs = [r["side_by_side_speedup"] for r in runs]
     print(f"  median {med['speedup']:.1f}x (rounds {min(ratios):.1f}x-{max(ratios):.1f}x); "
           f"side by side {med['side_by_side_speedup']:.1f}x ({min(sbs):.1f}x-{max(sbs):.1f}x)")
+    code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
+            f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
+            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2]]))")
+
+    def alone(**env):
+        """The fast engine alone on the loops, in a child process (no tslearn between its
+        loops, so warmer caches than in the rounds above): ``[wall, CPU, results]``."""
+        res = subprocess.run([sys.executable, "-c", code], env={**os.environ, **env},
+                             capture_output=True, text=True, timeout=1800, check=True)
+        return json.loads(res.stdout.strip().splitlines()[-1])
+    native = alone()  # the native code, as the AVX2 code below is run: like for like
     with tempfile.TemporaryDirectory() as cache:
-        code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
-                f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
-                "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2]]))")
-        env = {**os.environ, "NUMBA_CPU_NAME": "haswell", "NUMBA_CACHE_DIR": cache}
-        res = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                             text=True, timeout=1800, check=True)
-        avx2 = json.loads(res.stdout.strip().splitlines()[-1])
-    avx2_same = sum(a == [b[0], b[1]] for a, b in zip(avx2[2], t["tslearn"][2]))
-    print(f"  AVX2 code (NUMBA_CPU_NAME=haswell): fast {avx2[0]:.2f} s, "
+        avx2 = alone(NUMBA_CPU_NAME="haswell", NUMBA_CACHE_DIR=cache)
+    avx2_same, native_same = (sum(a == [b[0], b[1]] for a, b in zip(r[2], t["tslearn"][2]))
+                              for r in (avx2, native))
+    print(f"  alone in a child process (no tslearn between the loops): native code "
+          f"{native[0]:.2f} s, AVX2 code (NUMBA_CPU_NAME=haswell) {avx2[0]:.2f} s, "
           f"{med['tslearn_seconds'] / avx2[0]:.1f}x the median tslearn; identical on "
           f"{avx2_same}/{n_loops}")
     report["heldout"] = {
@@ -420,5 +427,6 @@ def bench_heldout(report, n_loops=12, rounds=3):
         "side_by_side_identical": min(r["side_by_side_identical"] for r in runs), **med,
         "rounds": runs,
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
-                 "identical": avx2_same},
+                 "identical": avx2_same, "native_alone_seconds": native[0],
+                 "native_alone_identical": native_same},
         "command": "ONLY=heldout make bench"}

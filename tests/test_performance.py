@@ -189,6 +189,22 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     line = summary_lines(rep)["heldout"]
     assert ("the median of 3 rounds, which ranged 16.0-21.0 times (tslearn 30.4-44.1 s, "
             "fast 1.90-2.10 s)") in line
+    assert "side by side" not in line and "alone" not in line
+    # the loops side by side (score_loops), and the native code alone beside the AVX2 code
+    for r, sbs in zip(rep["heldout"]["rounds"], (1.6, 1.9, 1.5)):
+        r.update(side_by_side_seconds=sbs, side_by_side_speedup=r["tslearn_seconds"] / sbs)
+    rep["heldout"].update(side_by_side_seconds=1.6, side_by_side_speedup=25.0,
+                          side_by_side_identical=12)
+    rep["heldout"]["avx2"].update(native_alone_seconds=1.6, native_alone_identical=12)
+    line = summary_lines(rep)["heldout"]
+    assert ("the same loops took 1.60 s, 25.0 times faster than tslearn (rounds "
+            "16.0-29.4), identical on 12 of 12") in line
+    assert "The rows marked *alone* ran the fast engine by itself" in line
+    t = report_tables(rep)["heldout"]
+    assert t["speed-up"].tolist() == [20.0, 25.0, 16.0, 25.0]
+    assert [i.split(", ", 1)[1] for i in t.index] == [
+        "native code", "native code, alone", "AVX2 code (NUMBA_CPU_NAME=haswell), alone",
+        "native code, the loops side by side (score_loops)"]
 
 
 def test_the_builds_sentence_gives_every_run_against_its_target():
