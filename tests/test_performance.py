@@ -195,7 +195,7 @@ def test_the_held_out_check_says_which_host_it_ran_on():
         r.update(side_by_side_seconds=sbs, side_by_side_speedup=r["tslearn_seconds"] / sbs)
     rep["heldout"].update(side_by_side_seconds=1.6, side_by_side_speedup=25.0,
                           side_by_side_identical=12)
-    rep["heldout"]["avx2"].update(native_alone_seconds=1.6, native_alone_identical=12)
+    rep["heldout"]["native_alone"] = {"fast_seconds": 1.6, "identical": 12}
     line = summary_lines(rep)["heldout"]
     assert ("the same loops took 1.60 s, 25.0 times faster than tslearn (rounds "
             "16.0-29.4), identical on 12 of 12") in line

@@ -100,15 +100,14 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
         h = report["heldout"]
         host = h.get("host", {})  # its model is named in the line above the table
         lanes = host.get("lanes", "?")
-        avx2 = h["avx2"]
+        avx2, alone = h["avx2"], h.get("native_alone")
         rows = [(f"{lanes} lanes, native code", h["fast_seconds"], h["speedup"],
                  h["identical"])]
-        if "native_alone_seconds" in avx2:  # both alone in a child process: like for like
-            rows.append((f"{lanes} lanes, native code, alone", avx2["native_alone_seconds"],
-                         h["tslearn_seconds"] / avx2["native_alone_seconds"],
-                         avx2["native_alone_identical"]))
+        if alone:  # both alone in a child process: like for like
+            rows.append((f"{lanes} lanes, native code, alone", alone["fast_seconds"],
+                         h["tslearn_seconds"] / alone["fast_seconds"], alone["identical"]))
         rows.append((f"{lanes} lanes, AVX2 code (NUMBA_CPU_NAME=haswell)"
-                     + (", alone" if "native_alone_seconds" in avx2 else ""),
+                     + (", alone" if alone else ""),
                      avx2["fast_seconds"], avx2["speedup"], avx2["identical"]))
         if "side_by_side_seconds" in h:
             rows.append((f"{lanes} lanes, native code, the loops side by side (score_loops)",
@@ -309,7 +308,7 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                           + (". The rows marked *alone* ran the fast engine by itself in a "
                              "child process, with no tslearn between its loops (warmer "
                              "caches), each set against the rounds' median tslearn time"
-                             if "native_alone_seconds" in h.get("avx2", {}) else "")
+                             if "native_alone" in h else "")
                           + ". The same machine kind comes as an AMD EPYC or an Intel Xeon: a "
                           "speed-up is a figure of one host.")
     if "agreement" in report:
