@@ -25,6 +25,10 @@ PIP_TIMEOUT  ?= 1800
 TIMEOUT := timeout --kill-after=20
 # pages read what the fill computed: a page that would compute a result fails, naming it
 READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
+# pages run BOOK_JOBS at a time, so each page's soft-DTW kernels run serially (unless
+# UAVWIND_SOFTDTW_PARALLEL is set): a numba thread waiting for a core another page holds
+# spins (four k-means fits: 3.0 s threaded beside one busy core, 0.86 s serial)
+PAGE_THREADS := $(if $(filter-out 1,$(BOOK_JOBS)),UAVWIND_SOFTDTW_PARALLEL=$(or $(UAVWIND_SOFTDTW_PARALLEL),0))
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
 # registry has its notebook, and each notebook its line in book/_toc.yml)
 NOTEBOOKS := $(basename $(notdir $(wildcard $(NB_DIR)/*.md)))
@@ -99,7 +103,7 @@ $(GEN)/.profile: FORCE
 $(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	@echo "page $*"
-	@$(READ_ONLY) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/python -m uavwind.report.pages $< $(GEN)/.src/$*.out.ipynb \
+	@$(READ_ONLY) $(PAGE_THREADS) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/python -m uavwind.report.pages $< $(GEN)/.src/$*.out.ipynb \
 	    --profile $(PROFILE) --jobs $(JOBS) --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 --cwd $(CURDIR) \
 	  || { rc=$$?; echo "book: page $< failed (exit $$rc$$( [ $$rc -ge 124 ] && echo ': over PAGE_TIMEOUT=$(PAGE_TIMEOUT) s' ))" \
 	       "-- the cell is named above; a cell over CELL_TIMEOUT=$(CELL_TIMEOUT) s is shown in full" >&2; exit 1; }

@@ -11,7 +11,17 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import uavwind as uw
+# The quick book builds beside the suite (below) on the same cores, so the suite's own
+# soft-DTW kernels run serially unless a test asks for threads (parallel=True; the tests of
+# the threaded kernels do). A numba thread that waits at a barrier for a core another process
+# holds spins: four held-out k-means fits took 3.0 s threaded beside one busy core against
+# 0.86 s serial, and 0.6-0.8 s threaded on an idle machine. Set before uavwind is imported
+# (the switch is read once); OMP_WAIT_POLICY before numba's OpenMP pool starts, so that the
+# threaded tests sleep instead of spinning while they wait (1.6 s instead of 3.0 s there).
+os.environ.setdefault("UAVWIND_SOFTDTW_PARALLEL", "0")
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+
+import uavwind as uw  # noqa: E402
 
 
 @pytest.fixture

@@ -72,6 +72,7 @@ def test_the_new_paths_and_the_package_import_without_a_warning():
 
 def test_the_engine_switches_of_0_1_still_work(monkeypatch):
     from uavwind.method.softdtw._consts import env_flag
+    monkeypatch.delenv("UAVWIND_SOFTDTW_PARALLEL", raising=False)  # conftest sets it
     monkeypatch.setenv("FASTKMEANS_PARALLEL", "0")
     with pytest.warns(DeprecationWarning, match="UAVWIND_SOFTDTW_PARALLEL"):
         assert env_flag("PARALLEL") is False
