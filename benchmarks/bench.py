@@ -21,7 +21,7 @@ import numpy as np
 
 from bench_common import host_cpu
 from bench_engine import (bench_agreement, bench_cold_compile, bench_heldout, bench_loops,
-                          bench_spread, bench_where_time_goes)
+                          bench_spread, bench_threads, bench_where_time_goes)
 from bench_study import (bench_builds, bench_closed_loop, bench_cluster, bench_exp13,
                          bench_paper_profile, bench_search, bench_simulation)
 from uavwind.method.clustering import default_engine
@@ -33,7 +33,7 @@ SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": benc
             "agreement": bench_agreement, "search": bench_search,
             "profile": bench_where_time_goes, "compile": bench_cold_compile,
             "closed_loop": bench_closed_loop, "exp13": bench_exp13, "cluster": bench_cluster,
-            "heldout": bench_heldout,
+            "heldout": bench_heldout, "threads": bench_threads,
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 #: Sections a plain `make bench` leaves out (tens of minutes): run them with ONLY=<name>.
 ON_REQUEST = {"builds": bench_builds}

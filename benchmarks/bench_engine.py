@@ -430,3 +430,68 @@ def bench_heldout(report, n_loops=12, rounds=3):
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
                  "identical": avx2_same},
         "command": "ONLY=heldout make bench"}
+
+
+#: The kernels' thread settings :func:`bench_threads` compares: name -> the child's environment.
+THREAD_SETTINGS = {
+    "serial": {"UAVWIND_SOFTDTW_PARALLEL": "0"},
+    "threads": {"UAVWIND_SOFTDTW_PARALLEL": "1"},
+    "threads, passive wait": {"UAVWIND_SOFTDTW_PARALLEL": "1", "OMP_WAIT_POLICY": "PASSIVE"},
+}
+
+
+def bench_threads(report, n_loops=6, rounds=3):
+    """When the kernels' threads pay: the fast engine on the first ``n_loops`` held-out loops,
+    serially and with numba's threads (its OpenMP pool as it comes, and with
+    ``OMP_WAIT_POLICY=PASSIVE``), each run in a child process, ``rounds`` times, the settings
+    taking turns; on an idle machine, then beside busy cores (one process spinning on each
+    core but one, as when a book builds beside the tests). The figures are the rounds' medians
+    of the wall and CPU seconds; the labels and scores of every run are compared with the
+    serial run's."""
+    import subprocess
+
+    host = host_cpu()
+    busy_cores = max(1, (os.cpu_count() or 2) - 1)
+    print(f"\n== threads: {n_loops} held-out loops, serial against threaded, idle and beside "
+          f"{busy_cores} busy core(s), {rounds} rounds, on {host['model']} ==")
+    code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
+            f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
+            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2]]))")
+
+    def run(setting):
+        env = {k: v for k, v in os.environ.items()
+               if k not in ("UAVWIND_SOFTDTW_PARALLEL", "OMP_WAIT_POLICY")}
+        res = subprocess.run([sys.executable, "-c", code], env={**env, **THREAD_SETTINGS[setting]},
+                             capture_output=True, text=True, timeout=1800, check=True)
+        return json.loads(res.stdout.strip().splitlines()[-1])
+
+    cases, reference, identical = {}, None, True
+    for condition in ("idle", "busy"):
+        spinners = []
+        if condition == "busy":  # one process spinning per core but one, ended below
+            spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+                        for _ in range(busy_cores)]
+        try:
+            got = {s: [] for s in THREAD_SETTINGS}
+            for _ in range(rounds):
+                for s in THREAD_SETTINGS:
+                    wall, cpu, results = run(s)
+                    got[s].append((wall, cpu))
+                    reference = reference or results
+                    identical &= results == reference
+        finally:
+            for p in spinners:
+                p.kill()
+                p.wait()
+        cases[condition] = {
+            s: {"wall_seconds": statistics.median(w for w, _ in v),
+                "cpu_seconds": statistics.median(c for _, c in v),
+                "wall_range": [min(w for w, _ in v), max(w for w, _ in v)]}
+            for s, v in got.items()}
+        print(f"  {condition}: " + "; ".join(
+            f"{s} {c['wall_seconds']:.2f} s wall ({c['cpu_seconds']:.2f} s CPU)"
+            for s, c in cases[condition].items()))
+    print(f"  labels and scores identical in every run: {identical}")
+    report["threads"] = {"host": host, "loops": n_loops, "rounds": rounds,
+                         "busy_cores": busy_cores, "threads": os.cpu_count(), "cases": cases,
+                         "identical": identical, "command": "ONLY=threads make bench"}

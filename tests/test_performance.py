@@ -207,6 +207,34 @@ def test_the_held_out_check_says_which_host_it_ran_on():
         "native code, the loops side by side (score_loops)"]
 
 
+def test_the_threads_section_sets_threads_against_serial_idle_and_beside_busy_cores():
+    """The threads record: a table of both machines and the three kernel settings, and a
+    sentence whose ratios come from its medians (a gain on the idle machine, a loss beside
+    busy cores), which says when the runs were not identical."""
+    def case(serial, threads, passive):
+        return {name: {"wall_seconds": w, "cpu_seconds": c, "wall_range": [w - 0.1, w + 0.1]}
+                for name, (w, c) in (("serial", serial), ("threads", threads),
+                                     ("threads, passive wait", passive))}
+    rep = {"measured": "2026-11-28 15:00 UTC",
+           "threads": {"host": {"model": "Some CPU"}, "loops": 6, "rounds": 3, "busy_cores": 1,
+                       "threads": 2, "identical": True,
+                       "cases": {"idle": case((1.0, 1.0), (0.8, 1.5), (0.9, 1.1)),
+                                 "busy": case((1.1, 1.1), (3.3, 3.4), (1.65, 1.2))}}}
+    line = summary_lines(rep)["threads"]
+    assert "*Measured 2026-11-28 15:00 UTC on Some CPU*" in line
+    assert "ran 1.25 times as fast as the serial ones" in line
+    assert "with 1 other core(s) busy, 3.0 times slower than them" in line
+    assert "using 3.40 CPU seconds against 1.10" in line
+    assert "1.5 times slower than them with `OMP_WAIT_POLICY=PASSIVE`" in line
+    assert "identical in every run" in line
+    rep["threads"]["identical"] = False
+    assert "**not** identical" in summary_lines(rep)["threads"]
+    t = report_tables(rep)["threads"]
+    assert t.loc[("1 other core(s) busy", "threads"), "wall (s)"] == 3.3
+    assert t.loc[("idle", "serial"), "wall range (s)"] == "0.90-1.10"
+    assert len(t) == 6
+
+
 def test_the_builds_sentence_gives_every_run_against_its_target():
     run = lambda w, code=0: {"wall_seconds": w, "cpu_seconds": 2 * w, "exit": code,
                              "last_line": "1075 passed"}

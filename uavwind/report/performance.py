@@ -85,8 +85,9 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
         ``"fill"`` (the paper build's CPU time by experiment and reading), ``"cells"`` (ns per
         soft-DTW cell, lockstep against scalar kernels), ``"compile"``,
         ``"closed_loop"`` (seconds per Exp 12 flight by vehicle and policy), ``"heldout"``
-        (the held-out check against tslearn, with its host): only the sections present in
-        the report.
+        (the held-out check against tslearn, with its host), ``"threads"`` (the fast engine
+        serial and threaded, on an idle machine and beside busy cores): only the sections
+        present in the report.
 
     Examples
     --------
@@ -118,6 +119,15 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
              "tslearn (s)": [h["tslearn_seconds"]] * len(rows),
              "speed-up": [r[2] for r in rows],
              "identical": [f"{r[3]}/{h['loops']}" for r in rows]}).set_index("vectors")
+    if "threads" in report:
+        t = report["threads"]
+        machine = {"idle": "idle", "busy": f"{t['busy_cores']} other core(s) busy"}
+        out["threads"] = pd.DataFrame(
+            [{"machine": machine[cond], "kernels": setting, "wall (s)": c["wall_seconds"],
+              "CPU (s)": c["cpu_seconds"],
+              "wall range (s)": f"{c['wall_range'][0]:.2f}-{c['wall_range'][1]:.2f}"}
+             for cond in ("idle", "busy")
+             for setting, c in t["cases"][cond].items()]).set_index(["machine", "kernels"])
     if "simulate_seconds" in report:
         sim = {f"simulate(), {n} environments": t for n, t in report["simulate_seconds"].items()}
         dry = report.get("dryden_seconds", {})
@@ -311,6 +321,9 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                              if "native_alone" in h else "")
                           + ". The same machine kind comes as an AMD EPYC or an Intel Xeon: a "
                           "speed-up is a figure of one host.")
+    if "threads" in report:
+        out["threads"] = _threads_line(report["threads"],
+                                       later.get("threads", report.get("measured")))
     if "agreement" in report:
         a = report["agreement"]
         out["agreement"] = (f"Identical labels (up to a swap) on {a['identical_labels']} of "
@@ -502,3 +515,29 @@ def _gradient_split(t: Mapping[str, Any]) -> str:
             "each squared distance, which is not always the same double, so an exact engine "
             f"pays for that root (the costs alone take {costs['sqrt(.) ** 2']:.2f} ns a lane-cell "
             f"with it and {costs['squared distance']:.2f} ns without). ")
+
+
+def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
+    """The sentence under the threads table: what the threads gain on an idle machine and
+    what they cost beside busy cores, each against the serial kernels, from the medians."""
+    idle, busy = t["cases"]["idle"], t["cases"]["busy"]
+
+    def ratio(case, setting):
+        return case["serial"]["wall_seconds"] / case[setting]["wall_seconds"]
+
+    def phrase(r):
+        return f"{r:.2f} times as fast as" if r >= 1 else f"{1 / r:.1f} times slower than"
+    host = t.get("host", {})
+    return (f"*Measured {when or '(date not recorded)'} on {host.get('model', '?')}*, "
+            f"{t['loops']} held-out loops, the median of {t['rounds']} rounds, each run in a "
+            f"child process, {t['threads']} threads: on an idle machine the threaded kernels "
+            f"ran {phrase(ratio(idle, 'threads'))} the serial ones; with {t['busy_cores']} "
+            f"other core(s) busy, {phrase(ratio(busy, 'threads'))} them, using "
+            f"{busy['threads']['cpu_seconds']:.2f} CPU seconds against "
+            f"{busy['serial']['cpu_seconds']:.2f} (a thread waiting at a barrier for a core "
+            f"another process holds spins), and {phrase(ratio(busy, 'threads, passive wait'))} "
+            f"them with `OMP_WAIT_POLICY=PASSIVE`. Labels and scores were "
+            f"{'identical in every run' if t['identical'] else '**not** identical in every run'}. "
+            "So the book's pages, which run side by side, and the tests, which run beside the "
+            "quick book they build, run their kernels serially (`UAVWIND_SOFTDTW_PARALLEL=0`); "
+            "a fill's workers have one thread each.")
