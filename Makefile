@@ -27,7 +27,7 @@ TIMEOUT := timeout --kill-after=20
 READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
 # pages run BOOK_JOBS at a time, so each page's soft-DTW kernels run serially (unless
 # UAVWIND_SOFTDTW_PARALLEL is set): a numba thread waiting for a core another page holds
-# spins (four k-means fits: 3.0 s threaded beside one busy core, 0.86 s serial)
+# spins (`ONLY=threads make bench`)
 PAGE_THREADS := $(if $(filter-out 1,$(BOOK_JOBS)),UAVWIND_SOFTDTW_PARALLEL=$(or $(UAVWIND_SOFTDTW_PARALLEL),0))
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
 # registry has its notebook, and each notebook its line in book/_toc.yml)

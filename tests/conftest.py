@@ -14,10 +14,10 @@ import pytest
 # The quick book builds beside the suite (below) on the same cores, so the suite's own
 # soft-DTW kernels run serially unless a test asks for threads (parallel=True; the tests of
 # the threaded kernels do). A numba thread that waits at a barrier for a core another process
-# holds spins: four held-out k-means fits took 3.0 s threaded beside one busy core against
-# 0.86 s serial, and 0.6-0.8 s threaded on an idle machine. Set before uavwind is imported
-# (the switch is read once); OMP_WAIT_POLICY before numba's OpenMP pool starts, so that the
-# threaded tests sleep instead of spinning while they wait (1.6 s instead of 3.0 s there).
+# holds spins, and the threaded kernels are then several times slower than the serial ones
+# (`ONLY=threads make bench`; `make test` on a fresh clone went from 1,888 to 1,326 CPU
+# seconds). Set before uavwind is imported (the switch is read once); OMP_WAIT_POLICY before
+# numba's OpenMP pool starts, so that the threaded tests sleep while they wait.
 os.environ.setdefault("UAVWIND_SOFTDTW_PARALLEL", "0")
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 

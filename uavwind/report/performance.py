@@ -529,8 +529,9 @@ def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
         return f"{r:.2f} times as fast as" if r >= 1 else f"{1 / r:.1f} times slower than"
     host = t.get("host", {})
     return (f"*Measured {when or '(date not recorded)'} on {host.get('model', '?')}*, "
-            f"{t['loops']} held-out loops, the median of {t['rounds']} rounds, each run in a "
-            f"child process, {t['threads']} threads: on an idle machine the threaded kernels "
+            f"the engine's k-means on {t['loops']} held-out loops, the median of {t['rounds']} "
+            f"rounds, each run in a child process, {t['threads']} threads: on an idle machine "
+            f"the threaded kernels "
             f"ran {phrase(ratio(idle, 'threads'))} the serial ones; with {t['busy_cores']} "
             f"other core(s) busy, {phrase(ratio(busy, 'threads'))} them, using "
             f"{busy['threads']['cpu_seconds']:.2f} CPU seconds against "
@@ -538,6 +539,8 @@ def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
             f"another process holds spins), and {phrase(ratio(busy, 'threads, passive wait'))} "
             f"them with `OMP_WAIT_POLICY=PASSIVE`. Labels and scores were "
             f"{'identical in every run' if t['identical'] else '**not** identical in every run'}. "
-            "So the book's pages, which run side by side, and the tests, which run beside the "
-            "quick book they build, run their kernels serially (`UAVWIND_SOFTDTW_PARALLEL=0`); "
-            "a fill's workers have one thread each.")
+            "The setting matters where the engine is called directly (`SoftDTWKMeans`, "
+            "`fit`): `score_loop` and the searches always run its kernels serially, their "
+            "parallelism being worker processes. The book's pages, which run side by side, and "
+            "the tests, which run beside the quick book they build, default to serial kernels "
+            "(`UAVWIND_SOFTDTW_PARALLEL=0`).")
