@@ -126,13 +126,12 @@ def _factor(e, care, rn, r11, dn, gamma, inv_gamma, pow2):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _backward(Rf, x, y, d, m, n, gamma, E, rlo, rhi):
+def _backward(Rf, D, m, n, gamma, E, rlo, rhi):
     """tslearn's gradient matrix (``_njit_soft_dtw_grad``) of every lane into E (m * n * N,
     all zero on entry), on the union over lanes of the band where E can be non-zero, from
-    the accumulated matrix Rf and the lane-interleaved series x (m steps) and y (n steps),
-    whose costs are computed again where a factor needs one (:func:`_cost_at`); a factor
-    whose e is 0 on every lane is not evaluated, and a cell inside the union band but
-    outside a lane's own band gets exactly +0.0 on that lane, as in tslearn.
+    the accumulated matrix Rf and the cost matrix D the forward pass kept (each m * n * N);
+    a factor whose e is 0 on every lane is not evaluated, and a cell inside the union band
+    but outside a lane's own band gets exactly +0.0 on that lane, as in tslearn.
 
     Rows bottom to top, columns right to left in a row (tslearn walks columns). A cell
     depends on the cells below, to its right and below-right only, so any order that visits
@@ -183,14 +182,14 @@ def _backward(Rf, x, y, d, m, n, gamma, E, rlo, rhi):
                 p2 = zero
                 p3 = zero
                 if many(n1):
-                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, _cost_at(x, y, r + 1, c, d, True),
+                    p1 = _factor(e1, n1, vload(Rf, k + nN), r11, vload(D, k + nN),
                                  gamma, inv_gamma, pow2)
                 if many(n2):
-                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, _cost_at(x, y, r, c + 1, d, True),
+                    p2 = _factor(e2, n2, vload(Rf, k + N), r11, vload(D, k + N),
                                  gamma, inv_gamma, pow2)
                 if many(n3):
-                    p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11,
-                                 _cost_at(x, y, r + 1, c + 1, d, True), gamma, inv_gamma, pow2)
+                    p3 = _factor(e3, n3, vload(Rf, k + nN + N), r11, vload(D, k + nN + N),
+                                 gamma, inv_gamma, pow2)
                 v = vadd(vadd(p1, p2), p3)
             vstore(E, r * nN + c * N, v)
             comp_lo = c
@@ -284,7 +283,7 @@ def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf,
             _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
         last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
-        _backward(Rf, zl, x, d, m, n, gamma, E, rlo, rhi)
+        _backward(Rf, D, m, n, gamma, E, rlo, rhi)
         for l in range(N):
             if g * N + l < ns:
                 vals[g * N + l] = lane(last, l)
@@ -340,10 +339,9 @@ _WORKSPACE = threading.local()
 
 def _objgrad_workspace(m, n, d, nw):
     """The arrays :func:`_objgrad_groups` works in, one row per worker: packed centres and
-    series, the wavefront's S rows, a block's costs, the whole accumulated and gradient
-    matrices of N lanes (E all zero) and the band's columns per row; about
-    ``2 * m * n * N`` doubles a worker (1.8 MB for 120 x 120 and 8 lanes), kept for the
-    life of the thread.
+    series, the wavefront's S rows, the whole cost, accumulated and gradient matrices of N
+    lanes (E all zero) and the band's columns per row; about ``3 * m * n * N`` doubles a
+    worker (2.8 MB for 120 x 120 and 8 lanes), kept for the life of the thread.
 
     Taken from this thread's cache when the last call had the same shape, else made (made
     at every call, the pages of these megabytes can be faulted in and zeroed again each
@@ -357,7 +355,7 @@ def _objgrad_workspace(m, n, d, nw):
         return got[1]
     nN = m * n * N
     return (np.empty((nw, m * d * N)), np.empty((nw, n * d * N)),
-            np.empty((nw, (R + 1) * (n + 1) * N)), np.empty((nw, R * n * N)),
+            np.empty((nw, (R + 1) * (n + 1) * N)), np.empty((nw, nN)),
             np.empty((nw, nN)), np.zeros((nw, nN)),
             np.empty((nw, m), dtype=np.int64), np.empty((nw, m), dtype=np.int64))
 

@@ -91,7 +91,7 @@ def _cost_at(x, y, i, j, d, sqrtsq):
     """The cost of cell (i, j) on every lane, as :func:`_cost_rows` stores it (whose
     d != 3 rows are made of it, and whose d == 3 rows do the same operations in the same
     order): the squared distance accumulated from 0.0 in k order, with ``sqrtsq``
-    ``sqrt(.) ** 2`` of it; the backward pass computes again the few it needs."""
+    ``sqrt(.) ** 2`` of it."""
     dist = splat(0.0)
     for k in range(d):
         diff = vsub(vload(x, (i * d + k) * N), vload(y, (j * d + k) * N))
@@ -123,12 +123,13 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
     features); returns the vector of R[m - 1, n - 1], the soft-DTW values.
 
-    D holds the :data:`R` rows of costs of a block (R * n * N doubles). ``keep=False``
-    (values): Rf is unused. ``keep=True`` (for the gradient): the costs are ``sqrt(.) ** 2``
-    as in tslearn's barycentre objective, and Rf receives the whole accumulated matrix
-    (m * n * N doubles); the backward pass computes again the few costs it needs
-    (:func:`_cost_at`), which is cheaper than writing the whole cost matrix to memory and
-    reading it back. S: (R + 1) * (n + 1) * N doubles."""
+    ``keep=False`` (values): D holds the :data:`R` rows of costs of a block (R * n * N
+    doubles) and Rf is unused. ``keep=True`` (for the gradient): the costs are
+    ``sqrt(.) ** 2`` as in tslearn's barycentre objective, D receives the whole cost matrix
+    and Rf the whole accumulated matrix (m * n * N doubles each), which the backward pass
+    reads: each block's rows are written where they belong instead of over the last block's,
+    so the forward pass does no more work, and the backward pass no longer computes the
+    costs of its band again (three square roots a cell). S: (R + 1) * (n + 1) * N doubles."""
     ng = -gamma
     inv = 1.0 / ng
     pow2 = _is_pow2(gamma)
@@ -142,7 +143,8 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     while i0 < m:
         rb = min(R, m - i0)
         roff = i0 * n * N if keep else 0
-        _cost_rows(x, y, i0, rb, n, d, keep, D)
+        Db = D[roff:]  # the block's rows: of the whole matrix (keep), else the block buffer
+        _cost_rows(x, y, i0, rb, n, d, keep, Db)
         for r in range(rb):
             for l in range(N):
                 S[(r + 1) * W + l] = -np.inf
@@ -151,11 +153,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                 for r in range(rb):
                     j = t - r
                     if j >= 0 and j < n:
-                        last = _mstep(S, D, Rf, W, n, roff, r, j, ng, inv, pow2, keep)
+                        last = _mstep(S, Db, Rf, W, n, roff, r, j, ng, inv, pow2, keep)
         else:
             for t in range(R - 1):  # prologue triangle
                 for r in range(t + 1):
-                    _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                    _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
             t = R - 1
             while t < n:
                 cs0 = vload(S, 1 * W + t * N)
@@ -189,16 +191,16 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     k1 = (n + t - 1) * N
                     k2 = (2 * n + t - 2) * N
                     k3 = (3 * n + t - 3) * N
-                    r0 = vadd(vload(D, k0), vmul(ng, vadd(0.0, x0)))
+                    r0 = vadd(vload(Db, k0), vmul(ng, vadd(0.0, x0)))
                     s0 = vmul(r0, inv) if pow2 else vdiv(r0, ng)
                     vstore(S, 1 * W + (t + 1) * N, s0)
-                    r1 = vadd(vload(D, k1), vmul(ng, vadd(0.0, x1)))
+                    r1 = vadd(vload(Db, k1), vmul(ng, vadd(0.0, x1)))
                     s1 = vmul(r1, inv) if pow2 else vdiv(r1, ng)
                     vstore(S, 2 * W + t * N, s1)
-                    r2 = vadd(vload(D, k2), vmul(ng, vadd(0.0, x2)))
+                    r2 = vadd(vload(Db, k2), vmul(ng, vadd(0.0, x2)))
                     s2 = vmul(r2, inv) if pow2 else vdiv(r2, ng)
                     vstore(S, 3 * W + (t - 1) * N, s2)
-                    r3 = vadd(vload(D, k3), vmul(ng, vadd(0.0, x3)))
+                    r3 = vadd(vload(Db, k3), vmul(ng, vadd(0.0, x3)))
                     s3 = vmul(r3, inv) if pow2 else vdiv(r3, ng)
                     vstore(S, 4 * W + (t - 2) * N, s3)
                     if keep:
@@ -216,11 +218,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     t += 1
                 if t < n:  # some lane needs the full sum: this step through memory
                     for r in range(R):
-                        _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                        _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
                     t += 1
             for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
                 for r in range(t - n + 1, R):
-                    last = _mstep(S, D, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                    last = _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
         for q in range(W):
             S[q] = S[rb * W + q]
         i0 += rb
