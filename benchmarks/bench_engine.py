@@ -368,7 +368,8 @@ def heldout_times(engines=("fast", "tslearn"), n_loops=12, side_by_side=False):
 def bench_heldout(report, n_loops=12, rounds=3):
     """The held-out check of the engine against tslearn: 12 loops of 5 or 10 environments a
     group, 120 steps, gamma 0.5, the default k-means and barycentre iterations, each engine
-    with its default threads, side by side, ``rounds`` times (this host's speed drifts: the
+    as ``score_loop`` runs it (tslearn with its default threads, the fast engine serially),
+    side by side, ``rounds`` times (this host's speed drifts: the
     same 12 loops took tslearn 26-45 s in one day, so one round's ratio is not the host's);
     the figures are the rounds' medians, with the range. Then the fast engine alone with AVX2
     code (``NUMBA_CPU_NAME=haswell``, a cache of its own) in a child process, the narrower

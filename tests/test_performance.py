@@ -159,7 +159,8 @@ def test_the_one_loop_table_says_when_it_was_measured_and_on_which_footing():
            "sections_measured_later": {"spread": "2026-11-24 02:59 UTC"}}
     line = summary_lines(old)["loops"]
     assert line.startswith("*One-loop timings measured 2026-11-22 12:00 UTC*, each engine "
-                           "with the process's default numba threads")
+                           "as `score_loop` runs it (tslearn with the process's default numba "
+                           "threads, the fast engine serially)")
     assert "times each engine on one thread" in line and "(measured 2026-11-24 02:59 UTC)." in line
     new = {**old, "sections_measured_later": {"loops": "2026-11-27 15:00 UTC"}}
     assert "measured 2026-11-27 15:00 UTC*" in summary_lines(new)["loops"]

@@ -285,8 +285,9 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
     if "loop_seconds" in report:  # dated, and set beside the varied loops' speed-up, which
         # is timed on another footing: a reader must see why the two differ
         when = later.get("loops", report.get("measured", "(date not recorded)"))
-        out["loops"] = (f"*One-loop timings measured {when}*, each engine with the process's "
-                        "default numba threads, on one scenario.")
+        out["loops"] = (f"*One-loop timings measured {when}*, each engine as `score_loop` "
+                        "runs it (tslearn with the process's default numba threads, the fast "
+                        "engine serially), on one scenario.")
         if "spread" in report:
             out["loops"] += (" The speed-up across varied loops below times each engine on "
                              "one thread, over many scenarios and group sizes; that is the "
