@@ -49,7 +49,7 @@ from numba import njit, prange
 
 from ._kernels import _reduce_objgrad, _unrank_upper
 # R and the cost rows are named here too (the benchmarks time them)
-from ._lockstep_forward import R, _cost_at, _cost_rows, _forward  # noqa: F401
+from ._lockstep_forward import R, _cost_rows, _forward  # noqa: F401
 from ._scalar_forward import _is_pow2
 from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vfma, vload, vmin,
                     vmul, vsqrt, vstore, vsub)

@@ -103,9 +103,9 @@ def _cost_at(x, y, i, j, d, sqrtsq):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False, inline="always")
-def _mstep(S, D, Rf, W, n, roff, r, j, ng, inv, pow2, keep):
-    """The exact cell (row r of the block, column j) through memory; returns its r vector
-    (and stores it in Rf at ``roff`` + the cell's place in the block, with ``keep``).
+def _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
+    """The exact cell (row r of the block, column j) through memory, D and Rf being the
+    block's rows; returns its r vector (and stores it in Rf, with ``keep``).
     Inlined: as a call it cost the forward pass 10-20% (the arguments and the array
     references each call), measured on a loop's barycentre inputs on an Intel Xeon."""
     ub = r * W + (j + 1) * N
@@ -114,7 +114,7 @@ def _mstep(S, D, Rf, W, n, roff, r, j, ng, inv, pow2, keep):
     rv, sv = _cellv(vload(S, ub), vload(S, cb), vload(S, ub - N), vload(D, k), ng, inv, pow2)
     vstore(S, cb + N, sv)
     if keep:
-        vstore(Rf, roff + k, rv)
+        vstore(Rf, k, rv)
     return rv
 
 
@@ -142,8 +142,10 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     i0 = 0
     while i0 < m:
         rb = min(R, m - i0)
+        # the block's rows: of the whole matrices (keep), else the block buffer and no Rf
         roff = i0 * n * N if keep else 0
-        Db = D[roff:]  # the block's rows: of the whole matrix (keep), else the block buffer
+        Db = D[roff:]
+        Rb = Rf[roff:]
         _cost_rows(x, y, i0, rb, n, d, keep, Db)
         for r in range(rb):
             for l in range(N):
@@ -153,11 +155,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                 for r in range(rb):
                     j = t - r
                     if j >= 0 and j < n:
-                        last = _mstep(S, Db, Rf, W, n, roff, r, j, ng, inv, pow2, keep)
+                        last = _mstep(S, Db, Rb, W, n, r, j, ng, inv, pow2, keep)
         else:
             for t in range(R - 1):  # prologue triangle
                 for r in range(t + 1):
-                    _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                    _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
             t = R - 1
             while t < n:
                 cs0 = vload(S, 1 * W + t * N)
@@ -204,10 +206,10 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     s3 = vmul(r3, inv) if pow2 else vdiv(r3, ng)
                     vstore(S, 4 * W + (t - 2) * N, s3)
                     if keep:
-                        vstore(Rf, roff + k0, r0)
-                        vstore(Rf, roff + k1, r1)
-                        vstore(Rf, roff + k2, r2)
-                        vstore(Rf, roff + k3, r3)
+                        vstore(Rb, k0, r0)
+                        vstore(Rb, k1, r1)
+                        vstore(Rb, k2, r2)
+                        vstore(Rb, k3, r3)
                     ps0 = cs0
                     ps1 = cs1
                     ps2 = cs2
@@ -218,11 +220,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     t += 1
                 if t < n:  # some lane needs the full sum: this step through memory
                     for r in range(R):
-                        _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                        _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
                     t += 1
             for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
                 for r in range(t - n + 1, R):
-                    last = _mstep(S, Db, Rf, W, n, roff, r, t - r, ng, inv, pow2, keep)
+                    last = _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
         for q in range(W):
             S[q] = S[rb * W + q]
         i0 += rb
