@@ -462,8 +462,8 @@ def engine_times(n_loops):
 
 def bench_threads(report, n_loops=6, rounds=3):
     """When the kernels' threads pay: the engine's k-means on the first ``n_loops`` held-out
-    loops (:func:`engine_times`), serially and with numba's threads (its OpenMP pool as it comes, and with
-    ``OMP_WAIT_POLICY=PASSIVE``), each run in a child process, ``rounds`` times, the settings
+    loops (:func:`engine_times`), serially and with numba's threads (its OpenMP pool as it
+    comes, and with ``OMP_WAIT_POLICY=PASSIVE``), each run in a child process, ``rounds`` times, the settings
     taking turns; on an idle machine, then beside busy cores (one process spinning on each
     core but one, as when a book builds beside the tests). The figures are the rounds' medians
     of the wall and CPU seconds; the labels and scores of every run are compared with the
@@ -477,9 +477,10 @@ def bench_threads(report, n_loops=6, rounds=3):
     code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
             f"print(json.dumps(bench_engine.engine_times({n_loops})))")
 
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("UAVWIND_SOFTDTW_PARALLEL", "OMP_WAIT_POLICY")}
+
     def run(setting):
-        env = {k: v for k, v in os.environ.items()
-               if k not in ("UAVWIND_SOFTDTW_PARALLEL", "OMP_WAIT_POLICY")}
         res = subprocess.run([sys.executable, "-c", code], env={**env, **THREAD_SETTINGS[setting]},
                              capture_output=True, text=True, timeout=1800, check=True)
         return json.loads(res.stdout.strip().splitlines()[-1])
