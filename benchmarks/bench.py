@@ -37,6 +37,18 @@ SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": benc
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 #: Sections a plain `make bench` leaves out (tens of minutes): run them with ONLY=<name>.
 ON_REQUEST = {"builds": bench_builds}
+#: Records kept by host (CPU model -> record): this machine kind comes as an AMD EPYC or an
+#: Intel Xeon, so a section measured again on one host keeps the other hosts' entries.
+BY_HOST = ("heldout_hosts",)
+
+
+def merged(old, fresh):
+    """``fresh`` over ``old``, each :data:`BY_HOST` record merged host by host."""
+    out = {**old, **fresh}
+    for key in BY_HOST:
+        if key in fresh:
+            out[key] = {**old.get(key, {}), **fresh[key]}
+    return out
 
 
 def main():
@@ -46,18 +58,20 @@ def main():
               "machine": platform.machine(), "cpu": host_cpu(), "cores": os.cpu_count(),
               "numpy": np.__version__}
     print(f"uavwind benchmark on {report['cores']} cores, Python {report['python']}")
+    on_file = json.loads(OUT.read_text()) if OUT.exists() else {}
     if only:  # one section, measured now, merged into the figures already on file
         every = {**SECTIONS, **ON_REQUEST}
         if only not in every:
             raise ValueError(f"ONLY must be one of {sorted(every)}, got {only!r}")
         fresh = {}
         every[only](fresh)
-        report = {**(json.loads(OUT.read_text()) if OUT.exists() else report), **fresh}
+        report = merged(on_file or report, fresh)
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies
     else:
         for section in SECTIONS.values():  # the paper profile last
             section(report)
+        report = merged({k: on_file[k] for k in BY_HOST if k in on_file}, report)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")

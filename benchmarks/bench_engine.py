@@ -24,6 +24,7 @@ import numpy as np
 
 import uavwind as uw
 from bench_common import compared_engines, host_cpu, loop_inputs, timeit
+from uavwind.analysis.tables import source_commit
 
 
 def bench_loops(report):
@@ -431,6 +432,10 @@ def bench_heldout(report, n_loops=12, rounds=3):
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
                  "identical": avx2_same},
         "command": "ONLY=heldout make bench"}
+    # the same check on each host kind it ran on, kept side by side (bench.BY_HOST)
+    report["heldout_hosts"] = {host["model"]: {
+        "measured": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        "commit": source_commit(mark_changes=True), **report["heldout"]}}
 
 
 #: The kernels' thread settings :func:`bench_threads` compares: name -> the child's environment.

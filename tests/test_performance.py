@@ -1,4 +1,6 @@
 """The performance page's presentation, from a report, without a browser."""
+import pytest
+
 from uavwind.report.performance import report_tables, summary_lines
 
 REPORT = {"measured": "2026-11-22 12:00 UTC", "cores": 2, "machine": "x86_64", "python": "3.11.7",
@@ -206,6 +208,53 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     assert [i.split(", ", 1)[1] for i in t.index] == [
         "native code", "native code, alone", "AVX2 code (NUMBA_CPU_NAME=haswell), alone",
         "native code, the loops side by side (score_loops)"]
+
+
+def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():
+    """The held-out check on each host kind, side by side, oldest first: the sentence says
+    whose time moves between the hosts (the fast engine's or tslearn's), from the records."""
+    def rec(when, model, lanes, fast, slow):
+        return {"measured": when, "commit": "abc1234",
+                "host": {"model": model, "llvm_cpu": "cpu", "lanes": lanes}, "loops": 12,
+                "identical": 12, "fast_seconds": fast, "tslearn_seconds": slow,
+                "speedup": slow / fast, "side_by_side_speedup": slow / fast * 1.1,
+                "rounds": [{"speedup": slow / fast - 1}, {"speedup": slow / fast + 1}]}
+    one = {"heldout_hosts": {"EPYC": rec("2026-12-01 10:00 UTC", "EPYC", 4, 2.0, 60.0)}}
+    line = summary_lines(one)["heldout_hosts"]
+    assert line.startswith("*The held-out check has run on one host so far:*")
+    assert "the fast engine took 2.00 s and tslearn 60.0 s, 30.0 times" in line
+    two = {"heldout_hosts": {**one["heldout_hosts"],
+                             "Xeon": rec("2026-11-28 10:00 UTC", "Xeon", 8, 2.5, 40.0)}}
+    line = summary_lines(two)["heldout_hosts"]
+    assert line.index("on Xeon (8 lanes") < line.index("on EPYC (4 lanes")  # oldest first
+    assert ("the fast engine's time differs by 1.25 times and tslearn's by 1.50 times: the "
+            "speed-up moves with tslearn's own time, not the fast engine's") in line
+    t = report_tables(two)["heldout_hosts"]
+    assert list(t.index) == ["Xeon (cpu, 8 lanes)", "EPYC (cpu, 4 lanes)"]
+    assert t["speed-up"].tolist() == [16.0, 30.0] and t["rounds"].tolist() == ["15.0-17.0",
+                                                                               "29.0-31.0"]
+    # the engine's own time moving more than tslearn's is said so, not the other way round
+    two["heldout_hosts"]["Xeon"] = rec("2026-11-28 10:00 UTC", "Xeon", 8, 4.0, 64.0)
+    assert "moves with the fast engine's own time more than tslearn's" in summary_lines(
+        two)["heldout_hosts"]
+
+
+def test_a_section_measured_on_another_host_keeps_the_first_hosts_record(monkeypatch):
+    """``ONLY=heldout make bench`` on a second host adds its entry to ``heldout_hosts`` and
+    keeps the first host's (bench.merged), while the plain record is the latest."""
+    import sys
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.modules.pop("bench", None)
+    bench = pytest.importorskip("bench")
+    old = {"heldout": {"host": "a"}, "heldout_hosts": {"A": {"speedup": 16}}, "x": 1}
+    fresh = {"heldout": {"host": "b"}, "heldout_hosts": {"B": {"speedup": 30}}}
+    out = bench.merged(old, fresh)
+    assert out["heldout"] == {"host": "b"} and out["x"] == 1
+    assert out["heldout_hosts"] == {"A": {"speedup": 16}, "B": {"speedup": 30}}
+    again = bench.merged(out, {"heldout_hosts": {"A": {"speedup": 17}}})
+    assert again["heldout_hosts"] == {"A": {"speedup": 17}, "B": {"speedup": 30}}
 
 
 def test_the_threads_section_sets_threads_against_serial_idle_and_beside_busy_cores():

@@ -119,6 +119,17 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
              "tslearn (s)": [h["tslearn_seconds"]] * len(rows),
              "speed-up": [r[2] for r in rows],
              "identical": [f"{r[3]}/{h['loops']}" for r in rows]}).set_index("vectors")
+    if report.get("heldout_hosts"):
+        out["heldout_hosts"] = pd.DataFrame(
+            [{"host": f"{model} ({h['host'].get('llvm_cpu', '?')}, "
+                      f"{h['host'].get('lanes', '?')} lanes)",
+              "measured": h.get("measured", "?"), "commit": h.get("commit", "?"),
+              "fast (s)": h["fast_seconds"], "tslearn (s)": h["tslearn_seconds"],
+              "speed-up": h["speedup"],
+              "rounds": _span(h["rounds"], "speedup", ".1f") if h.get("rounds") else "-",
+              "side by side": h.get("side_by_side_speedup", float("nan")),
+              "identical": f"{h['identical']}/{h['loops']}"}
+             for model, h in _by_date(report["heldout_hosts"])]).set_index("host")
     if "threads" in report:
         t = report["threads"]
         machine = {"idle": "idle", "busy": f"{t['busy_cores']} other core(s) busy"}
@@ -243,6 +254,33 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
     return {k: show_missing(v) for k, v in out.items()}
 
 
+def _by_date(records):
+    """``(name, record)`` pairs of ``records`` (name -> a record with its ``"measured"``
+    date), oldest first."""
+    return sorted(records.items(), key=lambda kv: (kv[1].get("measured", ""), kv[0]))
+
+
+def _hosts_line(hosts: Mapping[str, Any]) -> str:
+    """Which part of the speed-up changes with the host: the fast engine's own time or
+    tslearn's, from the held-out check on each host (oldest first)."""
+    rows = _by_date(hosts)
+    each = "; ".join(
+        f"on {model} ({h['host'].get('lanes', '?')} lanes, {h.get('measured', '?')}) the fast "
+        f"engine took {h['fast_seconds']:.2f} s and tslearn {h['tslearn_seconds']:.1f} s, "
+        f"{h['speedup']:.1f} times" for model, h in rows)
+    if len(rows) < 2:
+        return f"*The held-out check has run on one host so far:* {each}."
+    fast = [h["fast_seconds"] for _, h in rows]
+    slow = [h["tslearn_seconds"] for _, h in rows]
+    f_ratio, t_ratio = max(fast) / min(fast), max(slow) / min(slow)
+    whose = ("tslearn's own time, not the fast engine's" if t_ratio > f_ratio
+             else "the fast engine's own time more than tslearn's")
+    return (f"*The same twelve loops on each host the check has run on:* {each}. Between the "
+            f"hosts the fast engine's time differs by {f_ratio:.2f} times and tslearn's by "
+            f"{t_ratio:.2f} times: the speed-up moves with {whose}. The records are of "
+            "different days, and a host's speed drifts within a day (the rounds' ranges).")
+
+
 def _span(rows, key, fmt):
     """``"low-high"`` of ``key`` over ``rows`` (a section's rounds), each as ``fmt``."""
     v = [r[key] for r in rows]
@@ -322,6 +360,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                              if "native_alone" in h else "")
                           + ". The same machine kind comes as an AMD EPYC or an Intel Xeon: a "
                           "speed-up is a figure of one host.")
+    if report.get("heldout_hosts"):
+        out["heldout_hosts"] = _hosts_line(report["heldout_hosts"])
     if "threads" in report:
         out["threads"] = _threads_line(report["threads"],
                                        later.get("threads", report.get("measured")))
