@@ -132,6 +132,39 @@ def test_the_hover_trim_is_where_a_hover_settles():
         Multirotor.neural_fly().hover_trim(30.0)
 
 
+def test_the_hover_trim_is_its_root_rounded_whatever_the_newton_path(monkeypatch):
+    """The trim goes on past its tolerance to the root's last digits and is rounded to
+    TRIM_DIGITS significant digits, so where the solve stops (which moved with the host's
+    BLAS) leaves no trace: more polishing steps, or a Jacobian off in its last digits (as
+    another host's arithmetic would make it), give the same doubles."""
+    from uavwind.sim import multirotor as mr
+
+    v = Multirotor.neural_fly(drag_scale=0.74, lift_scale=0.63, position_control=PX4_LIKE)
+    speeds = (1.34, 5.0, 10.0, 13.86)
+    trims = [v.hover_trim(a) for a in speeds]
+    for t in trims:
+        for x in t:
+            assert float(f"{x:.{mr.TRIM_DIGITS}g}") == x  # rounded
+    monkeypatch.setattr(mr, "TRIM_POLISH", 8)
+    assert [v.hover_trim(a) for a in speeds] == trims
+    # another host's last digits: every residual the solve sees off by a relative 1e-14
+    kernels = mr._kernels()
+    real = kernels.state_derivative
+
+    class Off:
+        def __getattr__(self, name):
+            return getattr(kernels, name)
+
+        @staticmethod
+        def state_derivative(P, S, om):
+            return real(P, S, om) * (1 + 1e-14)
+    monkeypatch.setattr(mr, "_kernels", lambda: Off())
+    monkeypatch.setattr(mr, "TRIM_POLISH", 3)
+    assert [v.hover_trim(a) for a in speeds] == trims
+    monkeypatch.setattr(mr, "TRIM_POLISH", 0)  # without the polish the stop shows
+    assert [v.hover_trim(a) for a in speeds] != trims
+
+
 def test_lift_scale_scales_the_translational_lift_alone():
     base, half = Multirotor.neural_fly(), Multirotor.neural_fly(lift_scale=0.5)
     assert half.quad_params()["k_h"] == pytest.approx(0.5 * base.quad_params()["k_h"])

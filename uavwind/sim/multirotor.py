@@ -83,6 +83,13 @@ __all__ = ["Multirotor", "GroundContact", "STARTS", "force_command"]
 
 #: How a flight starts: at rest over the ground, or moving with the air mass.
 STARTS = ("hover", "drifting")
+#: :meth:`Multirotor.hover_trim` takes this many Newton steps past its tolerance, to the
+#: root's last digits, then rounds its tilt and thrust to :data:`TRIM_DIGITS` significant
+#: digits: where the solve stops, and so the trim's last digits, moved with the host (an
+#: AVX-512 Xeon and an AVX2 EPYC gave Exp 14 different waypoint limits, so different cache
+#: keys); the rounded trim is one double on every host, 1e-11 of a degree or a newton apart.
+TRIM_POLISH = 3
+TRIM_DIGITS = 12
 
 
 class GroundContact(ValueError):
@@ -286,7 +293,9 @@ class Multirotor:
         horizontal wind of ``airspeed`` [m/s], in [0, 100]: every rotor at one speed, the body
         pitched into the wind until the rotors' thrust, gravity and the aerodynamic forces
         (frame and rotor drag, induced inflow, translational lift) balance (Newton steps on
-        the tilt and the rotor speed, to 1e-9 m/s^2). Tilting into the wind shows it more
+        the tilt and the rotor speed, to 1e-9 m/s^2, then :data:`TRIM_POLISH` more, both
+        rounded to :data:`TRIM_DIGITS` significant digits: the same doubles on every host).
+        Tilting into the wind shows it more
         frame to drag, so the lean exceeds ``atan(drag_force / weight)``. ``ValueError`` if
         no speed within the rotors' range holds it."""
         state_derivative = _kernels().state_derivative
@@ -303,21 +312,32 @@ class Multirotor:
             dv = state_derivative(P, S, np.full((1, 4), om))[0, S_VEL]
             return np.array([dv[0], dv[2]])  # x and z
 
-        x = np.array([-math.atan2(self.drag_force(airspeed), self.weight), self.hover_speed])
-        for _ in range(50):
-            r = residual(x)
-            if np.abs(r).max() < 1e-9:
-                break
+        def newton_step(x, r):
+            """``x`` less the Newton step on ``r``: the Jacobian by forward differences and
+            the 2 x 2 system by Cramer's rule in Python floats, not a BLAS kernel (LAPACK's
+            solve rounds differently on AVX-512 and AVX2 hosts)."""
             J = np.empty((2, 2))
             for j, h in enumerate((1e-6, 1e-3)):
                 dx = np.zeros(2)
                 dx[j] = h
                 J[:, j] = (residual(x + dx) - r) / h
-            x = x - np.linalg.solve(J, r)
+            (a, b), (c, d) = J.tolist()
+            det = a * d - b * c
+            return x - np.array([(d * r[0] - b * r[1]) / det, (a * r[1] - c * r[0]) / det])
+
+        x = np.array([-math.atan2(self.drag_force(airspeed), self.weight), self.hover_speed])
+        for _ in range(50):
+            r = residual(x)
+            if np.abs(r).max() < 1e-9:
+                break
+            x = newton_step(x, r)
         if np.abs(residual(x)).max() > 1e-6 or not P[SPEED_MIN] <= x[1] <= P[SPEED_MAX]:
             raise ValueError(f"airspeed = {airspeed:g} m/s: no rotor speed within the rotors' "
                              f"range holds this vehicle still in it")
-        return abs(math.degrees(x[0])), float(4 * P[K_ETA] * x[1] ** 2)
+        for _ in range(TRIM_POLISH):  # on to the root's last digits, wherever the host stopped
+            x = newton_step(x, residual(x))
+        tilt, thrust = abs(math.degrees(x[0])), float(4 * P[K_ETA] * x[1] ** 2)
+        return float(f"{tilt:.{TRIM_DIGITS}g}"), float(f"{thrust:.{TRIM_DIGITS}g}")
 
     def quad_params(self) -> dict:
         """This vehicle as RotorPy's ``quad_params`` (for ``rotorpy``'s own ``Multirotor``)."""
