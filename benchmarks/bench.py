@@ -37,17 +37,21 @@ SECTIONS = {"simulation": bench_simulation, "loops": bench_loops, "spread": benc
             "paper": lambda report: bench_paper_profile(report, default_engine())}
 #: Sections a plain `make bench` leaves out (tens of minutes): run them with ONLY=<name>.
 ON_REQUEST = {"builds": bench_builds}
-#: Records kept by host (CPU model -> record): this machine kind comes as an AMD EPYC or an
-#: Intel Xeon, so a section measured again on one host keeps the other hosts' entries.
-BY_HOST = ("heldout_hosts",)
+#: Sections whose latest record on each host is kept as well, as ``<section>_hosts`` (CPU
+#: model -> record, with the date it was measured): this machine kind comes as an AMD EPYC or
+#: an Intel Xeon, so measuring a section again on one host keeps the other hosts' records.
+BY_HOST = ("heldout", "builds")
 
 
-def merged(old, fresh):
-    """``fresh`` over ``old``, each :data:`BY_HOST` record merged host by host."""
+def merged(old, fresh, stamp):
+    """``fresh`` over ``old``; each :data:`BY_HOST` section in ``fresh`` also added, dated
+    ``stamp``, to its ``<section>_hosts`` record under its host's CPU model."""
     out = {**old, **fresh}
-    for key in BY_HOST:
-        if key in fresh:
-            out[key] = {**old.get(key, {}), **fresh[key]}
+    for name in BY_HOST:
+        if name in fresh:
+            model = fresh[name].get("host", {}).get("model", "unknown")
+            out[f"{name}_hosts"] = {**old.get(f"{name}_hosts", {}),
+                                    model: {"measured": stamp, **fresh[name]}}
     return out
 
 
@@ -65,13 +69,14 @@ def main():
             raise ValueError(f"ONLY must be one of {sorted(every)}, got {only!r}")
         fresh = {}
         every[only](fresh)
-        report = merged(on_file or report, fresh)
+        report = merged(on_file or report, fresh, stamp)
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies
     else:
         for section in SECTIONS.values():  # the paper profile last
             section(report)
-        report = merged({k: on_file[k] for k in BY_HOST if k in on_file}, report)
+        kept = {f"{k}_hosts": on_file[f"{k}_hosts"] for k in BY_HOST if f"{k}_hosts" in on_file}
+        report = merged(kept, report, stamp)
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")

@@ -240,21 +240,26 @@ def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():
 
 
 def test_a_section_measured_on_another_host_keeps_the_first_hosts_record(monkeypatch):
-    """``ONLY=heldout make bench`` on a second host adds its entry to ``heldout_hosts`` and
-    keeps the first host's (bench.merged), while the plain record is the latest."""
+    """``ONLY=heldout make bench`` on a second host adds its record, dated, to
+    ``heldout_hosts`` and keeps the first host's (bench.merged); the plain record is the
+    latest; a section not kept by host gets no such record."""
     import sys
     from pathlib import Path
 
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
     sys.modules.pop("bench", None)
     bench = pytest.importorskip("bench")
-    old = {"heldout": {"host": "a"}, "heldout_hosts": {"A": {"speedup": 16}}, "x": 1}
-    fresh = {"heldout": {"host": "b"}, "heldout_hosts": {"B": {"speedup": 30}}}
-    out = bench.merged(old, fresh)
-    assert out["heldout"] == {"host": "b"} and out["x"] == 1
-    assert out["heldout_hosts"] == {"A": {"speedup": 16}, "B": {"speedup": 30}}
-    again = bench.merged(out, {"heldout_hosts": {"A": {"speedup": 17}}})
-    assert again["heldout_hosts"] == {"A": {"speedup": 17}, "B": {"speedup": 30}}
+    a = {"host": {"model": "A"}, "speedup": 16}
+    old = {"heldout": a, "heldout_hosts": {"A": {"measured": "day 1", **a}}, "x": 1}
+    b = {"host": {"model": "B"}, "speedup": 30}
+    out = bench.merged(old, {"heldout": b, "threads": {"host": {"model": "B"}}}, "day 2")
+    assert out["heldout"] == b and out["x"] == 1 and "threads_hosts" not in out
+    assert out["heldout_hosts"] == {"A": {"measured": "day 1", **a},
+                                    "B": {"measured": "day 2", **b}}
+    again = bench.merged(out, {"heldout": {**a, "speedup": 17}}, "day 3")
+    assert again["heldout_hosts"]["A"] == {"measured": "day 3", **a, "speedup": 17}
+    assert again["heldout_hosts"]["B"] == out["heldout_hosts"]["B"]
+    assert "builds" in bench.BY_HOST  # the README's build times are a host's too
 
 
 def test_the_threads_section_sets_threads_against_serial_idle_and_beside_busy_cores():
@@ -297,6 +302,12 @@ def test_the_builds_sentence_gives_every_run_against_its_target():
     assert "`make test` 600 s and 650 s (target 7 min: missed by 230 s (1.5x))" in line
     assert "`make book PROFILE=quick` 170 s and 175 s (target 3 min: met), **1 run(s) failed**" \
         in line
+    # each host's record, dated, oldest first
+    epyc = {**b, "host": {"model": "EPYC", "lanes": 4}, "measured": "2026-12-01 22:00 UTC"}
+    hosts = {"EPYC": epyc, "Xeon": {**b, "measured": "2026-11-28 15:50 UTC"}}
+    line = summary_lines({"builds": epyc, "builds_hosts": hosts})["builds"]
+    assert line.startswith("*Measured 2026-11-28 15:50 UTC on Xeon* (8 float64 lanes)")
+    assert " *Measured 2026-12-01 22:00 UTC on EPYC* (4 float64 lanes)" in line
 
 
 def test_the_benchmark_on_file_gives_tables_and_sentences():

@@ -407,8 +407,9 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                 + "That, not Python, is where a clustering loop spends its time; the "
                 "multirotor's flights and Experiment 12's closed-loop episodes (no clustering) "
                 "add their own, experiment by experiment below.")
-    if "builds" in report:
-        out["builds"] = _builds_line(report["builds"])
+    if "builds" in report:  # each host's latest record, oldest first (bench.BY_HOST)
+        hosts = report.get("builds_hosts") or {"": report["builds"]}
+        out["builds"] = " ".join(_builds_line(b) for _, b in _by_date(hosts))
     if "closed_loop" in report:
         c = report["closed_loop"]
         line = (f"Experiment 12 at the paper profile: about {c['estimated_cpu_seconds'] / 60:.1f} "
@@ -522,7 +523,9 @@ def _builds_line(b: Mapping[str, Any]) -> str:
                      + " and ".join(f"{w:.0f} s" for w in walls)
                      + f" (target {target / 60:g} min: {verdict})"
                      + (f", **{len(failed)} run(s) failed**" if failed else ""))
-    return (f"*Measured on {host.get('model', '?')}* ({host.get('lanes', '?')} float64 lanes), "
+    when = f" {b['measured']}" if "measured" in b else ""
+    return (f"*Measured{when} on {host.get('model', '?')}* ({host.get('lanes', '?')} float64 "
+            "lanes), "
             f"each on a fresh clone of {b.get('commit', '?')} with an empty result cache, "
             f"the runs taking turns (`make bench ONLY=builds`; the virtual environment "
             f"already built; Neural-Fly's flights {'present' if b.get('neuralfly') else 'absent'}"
