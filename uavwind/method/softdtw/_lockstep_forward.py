@@ -119,6 +119,16 @@ def _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _mstep_call(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
+    """:func:`_mstep` as a call, for the wavefront's corners: the prologue and epilogue
+    triangles and short blocks (12 of a block's 4 * 120 cells on a 120-column block).
+    Inlined at those four sites too, the five copies of the exact cell (each with its
+    inlined vector exp and log) made every forward pass a long compile; the hot site, the
+    steady state's slow step, keeps it inlined. The same operations on the same doubles."""
+    return _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
     """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
     features); returns the vector of R[m - 1, n - 1], the soft-DTW values.
@@ -155,11 +165,11 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                 for r in range(rb):
                     j = t - r
                     if j >= 0 and j < n:
-                        last = _mstep(S, Db, Rb, W, n, r, j, ng, inv, pow2, keep)
+                        last = _mstep_call(S, Db, Rb, W, n, r, j, ng, inv, pow2, keep)
         else:
             for t in range(R - 1):  # prologue triangle
                 for r in range(t + 1):
-                    _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
+                    _mstep_call(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
             t = R - 1
             while t < n:
                 cs0 = vload(S, 1 * W + t * N)
@@ -224,7 +234,7 @@ def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
                     t += 1
             for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
                 for r in range(t - n + 1, R):
-                    last = _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
+                    last = _mstep_call(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
         for q in range(W):
             S[q] = S[rb * W + q]
         i0 += rb
