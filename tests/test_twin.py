@@ -134,8 +134,8 @@ def test_the_hover_trim_is_where_a_hover_settles():
 
 def test_the_hover_trim_is_its_root_rounded_whatever_the_newton_path(monkeypatch):
     """The trim goes on past its tolerance to the root's last digits and is rounded to
-    TRIM_DIGITS significant digits, so where the solve stops (which moved with the host's
-    BLAS) leaves no trace: more polishing steps, or a Jacobian off in its last digits (as
+    TRIM_DIGITS significant digits, so where the solve stops (which moved with the host)
+    leaves no trace: more polishing steps, or a Jacobian off in its last digits (as
     another host's arithmetic would make it), give the same doubles."""
     from uavwind.sim import multirotor as mr
 

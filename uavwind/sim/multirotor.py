@@ -85,9 +85,10 @@ __all__ = ["Multirotor", "GroundContact", "STARTS", "force_command"]
 STARTS = ("hover", "drifting")
 #: :meth:`Multirotor.hover_trim` takes this many Newton steps past its tolerance, to the
 #: root's last digits, then rounds its tilt and thrust to :data:`TRIM_DIGITS` significant
-#: digits: where the solve stops, and so the trim's last digits, moved with the host (an
-#: AVX-512 Xeon and an AVX2 EPYC gave Exp 14 different waypoint limits, so different cache
-#: keys); the rounded trim is one double on every host, 1e-11 of a degree or a newton apart.
+#: digits (about 1e-11 relative): where the solve stopped, and so the trim's last digits,
+#: depended on the path its steps took, and an AVX-512 Xeon and an AVX2 EPYC gave Exp 14
+#: different waypoint limits, so different cache keys; rounded, the trim's noise (about 1e-15
+#: relative) is far below the last digit kept.
 TRIM_POLISH = 3
 TRIM_DIGITS = 12
 
@@ -313,9 +314,9 @@ class Multirotor:
             return np.array([dv[0], dv[2]])  # x and z
 
         def newton_step(x, r):
-            """``x`` less the Newton step on ``r``: the Jacobian by forward differences and
-            the 2 x 2 system by Cramer's rule in Python floats, not a BLAS kernel (LAPACK's
-            solve rounds differently on AVX-512 and AVX2 hosts)."""
+            """``x`` less the Newton step on ``r = residual(x)``: the Jacobian by forward
+            differences and the 2 x 2 system by Cramer's rule in Python floats, not a BLAS
+            kernel (which the CPU chooses: the one host-dependent step the solve had)."""
             J = np.empty((2, 2))
             for j, h in enumerate((1e-6, 1e-3)):
                 dx = np.zeros(2)
@@ -326,16 +327,18 @@ class Multirotor:
             return x - np.array([(d * r[0] - b * r[1]) / det, (a * r[1] - c * r[0]) / det])
 
         x = np.array([-math.atan2(self.drag_force(airspeed), self.weight), self.hover_speed])
+        r = residual(x)
         for _ in range(50):
-            r = residual(x)
             if np.abs(r).max() < 1e-9:
                 break
             x = newton_step(x, r)
-        if np.abs(residual(x)).max() > 1e-6 or not P[SPEED_MIN] <= x[1] <= P[SPEED_MAX]:
+            r = residual(x)
+        if np.abs(r).max() > 1e-6 or not P[SPEED_MIN] <= x[1] <= P[SPEED_MAX]:
             raise ValueError(f"airspeed = {airspeed:g} m/s: no rotor speed within the rotors' "
                              f"range holds this vehicle still in it")
-        for _ in range(TRIM_POLISH):  # on to the root's last digits, wherever the host stopped
-            x = newton_step(x, residual(x))
+        for _ in range(TRIM_POLISH):  # on to the root's last digits, wherever the solve stopped
+            x = newton_step(x, r)
+            r = residual(x)
         tilt, thrust = abs(math.degrees(x[0])), float(4 * P[K_ETA] * x[1] ** 2)
         return float(f"{tilt:.{TRIM_DIGITS}g}"), float(f"{thrust:.{TRIM_DIGITS}g}")
 
