@@ -173,6 +173,38 @@ def test_a_signal_stops_a_run_with_two_workers_within_seconds(tmp_path):
     assert len(stored) >= len(rec["entries"])  # nothing recorded is missing
 
 
+@pytest.mark.parametrize("hangs", [True, False])
+def test_a_stopped_run_ends_within_its_grace_even_if_the_shutdown_hangs(tmp_path, hangs):
+    """Once a run stopped early, a shutdown that waits forever (as a worker pool's manager
+    thread once did, beside a book build) ends after the grace with the run's exit code,
+    saying so and where each thread waited; a shutdown that does not wait ends at once,
+    silently."""
+    import subprocess
+    import sys
+
+    script = ("import sys, threading, time\n"
+              "from uavwind import cli\n"
+              f"if {hangs}:\n"
+              "    threading._register_atexit(lambda: time.sleep(600))\n"
+              "cli._exit_within(130, 1.0)\n"
+              "sys.exit(130)\n")
+    t0 = time.monotonic()
+    proc = subprocess.Popen([sys.executable, "-c", script], stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        _, err = proc.communicate(timeout=60)
+    finally:
+        _group_kill(proc)
+    took = time.monotonic() - t0
+    assert proc.returncode == 130, err
+    if hangs:
+        assert "still shutting down 1 s after the run stopped" in err
+        assert "Thread 0x" in err and "Traceback" not in err
+        assert 1.0 <= took < 30
+    else:
+        assert err == ""
+
+
 def test_a_silent_scheduler_is_a_clear_error_within_seconds(tmp_path):
     import socket
     import subprocess

@@ -30,3 +30,47 @@ def test_n_jobs_is_capped_at_the_cores():
         assert check_jobs(cores + 1000) == cores
     with pytest.raises(ValueError, match="n_jobs"):
         check_jobs(-cores - 1)
+
+
+@pytest.mark.parametrize("held_back", [False, True], ids=["at once", "held back"])
+def test_stop_workers_kills_busy_workers_at_once_and_again_is_harmless(held_back,
+                                                                        monkeypatch):
+    """Two workers each in a task of ten minutes, stopped twice in a row as the fill does (its
+    stop watcher, then its own clean-up): both workers are dead within seconds and the pool's
+    manager thread ends, also when that thread runs only after the second call, as under
+    load. (A second ``shutdown`` then used to clear the pool's kill flag: the manager thread
+    waited for the tasks to finish, the workers went on, and the interpreter's exit waited on
+    that thread: a `make test` beside a book build once hung so.) Neither call waits, and no
+    other pool is started."""
+    import threading
+    import time
+
+    from joblib.externals.loky import reusable_executor
+
+    from uavwind.core.parallel import stop_workers
+
+    par = joblib.Parallel(n_jobs=2)  # the executor the fill's pool uses (study/_pools.py)
+    par._initialize_backend()
+    executor = par._backend._workers
+    for _ in range(2):
+        executor.submit(time.sleep, 600)
+    deadline = time.monotonic() + 60
+    while len(executor._processes) < 2 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    workers = list(executor._processes.values())
+    assert len(workers) == 2 and all(p.is_alive() for p in workers)
+    manager, wake = executor._executor_manager_thread, executor._executor_manager_thread_wakeup
+    if held_back:  # the manager thread is woken only after both calls
+        monkeypatch.setattr(wake, "wakeup", lambda: None)
+    calls = threading.Thread(target=lambda: (stop_workers(), stop_workers()), daemon=True)
+    calls.start()  # in a thread: a call that waits fails the test instead of hanging it
+    calls.join(timeout=10)
+    assert not calls.is_alive(), "stop_workers waited"
+    if held_back:
+        type(wake).wakeup(wake)
+    for p in workers:
+        p.join(timeout=10)
+    assert not any(p.is_alive() for p in workers)
+    manager.join(timeout=10)
+    assert not manager.is_alive()
+    assert reusable_executor._executor is executor  # no new pool started

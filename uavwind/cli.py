@@ -17,6 +17,7 @@ where a build's time goes.
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import os
 import signal
@@ -179,13 +180,17 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
 
     # for the whole run, fill, Exp 13 and tables: a signal asks it to stop, never raises
     previous = _on_signals(stop, stop_now) if _in_main_thread() else {}
+    code = 1
     try:
-        return _run(args, ids, measured, everything, record, stop)
+        code = _run(args, ids, measured, everything, record, stop)
+        return code
     finally:
         # a program exiting ignores them: CPython resets a Python handler to the default
         # one as it finalises, where a late signal would kill it, but it leaves SIG_IGN
         for sig, handler in previous.items():
             signal.signal(sig, signal.SIG_IGN if program else handler)
+        if program and code != 0:  # stopped or failed: its workers were killed
+            _exit_within(code)
 
 
 def _run(args, ids, measured, everything, record, stop) -> int:
@@ -372,6 +377,36 @@ def _exit(code: int) -> None:
         except (OSError, RuntimeError, ValueError):  # closed, or inside a write
             pass
     os._exit(code)
+
+
+#: [s] how long the interpreter may take to shut down once a run stopped early (interrupted,
+#: or failed) with its record written and every finished entry on disk. Shutting down joins
+#: the worker pool's manager thread (joblib's loky), and once in a fresh-clone `make test`
+#: beside a book build that join did not return within 60 s of the workers being killed.
+EXIT_GRACE = 5.0
+
+
+def _exit_within(code: int, seconds: float = EXIT_GRACE) -> None:
+    """Let the interpreter shut down the usual way, but end the process with ``code`` if it
+    is still shutting down ``seconds`` later, saying so on stderr with where each thread
+    waits (a daemon timer: it dies with the process when the shutdown finishes first).
+    Nothing is lost: it is armed only after the run's record is written, and entries are
+    written whole (a temporary file renamed) or not at all."""
+    def expire():
+        _say(f"python -m uavwind: still shutting down {seconds:g} s after the run stopped (a "
+             f"worker pool that does not stop); exiting now, with exit code {code}. Where "
+             f"each thread waits:")
+        try:
+            faulthandler.dump_traceback(file=sys.stderr, all_threads=True)
+        except (OSError, RuntimeError, ValueError):  # pragma: no cover - stderr gone
+            pass
+        if "joblib" in sys.modules:  # no worker outlives the run
+            stop_workers()
+        _exit(code)
+
+    timer = threading.Timer(seconds, expire)
+    timer.daemon = True
+    timer.start()
 
 
 def _say(text: str) -> None:

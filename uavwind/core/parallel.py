@@ -62,14 +62,35 @@ def pin_threads() -> None:
 
 
 def stop_workers() -> None:
-    """Shut the reusable worker pool down at once (after an interrupt or an error): its
-    workers are killed, whatever they are computing.
+    """Stop the reusable worker pool at once (after an interrupt or an error): its workers
+    are killed, whatever they are computing. Calling it again is harmless.
 
-    The pool is looked up with ``reuse=True``: with its default arguments
-    ``get_reusable_executor`` sees joblib's pool as configured differently, and first shuts
-    it down *waiting* for every pending task, which is what stopping must not do."""
+    Three things about joblib's loky pool (joblib 1.6) decide how:
+
+    - the pool is read from loky's module global, never through ``get_reusable_executor``:
+      called on a pool already shut down, that *waits* for the old pool's manager thread
+      and then starts a new pool;
+    - ``shutdown(wait=False, kill_workers=True)`` only raises a flag and wakes the pool's
+      manager thread, which then kills the workers. Once, beside a book build, the manager
+      thread was never woken: the workers kept computing and the interpreter's exit waited
+      on that thread. So the workers are also killed here, with their descendants;
+    - a killed worker's sentinel wakes the manager thread, which then ends (a broken pool)."""
     try:
-        from joblib.externals.loky import get_reusable_executor
-        get_reusable_executor(reuse=True).shutdown(wait=False, kill_workers=True)
+        from joblib.externals.loky import reusable_executor
+        from joblib.externals.loky.backend.utils import kill_process_tree
+    except Exception:  # pragma: no cover - another joblib: nothing of ours to stop
+        return
+    executor = reusable_executor._executor
+    if executor is None:
+        return
+    workers = list(getattr(executor, "_processes", {}).values())
+    try:
+        if not executor._flags.shutdown:
+            executor.shutdown(wait=False, kill_workers=True)
     except Exception:  # pragma: no cover - best effort on the way out
         pass
+    for p in workers:
+        try:
+            kill_process_tree(p)
+        except Exception:  # already gone
+            pass
