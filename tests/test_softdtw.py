@@ -3,6 +3,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 import warnings
 
 import numpy as np
@@ -405,3 +406,38 @@ def test_no_entry_point_reads_past_an_array_or_crashes():
     proc = subprocess.run([sys.executable, "-c", "\n".join(code)], capture_output=True,
                           text=True)
     assert proc.returncode == 0, (proc.returncode, proc.stdout[-3000:], proc.stderr[-3000:])
+
+
+def test_the_loop_kernels_compile_under_one_lock_that_never_hangs(tmp_path, monkeypatch):
+    """While one process holds the compile lock of the loop kernels (beside numba's cache),
+    another waits for it, then goes on; past its wait it goes on without the lock, and where
+    the lock file cannot be made it goes on at once."""
+    import threading
+
+    from uavwind.method import softdtw
+
+    monkeypatch.setattr("numba.core.config.CACHE_DIR", str(tmp_path / "numba"))
+    entered = threading.Event()
+
+    def second():
+        with softdtw._compile_lock():
+            entered.set()
+
+    with softdtw._compile_lock():
+        t = threading.Thread(target=second, daemon=True)
+        t.start()
+        assert not entered.wait(1.0)  # waits while the first holds it
+    assert entered.wait(10.0)  # then has it
+    t.join(10.0)
+    assert (tmp_path / "numba" / "uavwind-loop-kernels.lock").is_file()
+    with softdtw._compile_lock():
+        t0 = time.monotonic()
+        with softdtw._compile_lock(wait=0.5):
+            pass
+        assert 0.4 < time.monotonic() - t0 < 10
+    (tmp_path / "file").write_text("")
+    monkeypatch.setattr("numba.core.config.CACHE_DIR", str(tmp_path / "file" / "numba"))
+    t0 = time.monotonic()
+    with softdtw._compile_lock(wait=60):
+        pass
+    assert time.monotonic() - t0 < 5

@@ -26,6 +26,8 @@ could stop being so.
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 from numpy.typing import ArrayLike
 
@@ -69,10 +71,56 @@ def warmup(parallel: bool = False, every: bool = False) -> KMeansResult:
             soft_dtw(X[0], X[1], g)
             soft_dtw_grad(X[0], X[1], g)
     for par in (True, False) if parallel else (False,):
-        r = fit(X, n_clusters=2, gamma=0.5, max_iter=2, max_iter_barycenter=2,
-                parallel=par)
-        silhouette(X, np.array([0, 0, 1, 1]), metric="dtw", parallel=par)
+        # the serial ones, the ones every process of a fill needs, under a lock beside
+        # numba's cache: a process reaching them while another compiles them waits, then
+        # loads what it wrote
+        with (_compile_lock() if not par else contextlib.nullcontext()):
+            r = fit(X, n_clusters=2, gamma=0.5, max_iter=2, max_iter_barycenter=2,
+                    parallel=par)
+            silhouette(X, np.array([0, 0, 1, 1]), metric="dtw", parallel=par)
         if every:
             silhouette(X, np.array([0, 0, 1, 1]), metric="softdtw", gamma=0.5,
                        parallel=par)
     return r
+
+
+#: [s] the longest a process waits for another's compile of the loop kernels before it
+#: compiles them itself (a cold compile takes about a minute on 2 busy cores)
+COMPILE_WAIT = 600.0
+
+
+@contextlib.contextmanager
+def _compile_lock(wait: float = COMPILE_WAIT):
+    """An exclusive lock (``flock``) on a file beside numba's on-disk cache of these kernels
+    (``$NUMBA_CACHE_DIR``, else this package's ``__pycache__``), held while a process compiles
+    or loads the loop kernels: a test session and a book's fill starting together on a fresh
+    clone then compile them once, not once each. Best effort: where the file cannot be
+    opened (a read-only install), or after ``wait`` seconds, it goes on without the lock;
+    a process that dies holding it releases it."""
+    import fcntl
+    import os
+    import time
+    from pathlib import Path
+
+    from numba.core.config import CACHE_DIR
+
+    folder = Path(CACHE_DIR) if CACHE_DIR else Path(__file__).parent / "__pycache__"
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(folder / "uavwind-loop-kernels.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        yield
+        return
+    try:
+        deadline = time.monotonic() + wait
+        while True:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                break
+            except BlockingIOError:
+                if time.monotonic() > deadline:
+                    break
+                time.sleep(0.2)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
