@@ -32,6 +32,10 @@ def test_n_jobs_is_capped_at_the_cores():
         check_jobs(-cores - 1)
 
 
+# loky's own shutdown(wait=False, kill_workers=True) of a pool that ran tasks before (as the
+# session's reusable pool has) can end its manager thread with a KeyError on a task id it
+# had already dropped: the thread ends either way, and the test reads only what follows
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnhandledThreadExceptionWarning")
 @pytest.mark.parametrize("held_back", [False, True], ids=["at once", "held back"])
 def test_stop_workers_kills_busy_workers_at_once_and_again_is_harmless(held_back,
                                                                         monkeypatch):

@@ -61,6 +61,11 @@ def pin_threads() -> None:
         pass
 
 
+#: [s] how long :func:`stop_workers` lets the pool's manager thread kill the workers itself
+#: before it kills the ones left
+STOP_WAIT = 2.0
+
+
 def stop_workers() -> None:
     """Stop the reusable worker pool at once (after an interrupt or an error): its workers
     are killed, whatever they are computing. Calling it again is harmless.
@@ -68,13 +73,17 @@ def stop_workers() -> None:
     Three things about joblib's loky pool (joblib 1.6) decide how:
 
     - the pool is read from loky's module global, never through ``get_reusable_executor``:
-      called on a pool already shut down, that *waits* for the old pool's manager thread
-      and then starts a new pool;
-    - ``shutdown(wait=False, kill_workers=True)`` only raises a flag and wakes the pool's
-      manager thread, which then kills the workers. Once, beside a book build, the manager
-      thread was never woken: the workers kept computing and the interpreter's exit waited
-      on that thread. So the workers are also killed here, with their descendants;
-    - a killed worker's sentinel wakes the manager thread, which then ends (a broken pool)."""
+      called on a pool already shut down, that calls ``shutdown(wait=True,
+      kill_workers=False)`` on it, which clears the kill flag of the first call (when the
+      pool's manager thread had not yet acted on it, under load, the thread then waited for
+      the workers' tasks to finish, and the interpreter's exit waited on the thread), and
+      then starts a new pool;
+    - ``shutdown(wait=False, kill_workers=True)`` only raises the flag and wakes the manager
+      thread, which kills the workers and ends; it is given :data:`STOP_WAIT` seconds;
+    - the workers still alive then are killed here, with their descendants (a killed
+      worker's sentinel wakes the manager thread, which ends with the pool broken)."""
+    import threading
+
     try:
         from joblib.externals.loky import reusable_executor
         from joblib.externals.loky.backend.utils import kill_process_tree
@@ -84,13 +93,17 @@ def stop_workers() -> None:
     if executor is None:
         return
     workers = list(getattr(executor, "_processes", {}).values())
+    manager = getattr(executor, "_executor_manager_thread", None)
     try:
         if not executor._flags.shutdown:
             executor.shutdown(wait=False, kill_workers=True)
+            if manager is not None and manager is not threading.current_thread():
+                manager.join(timeout=STOP_WAIT)
     except Exception:  # pragma: no cover - best effort on the way out
         pass
     for p in workers:
         try:
-            kill_process_tree(p)
+            if p.is_alive():
+                kill_process_tree(p)
         except Exception:  # already gone
             pass
