@@ -90,7 +90,7 @@ def _cross_groups(A, B, gamma, g0, g1, step, out):
     Rf = np.empty(0)
     for g in range(g0, g1, step):
         _pack_pairs(A, B, g, x, y)
-        last = _forward(x, y, m, n, d, gamma, False, S, D, Rf)
+        last = _forward(x, y, m, n, d, gamma, S, D, Rf)
         for l in range(N):
             p = g * N + l
             if p < npairs:
@@ -282,7 +282,7 @@ def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf,
         if not one:
             _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
-        last = _forward(zl, x, m, n, d, gamma, True, S, D, Rf)
+        last = _forward(zl, x, m, n, d, gamma, S, D, Rf)
         _backward(Rf, D, m, n, gamma, E, rlo, rhi)
         for l in range(N):
             if g * N + l < ns:

@@ -129,17 +129,22 @@ def _mstep_call(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _forward(x, y, m, n, d, gamma, keep, S, D, Rf):
+def _forward(x, y, m, n, d, gamma, S, D, Rf):
     """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
     features); returns the vector of R[m - 1, n - 1], the soft-DTW values.
 
-    ``keep=False`` (values): D holds the :data:`R` rows of costs of a block (R * n * N
-    doubles) and Rf is unused. ``keep=True`` (for the gradient): the costs are
+    Values (an empty Rf): D holds the :data:`R` rows of costs of a block (R * n * N
+    doubles). For the gradient (``keep``: Rf of m * n * N doubles): the costs are
     ``sqrt(.) ** 2`` as in tslearn's barycentre objective, D receives the whole cost matrix
     and Rf the whole accumulated matrix (m * n * N doubles each), which the backward pass
     reads: each block's rows are written where they belong instead of over the last block's,
     so the forward pass does no more work, and the backward pass no longer computes the
-    costs of its band again (three square roots a cell). S: (R + 1) * (n + 1) * N doubles."""
+    costs of its band again (three square roots a cell). S: (R + 1) * (n + 1) * N doubles.
+
+    ``keep`` is read from Rf, not passed: as a literal ``True`` or ``False`` argument it made
+    numba compile this pass, and the cell calls of its corners, once for each (two copies of
+    the longest compile of the engine); its branches are the same each cell of a pass."""
+    keep = Rf.size > 0
     ng = -gamma
     inv = 1.0 / ng
     pow2 = _is_pow2(gamma)
