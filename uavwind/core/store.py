@@ -25,8 +25,8 @@ tables, the explorer's grid) goes through this module, so each rule exists once:
   recomputes it; a file that cannot be *read* (permissions, open files, I/O) raises
   :class:`TransientReadError` and is left in place;
 * :func:`entry_lock`, :func:`fill_entry` and :func:`get_or_compute` -- the read, compute and
-  write of one entry under an exclusive per-entry lock, so two processes on one folder compute
-  it once.
+  write of one entry under an exclusive per-entry lock (:func:`file_lock`, which also serves
+  the soft-DTW engine's compile), so two processes on one folder compute it once.
 
 It imports nothing of uavwind but :mod:`uavwind.core.io` (the read-only rule of the pages).
 """
@@ -53,7 +53,7 @@ from .io import check_target, refuse_to_compute
 
 __all__ = ["DIGEST_KEY", "KEY_LENGTH", "FORMATS", "CorruptEntryWarning", "TransientReadError",
            "results_dir", "make_key", "plain", "content_digest", "atomic_write", "read_entry",
-           "entry_lock", "fill_entry", "get_or_compute"]
+           "file_lock", "entry_lock", "fill_entry", "get_or_compute"]
 
 #: Parquet schema metadata key (and JSON envelope key) of an entry's content digest.
 DIGEST_KEY = b"uavwind.sha256"
@@ -403,20 +403,45 @@ def read_entry(path: os.PathLike | str, verify: Callable[[Any], str] | None = No
 
 
 @contextlib.contextmanager
+def file_lock(lock: os.PathLike | str, wait: float | None = None) -> Iterator[bool]:
+    """Exclusive lock (``fcntl.flock``) on the file ``lock`` (made if missing) for as long as
+    the block runs; yields whether it is held. ``wait=None``: until it is held; else at most
+    ``wait`` seconds, after which the block runs without it. A process that dies holding it
+    releases it. Opening the file can raise ``OSError`` (its folder missing or read-only)."""
+    import fcntl
+    import time
+
+    with open(lock, "a") as fh:
+        if wait is None:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
+            held = True
+        else:
+            deadline = time.monotonic() + wait
+            while True:
+                try:
+                    fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    held = True
+                    break
+                except BlockingIOError:
+                    if time.monotonic() > deadline:
+                        held = False
+                        break
+                    time.sleep(0.2)
+        try:
+            yield held
+        finally:
+            if held:
+                fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
 def entry_lock(path: os.PathLike | str) -> Iterator[None]:
     """Exclusive lock on the entry at ``path`` for as long as the block runs (``<path>.lock``,
-    ``fcntl.flock``)."""
-    import fcntl
-
+    :func:`file_lock`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    lock = path.with_name(path.name + ".lock")
-    with open(lock, "a") as fh:
-        fcntl.flock(fh.fileno(), fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
+    with file_lock(path.with_name(path.name + ".lock")):
+        yield
 
 
 def fill_entry(path: os.PathLike | str, compute: Callable[[], Any],

@@ -91,36 +91,23 @@ COMPILE_WAIT = 600.0
 
 @contextlib.contextmanager
 def _compile_lock(wait: float = COMPILE_WAIT):
-    """An exclusive lock (``flock``) on a file beside numba's on-disk cache of these kernels
-    (``$NUMBA_CACHE_DIR``, else this package's ``__pycache__``), held while a process compiles
-    or loads the loop kernels: a test session and a book's fill starting together on a fresh
-    clone then compile them once, not once each. Best effort: where the file cannot be
-    opened (a read-only install), or after ``wait`` seconds, it goes on without the lock;
-    a process that dies holding it releases it."""
-    import fcntl
-    import os
-    import time
+    """An exclusive lock (:func:`~uavwind.core.store.file_lock`) on a file beside numba's
+    on-disk cache of these kernels (``$NUMBA_CACHE_DIR``, else this package's
+    ``__pycache__``), held while a process compiles or loads the loop kernels: a test session
+    and a book's fill starting together on a fresh clone then compile them once, not once
+    each. Best effort: where the file cannot be made (a read-only install), or after ``wait``
+    seconds, it goes on without the lock."""
     from pathlib import Path
 
     from numba.core.config import CACHE_DIR
 
+    from ...core.store import file_lock
+
     folder = Path(CACHE_DIR) if CACHE_DIR else Path(__file__).parent / "__pycache__"
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(folder / "uavwind-loop-kernels.lock", os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:
+    with contextlib.ExitStack() as stack:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            stack.enter_context(file_lock(folder / "uavwind-loop-kernels.lock", wait))
+        except OSError:  # no lock file: compile without it
+            pass
         yield
-        return
-    try:
-        deadline = time.monotonic() + wait
-        while True:
-            try:
-                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-                break
-            except BlockingIOError:
-                if time.monotonic() > deadline:
-                    break
-                time.sleep(0.2)
-        yield
-    finally:
-        os.close(fd)  # releases the lock
