@@ -173,3 +173,57 @@ def test_rotorpys_adaptive_integrator_agrees_to_its_tolerance():
     tight = {"method": "RK45", "rtol": 1e-10, "atol": 1e-10}
     theirs = _rotorpy_flight(mr, ref, wind, 4.0, tight)
     assert np.abs(ours - theirs).max() < 1e-5
+
+
+def _states_at(flight, j, wind_of=None):
+    """The 20 state columns of every environment after sample ``j`` of a recorded flight
+    (position, velocity, attitude, body rates, wind, rotor speeds: the kernels' layout), the
+    wind replaced by ``wind_of``'s when given."""
+    from uavwind.sim._slots import S_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND
+
+    S = np.empty((flight.n_env, 20))
+    S[:, S_POS], S[:, S_VEL] = flight.positions[:, j], flight.ground_velocities[:, j]
+    S[:, S_QUAT], S[:, S_RATES] = flight.attitudes[:, j], flight.body_rates[:, j]
+    S[:, S_WIND] = flight.winds[:, j if wind_of is None else wind_of]
+    S[:, S_ROTORS] = flight.rotor_speeds[:, j]
+    return S
+
+
+@pytest.mark.parametrize("kind", ["reference", "thrust"])
+def test_the_sensors_recorded_after_the_flight_are_those_of_each_sample_alone(kind):
+    """A flight's sensors (specific force, aerodynamic force, thrust along the body z axis) are
+    computed after the flight in one batch over every sample: each sample's equal, to the
+    double, what the same formulas give on that sample's own state alone, under the command
+    held over it (at one control step per sample, computed from the sample before's state
+    with this sample's wind)."""
+    from uavwind.sim._rotor_layout import (_aero_force, _body_z, _clipped_commands,
+                                           _clipped_se3, _specific_force)
+    from uavwind.sim._slots import FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, N_FLAT
+
+    mr = Multirotor(preset="rotorpy", start="hover")
+    wind = uw.make_setting("light constant", "light shear").wind(3)
+    if kind == "reference":
+        ref = Lemniscate()
+        f = uw.simulate_flight(ref, wind, uav=mr, dt=0.01, duration=3.0)
+    else:
+        d = np.array([[0.05, 0.0, 1.0], [0.0, -0.08, 1.0], [0.03, 0.03, 1.0]])
+        ref = uw.ThrustSequence([0.0, 1.0, 2.0], [9.0, 10.5, 9.5],
+                                d / np.linalg.norm(d, axis=1, keepdims=True))
+        f = uw.simulate_flight(ref, wind, uav=mr, dt=0.01, duration=3.0)
+    P = mr.packed
+    for j in (1, 2, 57, 150, f.times.size - 1):
+        before, after = _states_at(f, j - 1, wind_of=j), _states_at(f, j)
+        if kind == "reference":
+            flat = ref.flat_output(np.array([j * 0.01]))
+            F = np.empty((f.n_env, N_FLAT))
+            F[:, FLAT_POS], F[:, FLAT_VEL], F[:, FLAT_ACC] = flat["x"], flat["x_dot"], flat["x_ddot"]
+            F[:, FLAT_YAW], F[:, FLAT_YAW_RATE] = flat["yaw"], flat["yaw_dot"]
+            u = _clipped_se3(P, before, F, 2)
+            assert np.array_equal(f.aero_forces[:, j], _aero_force(P, after, u))
+            thrust = f.thrust_commands[:, j][:, None] * np.stack([_body_z(q) for q in
+                                                                  before[:, 6:10]])
+            assert np.array_equal(f.thrust[:, j], thrust)
+        else:
+            T, q, _ = mr.segment_commands(ref)[int(ref.segment(np.array([j * 0.01]))[0])]
+            u = _clipped_commands(P, before, np.full(f.n_env, T), np.tile(q, (f.n_env, 1)))
+        assert np.array_equal(f.specific_forces[:, j], _specific_force(P, after, u))

@@ -7,7 +7,7 @@ kernels' parameter vector (RotorPy's ``quad_params`` from
 :class:`~uavwind.sim.rotor_params.PositionControl`) written through the names of
 ``uavwind.sim._slots``, what a recorded flight stores at each sample
 (velocities, winds, attitudes, body rates, rotor speeds, the accelerometer's specific force,
-the aerodynamic force; ``_record_state``, ``_specific_force``, ``_aero_force``) and
+the aerodynamic force; ``_recorded``, ``_specific_force``, ``_aero_force``) and
 ``_kernels``, the one lazy access to the kernels themselves.
 """
 
@@ -117,15 +117,22 @@ def _body_z(q) -> np.ndarray:
     return np.array([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)])
 
 
-def _record_state(rec, j, P, S, u_held):
-    """Sample ``j`` of a recorded flight: velocities, winds, attitudes, body rates, rotor
-    speeds and the accelerometer's specific force under the held motor speeds."""
-    rec["v"][:, j] = S[:, S_VEL]
-    rec["wind"][:, j] = S[:, S_WIND]
-    rec["q"][:, j] = S[:, S_QUAT]
-    rec["w"][:, j] = S[:, S_RATES]
-    rec["rotors"][:, j] = S[:, S_ROTORS]
-    rec["f"][:, j] = _specific_force(P, S, u_held)
+def _recorded(P, states, held) -> dict:
+    """What a recorded flight stores, from the states ``states`` (n_env, n, width) after each
+    sample and the motor speeds ``held`` (n_env, n, 4) held over its last control step:
+    velocities, winds, attitudes, body rates and rotor speeds (each (n_env, n, k)), the
+    accelerometer's specific force ``"f"`` and the aerodynamic force ``"fa"``. One batch over
+    every sample after the flight, not one small one per sample: each row is computed alone
+    (the kernels and numpy's elementwise operations work row by row), so the doubles are
+    those of a sample-by-sample record."""
+    n_env, n, width = states.shape
+    S = states.reshape(n_env * n, width)
+    U = held.reshape(n_env * n, 4)
+    rec = {k: np.ascontiguousarray(states[:, :, cols]) for k, cols in
+           (("v", S_VEL), ("wind", S_WIND), ("q", S_QUAT), ("w", S_RATES), ("rotors", S_ROTORS))}
+    rec["f"] = _specific_force(P, S, U).reshape(n_env, n, 3)
+    rec["fa"] = _aero_force(P, S, U).reshape(n_env, n, 3)
+    return rec
 
 
 def _clipped_commands(P, S, T, C):

@@ -63,8 +63,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
-from ._rotor_layout import (_aero_force, _body_z, _body_z_batch, _clipped_commands, _clipped_se3,
-                            _kernels, _packed, _record_state)
+from ._rotor_layout import (_body_z, _body_z_batch, _clipped_commands, _clipped_se3, _kernels,
+                            _packed, _recorded)
 from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA, N_FLAT,
                      N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND, SPEED_MAX,
                      SPEED_MIN)
@@ -431,9 +431,11 @@ class Multirotor:
         clipped = np.zeros(n_env, dtype=np.int64)
         limited_steps = 0
         positions = np.empty((n_env, n, 3))
-        if record_all:
-            rec = {k: np.empty((n_env, n, w)) for k, w in
-                   (("v", 3), ("wind", 3), ("q", 4), ("w", 3), ("rotors", 4), ("f", 3))}
+        if record_all:  # each sample's state, and the commands held over its last control
+            states = np.empty((n_env, n, S.shape[1]))  # step: the sensors, after the flight
+            before = np.empty((n_env, n, S.shape[1]))
+            held_thrust = np.empty(n)
+            held_quat = np.empty((n, 4))
             forces = np.empty((n, 3))
         n_ctrl = n * per
         if clip_log is not None and clip_log.shape != (n_env, n_ctrl):
@@ -446,25 +448,30 @@ class Multirotor:
             T[:] = thrust_k
             C[:] = quat_k
             S[:, S_WIND] = wind._velocity(t, S[:, S_POS])
-            if record_all and (k + 1) % per == 0:  # the held command, for the accelerometer
-                u_held = _clipped_commands(P, S, T, C)
+            last = (k + 1) % per == 0
+            j = (k + 1) // per - 1
+            if record_all and last:  # the state the held command is computed from
+                before[:, j] = S
+                held_thrust[j], held_quat[j] = thrust_k, quat_k
             if clip_log is not None:
-                before = clipped.copy()
+                clipped_before = clipped.copy()
             control_step(P, S, T, C, 0, self.substeps, h, clipped)
             if clip_log is not None:
-                clip_log[:, k] = clipped != before
-            if (k + 1) % per == 0:
-                j = (k + 1) // per - 1
+                clip_log[:, k] = clipped != clipped_before
+            if last:
                 positions[:, j] = S[:, S_POS]
                 if record_all:
-                    _record_state(rec, j, P, S, u_held)
-                    T_j, q_j, _ = commands[int(max(seg_of[k], 0))]
-                    forces[j] = T_j * _body_z(q_j)
+                    states[:, j] = S
+                    forces[j] = thrust_k * _body_z(quat_k)
         if not np.all(np.isfinite(positions)):
             raise ValueError("the multirotor's simulation produced non-finite positions (winds "
                              "or forces too large for float64); check the wind speeds")
         if not record_all:
             return positions
+        u_held = _clipped_commands(P, before.reshape(n_env * n, -1),
+                                   np.broadcast_to(held_thrust, (n_env, n)).ravel(),
+                                   np.broadcast_to(held_quat, (n_env, n, 4)).reshape(-1, 4))
+        rec = _recorded(P, states, u_held.reshape(n_env, n, 4))
         return Flight(times=(np.arange(n) + 1) * dt, positions=positions,
                       ground_velocities=rec["v"], air_velocities=rec["v"] - rec["wind"],
                       winds=rec["wind"], thrust=forces, start=np.asarray(start, dtype=float),
@@ -519,18 +526,16 @@ class Multirotor:
         T = np.empty(n_env)
         clipped = np.zeros(n_env, dtype=np.int64)
         positions = np.empty((n_env, n, 3))
-        if record_all:
-            rec = {k: np.empty((n_env, n, w)) for k, w in
-                   (("v", 3), ("wind", 3), ("q", 4), ("w", 3), ("rotors", 4), ("f", 3),
-                    ("fa", 3), ("thrust", 3))}
+        if record_all:  # each sample's state, and the state its held command is computed
+            states = np.empty((n_env, n, S.shape[1]))  # from: the sensors, after the flight
+            before = np.empty((n_env, n, S.shape[1]))
             commands = np.empty((n_env, n))
         for k in range(n_ctrl):
             C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, N_FLAT)))
             S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
             last = (k + 1) % per == 0
-            if record_all and last:  # the command held over the step, for the sensors
-                b3 = _body_z_batch(S[:, S_QUAT])
-                u_held = _clipped_se3(P, S, C, mode)
+            if record_all and last:  # the state the held command is computed from
+                before[:, (k + 1) // per - 1] = S
             control_step(P, S, T, C, mode, self.substeps, h, clipped)
             finite = np.isfinite(S).all(axis=1)
             if not finite.all():
@@ -551,12 +556,17 @@ class Multirotor:
                 j = (k + 1) // per - 1
                 positions[:, j] = S[:, S_POS]
                 if record_all:
-                    _record_state(rec, j, P, S, u_held)
-                    rec["fa"][:, j] = _aero_force(P, S, u_held)
-                    rec["thrust"][:, j] = T[:, None] * b3
+                    states[:, j] = S
                     commands[:, j] = T
         if not record_all:
             return positions
+        last_steps = np.arange(per - 1, n_ctrl, per)  # each sample's last control step
+        held_from = before.reshape(n_env * n, -1)
+        u_held = _clipped_se3(P, held_from, np.ascontiguousarray(
+            np.broadcast_to(F[last_steps], (n_env, n, N_FLAT)).reshape(-1, N_FLAT)), mode)
+        rec = _recorded(P, states, u_held.reshape(n_env, n, 4))
+        rec["thrust"] = commands[:, :, None] * _body_z_batch(
+            held_from[:, S_QUAT]).reshape(n_env, n, 3)
         times = (np.arange(n) + 1) * dt
         return Flight(times=times, positions=positions, ground_velocities=rec["v"],
                       air_velocities=rec["v"] - rec["wind"], winds=rec["wind"],
