@@ -237,7 +237,7 @@ def built_book():
         _stop_book_build()
         rc = "timed out"
     _book_build["waited"] = time.monotonic() - t0
-    if not done:  # finished while waited for: its end is now (else unknown, before now)
+    if not done:  # finished while waited for: its end is now (else pytest_runtest_logfinish saw it)
         _book_build["took"] = time.monotonic() - _book_build["started"]
     if rc != 0:
         pytest.fail(f"make book (quick) failed ({rc}):\n"
@@ -256,14 +256,25 @@ def _stop_book_build():
             proc.wait()
 
 
+def pytest_runtest_logfinish(nodeid, location):
+    """When the background build ends (seen after the test it ended during): how long the
+    book took, for the summary, also when it ended before its tests were reached."""
+    proc = _book_build.get("proc")
+    if proc is not None and "took" not in _book_build and proc.poll() is not None:
+        _book_build["took"] = time.monotonic() - _book_build["started"]
+        _book_build["ended_during"] = nodeid
+
+
 def pytest_terminal_summary(terminalreporter):
     """Where the suite's time went: the background book's build and the wait for it."""
     if "waited" in _book_build:
         took = _book_build.get("took")
         terminalreporter.write_line(
             f"quick book: built in the background in "
-            f"{'under the time the other tests took' if took is None else f'{took:.0f} s'}; "
-            f"its tests waited {_book_build['waited']:.0f} s for it")
+            f"{'under the time the other tests took' if took is None else f'{took:.0f} s'}"
+            + (f" (it ended during {_book_build['ended_during']})"
+               if "ended_during" in _book_build else "")
+            + f"; its tests waited {_book_build['waited']:.0f} s for it")
 
 
 def pytest_unconfigure(config):
