@@ -441,3 +441,71 @@ def test_the_loop_kernels_compile_under_one_lock_that_never_hangs(tmp_path, monk
     with softdtw._compile_lock(wait=60):
         pass
     assert time.monotonic() - t0 < 5
+
+
+_KERNEL_MODULES = ("_kernels", "_scalar_forward", "_lockstep", "_lockstep_forward", "_libm",
+                   "_vlibm", "_simd")
+
+
+def _kernel_dispatchers():
+    import importlib
+
+    from numba.core.registry import CPUDispatcher
+
+    for name in _KERNEL_MODULES:
+        mod = importlib.import_module(f"uavwind.method.softdtw.{name}")
+        for attr, obj in vars(mod).items():
+            if isinstance(obj, CPUDispatcher) and obj.py_func.__module__ == mod.__name__:
+                yield mod, attr, obj
+
+
+def test_calls_between_kernels_pass_no_literal_or_prange_index():
+    """A kernel called from another with a constant (``0``, ``True``) or a ``prange`` index
+    (``uint64``) is compiled by numba once more for that type, beside the ``int64``/``bool``
+    of a Python call: the same code twice or thrice on every cold cache (about 12 CPU-s of
+    the suite's compile). Read from the source: no call from a kernel to a kernel passes a
+    bare constant or a ``prange`` loop variable, and a loop counter passed to one does not
+    start as a bare constant (``np.int64(...)``, ``np.bool_(...)`` instead)."""
+    import ast
+    import inspect
+
+    # kernels compiled on their own (an inline="always" one is typed inside its caller)
+    kernels = {attr for _, attr, d in _kernel_dispatchers()
+               if d.targetoptions.get("inline", "never") != "always"}
+    bad = []
+    for mod in {m for m, _, _ in _kernel_dispatchers()}:
+        tree = ast.parse(inspect.getsource(mod))
+        for fn in (n for n in tree.body if isinstance(n, ast.FunctionDef)):
+            if fn.name not in kernels:
+                continue
+            prange_vars = {t.target.id for t in ast.walk(fn) if isinstance(t, ast.For)
+                           and isinstance(t.iter, ast.Call) and getattr(t.iter.func, "id", "")
+                           == "prange" and isinstance(t.target, ast.Name)}
+            assigned = {}  # name -> assigned a bare int constant somewhere in the function
+            for a in ast.walk(fn):
+                if isinstance(a, ast.Assign) and isinstance(a.value, ast.Constant) \
+                        and type(a.value.value) in (int, bool):
+                    assigned.update({t.id: True for t in a.targets if isinstance(t, ast.Name)})
+            augmented = {a.target.id for a in ast.walk(fn) if isinstance(a, ast.AugAssign)
+                         and isinstance(a.target, ast.Name)}
+            for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):
+                if getattr(call.func, "id", None) not in kernels:
+                    continue
+                for arg in call.args:
+                    if isinstance(arg, ast.Constant) and type(arg.value) in (int, bool):
+                        bad.append(f"{mod.__name__}.{fn.name}: {ast.unparse(call)}")
+                    elif isinstance(arg, ast.Name) and (arg.id in prange_vars or (
+                            arg.id in assigned and arg.id in augmented)):
+                        bad.append(f"{mod.__name__}.{fn.name}: {ast.unparse(call)} ({arg.id})")
+    assert not bad, "\n".join(bad)
+
+
+def test_no_kernel_is_compiled_for_a_literal_or_uint64_argument():
+    """What the source check above keeps away, in the compiled kernels of this session (after
+    the session's warm-up of every kernel, serial and threaded): no signature with a
+    ``Literal`` or ``uint64`` argument (a kernel loaded whole from numba's cache registers
+    only its own signature, so on a warm cache this sees less than on a cold one)."""
+    bad = [f"{mod.__name__}.{attr}{sig}" for mod, attr, disp in _kernel_dispatchers()
+           for sig in disp.signatures if any("Literal" in str(t) or str(t) == "uint64"
+                                             for t in sig)]
+    assert not bad, "\n".join(bad)

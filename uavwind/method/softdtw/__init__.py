@@ -22,6 +22,13 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
 
 The replication notes ("The fast engine") say why the arithmetic is the same and where it
 could stop being so.
+
+*Compile time.* A kernel called from another with a constant (``0``, ``True``), a loop
+counter that starts at one, or a ``prange`` index (``uint64``) is compiled by numba once for
+that argument type as well as for the ``int64`` or ``bool`` a Python call gives: the same
+code compiled two or three times, on every cold cache. The calls between kernels therefore
+pass ``np.int64(...)`` and ``np.bool_(...)``, so each kernel compiles once (the same
+operations on the same doubles); ``tests/test_softdtw.py`` checks the kernels' signatures.
 """
 
 from __future__ import annotations

@@ -141,7 +141,7 @@ def _jacobian_product_sq_euc(Z, X, E, jlo, jhi, G):
 def _objgrad_one(Z, X, gamma, fx, yT, D, R, S, E, jlo, jhi, clo, chi, G):
     """tslearn.barycenters.softdtw._softdtw_func(Z, X, 1., gamma, 0, ...):
     returns R[-1, -1] and accumulates the gradient into the zeroed G."""
-    v = _sdtw_forward(Z, X, gamma, True, fx, yT, D, R, S)
+    v = _sdtw_forward(Z, X, gamma, np.bool_(True), fx, yT, D, R, S)
     _sdtw_backward(D, R, gamma, fx, E, jlo, jhi, clo, chi)
     _jacobian_product_sq_euc(Z, X, E, jlo, jhi, G)
     _clear_E(E, clo, chi)
@@ -192,7 +192,7 @@ def _objgrad_batch_serial(Z, Xs, gamma, fx):
     m, d = Z.shape
     vals = np.empty(n_ts)
     Gs = np.empty((n_ts, m, d))
-    _objgrad_range(Z, Xs, gamma, fx, 0, n_ts, 1, vals, Gs)
+    _objgrad_range(Z, Xs, gamma, fx, np.int64(0), n_ts, np.int64(1), vals, Gs)
     return _reduce_objgrad(vals, Gs)
 
 
@@ -200,7 +200,7 @@ def _objgrad_batch_serial(Z, Xs, gamma, fx):
 def _objgrad_par_inner(Z, Xs, gamma, fx, nw, vals, Gs):
     n_ts = Xs.shape[0]
     for w in prange(nw):
-        _objgrad_range(Z, Xs, gamma, fx, w, n_ts, nw, vals, Gs)
+        _objgrad_range(Z, Xs, gamma, fx, np.int64(w), n_ts, nw, vals, Gs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -223,7 +223,7 @@ def _sdtw_value(x, y, gamma, fx):
     D = np.empty((m, n))
     R = np.empty((m, n))
     S = np.empty((m, n))
-    return _sdtw_forward(x, y, gamma, False, fx, yT, D, R, S)
+    return _sdtw_forward(x, y, gamma, np.bool_(False), fx, yT, D, R, S)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -238,19 +238,20 @@ def _sdtw_cross_range(A, B, gamma, fx, p0, p1, step, out):
     for p in range(p0, p1, step):
         i = p // nb
         j = p - i * nb
-        out[i, j] = _sdtw_forward(A[i], B[j], gamma, False, fx, yT, D, R, S)
+        out[i, j] = _sdtw_forward(A[i], B[j], gamma, np.bool_(False), fx, yT, D, R, S)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _sdtw_cross_serial(A, B, gamma, fx, out):
-    _sdtw_cross_range(A, B, gamma, fx, 0, A.shape[0] * B.shape[0], 1, out)
+    _sdtw_cross_range(A, B, gamma, fx, np.int64(0), A.shape[0] * B.shape[0], np.int64(1),
+                      out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
 def _sdtw_cross_par_inner(A, B, gamma, fx, nw, out):
     npairs = A.shape[0] * B.shape[0]
     for w in prange(nw):
-        _sdtw_cross_range(A, B, gamma, fx, w, npairs, nw, out)
+        _sdtw_cross_range(A, B, gamma, fx, np.int64(w), npairs, nw, out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -276,8 +277,8 @@ def _sdtw_upper_range(X, gamma, fx, p0, p1, step, out):
     R = np.empty((n, n))
     S = np.empty((n, n))
     for p in range(p0, p1, step):
-        i, j = _unrank_upper(p, nts, 0)
-        v = _sdtw_forward(X[i], X[j], gamma, False, fx, yT, D, R, S)
+        i, j = _unrank_upper(p, nts, np.int64(0))
+        v = _sdtw_forward(X[i], X[j], gamma, np.bool_(False), fx, yT, D, R, S)
         out[i, j] = v
         out[j, i] = v
 
@@ -287,7 +288,7 @@ def _sdtw_upper_par_inner(X, gamma, fx, nw, out):
     nts = X.shape[0]
     npairs = nts * (nts + 1) // 2
     for w in prange(nw):
-        _sdtw_upper_range(X, gamma, fx, w, npairs, nw, out)
+        _sdtw_upper_range(X, gamma, fx, np.int64(w), npairs, nw, out)
 
 
 # --------------------------------- DTW -------------------------------------
@@ -303,7 +304,7 @@ def _dtw_forward(x, y, yT, D, A):
     4-row staggered schedule, same per-cell operations."""
     m = x.shape[0]
     n = y.shape[0]
-    _cost_matrix(x, y, False, yT, D)
+    _cost_matrix(x, y, np.bool_(False), yT, D)
     A[0, 0] = D[0, 0] + min(_INF, _INF, 0.0)
     for j in range(1, n):
         A[0, j] = D[0, j] + min(_INF, A[0, j - 1], _INF)
@@ -375,7 +376,7 @@ def _dtw_upper_range(X, p0, p1, step, out):
     D = np.empty((n, n))
     A = np.empty((n, n))
     for p in range(p0, p1, step):
-        i, j = _unrank_upper(p, nts, 1)
+        i, j = _unrank_upper(p, nts, np.int64(1))
         v = _dtw_forward(X[i], X[j], yT, D, A)
         out[i, j] = v
         out[j, i] = v
@@ -386,7 +387,7 @@ def _dtw_upper_par_inner(X, nw, out):
     nts = X.shape[0]
     npairs = nts * (nts - 1) // 2
     for w in prange(nw):
-        _dtw_upper_range(X, w, npairs, nw, out)
+        _dtw_upper_range(X, np.int64(w), npairs, nw, out)
 
 
 def _n_workers(parallel, n_tasks):

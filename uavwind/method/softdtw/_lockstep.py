@@ -102,7 +102,7 @@ def _cross_groups(A, B, gamma, g0, g1, step, out):
 def _sdtw_cross_lockstep(A, B, gamma, out):
     """out[i, j] = soft-DTW(A[i], B[j]) = the scalar ``_sdtw_cross_serial``, N pairs at once."""
     ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
-    _cross_groups(A, B, gamma, 0, ngroups, 1, out)
+    _cross_groups(A, B, gamma, np.int64(0), ngroups, np.int64(1), out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
@@ -110,7 +110,7 @@ def _sdtw_cross_lockstep_par(A, B, gamma, nw, out):
     """:func:`_sdtw_cross_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
     ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
     for w in prange(nw):
-        _cross_groups(A, B, gamma, w, ngroups, nw, out)
+        _cross_groups(A, B, gamma, np.int64(w), ngroups, nw, out)
 
 
 # ------------------------- value and gradient ------------------------------
@@ -277,7 +277,7 @@ def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf,
     ns = Xs.shape[0]
     one = Zs.shape[0] == 1
     if one:  # one centre: packed once
-        _pack_centres(Zs, cid, 0, zl)
+        _pack_centres(Zs, cid, np.int64(0), zl)
     for g in range(g0, g1, step):
         if not one:
             _pack_centres(Zs, cid, g, zl)
@@ -310,8 +310,8 @@ def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, rlo, rhi):
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_groups(Zs, cid, Xs, gamma, 0, (ns + N - 1) // N, 1, vals, Gs, zl[0], x[0], S[0],
-                    D[0], Rf[0], E[0], rlo[0], rhi[0])
+    _objgrad_groups(Zs, cid, Xs, gamma, np.int64(0), (ns + N - 1) // N, np.int64(1), vals, Gs,
+                    zl[0], x[0], S[0], D[0], Rf[0], E[0], rlo[0], rhi[0])
     return _reduce_many(vals, Gs, starts)
 
 
@@ -319,8 +319,8 @@ def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, rlo, rhi):
 def _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
     ngroups = (Xs.shape[0] + N - 1) // N
     for w in prange(nw):
-        _objgrad_groups(Zs, cid, Xs, gamma, w, ngroups, nw, vals, Gs, zl[w], x[w], S[w], D[w],
-                        Rf[w], E[w], rlo[w], rhi[w])
+        _objgrad_groups(Zs, cid, Xs, gamma, np.int64(w), ngroups, nw, vals, Gs, zl[w], x[w],
+                        S[w], D[w], Rf[w], E[w], rlo[w], rhi[w])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -415,7 +415,7 @@ def _dtw_upper_groups(X, g0, g1, step, out):
     C = np.empty((n + 1) * N)
     for g in range(g0, g1, step):
         for l in range(N):
-            i, j = _unrank_upper(min(g * N + l, npairs - 1), nts, 1)
+            i, j = _unrank_upper(min(g * N + l, npairs - 1), nts, np.int64(1))
             for s in range(n):
                 for k in range(d):
                     x[(s * d + k) * N + l] = X[i, s, k]
@@ -424,7 +424,7 @@ def _dtw_upper_groups(X, g0, g1, step, out):
         for l in range(N):
             p = g * N + l
             if p < npairs:
-                i, j = _unrank_upper(p, nts, 1)
+                i, j = _unrank_upper(p, nts, np.int64(1))
                 out[i, j] = lane(v, l)
                 out[j, i] = lane(v, l)
 
@@ -433,7 +433,7 @@ def _dtw_upper_groups(X, g0, g1, step, out):
 def _dtw_upper_lockstep(X, out):
     """The DTW matrix's upper triangle (and its mirror) = the scalar ``_dtw_upper_range``."""
     npairs = X.shape[0] * (X.shape[0] - 1) // 2
-    _dtw_upper_groups(X, 0, (npairs + N - 1) // N, 1, out)
+    _dtw_upper_groups(X, np.int64(0), (npairs + N - 1) // N, np.int64(1), out)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", parallel=True)
@@ -442,4 +442,4 @@ def _dtw_upper_lockstep_par(X, nw, out):
     npairs = X.shape[0] * (X.shape[0] - 1) // 2
     ngroups = (npairs + N - 1) // N
     for w in prange(nw):
-        _dtw_upper_groups(X, w, ngroups, nw, out)
+        _dtw_upper_groups(X, np.int64(w), ngroups, nw, out)

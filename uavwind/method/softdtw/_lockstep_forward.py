@@ -154,7 +154,7 @@ def _forward(x, y, m, n, d, gamma, S, D, Rf):
     for l in range(N):
         S[l] = 0.0 * inv if pow2 else 0.0 / ng
     last = splat(0.0)
-    i0 = 0
+    i0 = np.int64(0)
     while i0 < m:
         rb = min(R, m - i0)
         # the block's rows: of the whole matrices (keep), else the block buffer and no Rf

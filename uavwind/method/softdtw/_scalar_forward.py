@@ -210,7 +210,7 @@ def _sdtw_forward(x, y, gamma, sqrtsq, fx, yT, D, R, S):
         r = _cell(S[i - 1, 0], ninf, ninf, D[i, 0], gamma, fx)
         R[i, 0] = r
         S[i, 0] = _scale(r, neg_gamma, inv_neg_gamma, pow2)
-    i0 = 1
+    i0 = np.int64(1)
     while i0 + 4 <= m and n >= 5:
         # prologue (generic, through memory)
         for t in range(1, 4):
@@ -235,7 +235,7 @@ def _sdtw_forward(x, y, gamma, sqrtsq, fx, yT, D, R, S):
         S2 = S[i0 + 2]
         S3 = S[i0 + 3]
         mg = -gamma
-        t = 4
+        t = np.int64(4)
         while t < n:
             cs0 = S0[t - 1]
             cs1 = S1[t - 2]
