@@ -481,11 +481,10 @@ def test_calls_between_kernels_pass_no_literal_or_prange_index():
             prange_vars = {t.target.id for t in ast.walk(fn) if isinstance(t, ast.For)
                            and isinstance(t.iter, ast.Call) and getattr(t.iter.func, "id", "")
                            == "prange" and isinstance(t.target, ast.Name)}
-            assigned = {}  # name -> assigned a bare int constant somewhere in the function
-            for a in ast.walk(fn):
-                if isinstance(a, ast.Assign) and isinstance(a.value, ast.Constant) \
-                        and type(a.value.value) in (int, bool):
-                    assigned.update({t.id: True for t in a.targets if isinstance(t, ast.Name)})
+            assigned = {t.id for a in ast.walk(fn)  # names given a bare int somewhere
+                        if isinstance(a, ast.Assign) and isinstance(a.value, ast.Constant)
+                        and type(a.value.value) in (int, bool)
+                        for t in a.targets if isinstance(t, ast.Name)}
             augmented = {a.target.id for a in ast.walk(fn) if isinstance(a, ast.AugAssign)
                          and isinstance(a.target, ast.Name)}
             for call in (c for c in ast.walk(fn) if isinstance(c, ast.Call)):

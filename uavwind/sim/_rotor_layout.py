@@ -117,22 +117,30 @@ def _body_z(q) -> np.ndarray:
     return np.array([2 * (x * z + y * w), 2 * (y * z - x * w), 1 - 2 * (x * x + y * y)])
 
 
-def _recorded(P, states, held) -> dict:
+def _recorded(P, states, held, aero: bool = False) -> dict:
     """What a recorded flight stores, from the states ``states`` (n_env, n, width) after each
     sample and the motor speeds ``held`` (n_env, n, 4) held over its last control step:
     velocities, winds, attitudes, body rates and rotor speeds (each (n_env, n, k)), the
-    accelerometer's specific force ``"f"`` and the aerodynamic force ``"fa"``. One batch over
-    every sample after the flight, not one small one per sample: each row is computed alone
-    (the kernels and numpy's elementwise operations work row by row), so the doubles are
-    those of a sample-by-sample record."""
+    accelerometer's specific force ``"f"`` and, with ``aero`` (a reference flight), the
+    aerodynamic force ``"fa"``, both from one state derivative. One batch over every sample
+    after the flight, not one small one per sample: each row is computed alone (the kernels
+    and numpy's elementwise operations work row by row), so the doubles are those of a
+    sample-by-sample record."""
     n_env, n, width = states.shape
     S = states.reshape(n_env * n, width)
-    U = held.reshape(n_env * n, 4)
+    vdot = _vdot(P, S, held.reshape(n_env * n, 4))
     rec = {k: np.ascontiguousarray(states[:, :, cols]) for k, cols in
            (("v", S_VEL), ("wind", S_WIND), ("q", S_QUAT), ("w", S_RATES), ("rotors", S_ROTORS))}
-    rec["f"] = _specific_force(P, S, U).reshape(n_env, n, 3)
-    rec["fa"] = _aero_force(P, S, U).reshape(n_env, n, 3)
+    rec["f"] = _specific_force(P, S, vdot=vdot).reshape(n_env, n, 3)
+    if aero:
+        rec["fa"] = _aero_force(P, S, vdot=vdot).reshape(n_env, n, 3)
     return rec
+
+
+def _vdot(P, S, U):
+    """The acceleration dv/dt (n, 3) [m/s^2] at the states ``S`` under the held motor speeds
+    ``U``."""
+    return _kernels().state_derivative(P, S, U)[:, S_VEL]
 
 
 def _clipped_commands(P, S, T, C):
@@ -140,12 +148,12 @@ def _clipped_commands(P, S, T, C):
     return np.clip(motor_commands(P, S, T, C, 0), P[SPEED_MIN], P[SPEED_MAX])
 
 
-def _specific_force(P, S, U):
+def _specific_force(P, S, U=None, vdot=None):
     """What an accelerometer at the centre of mass reads, body frame [m/s^2]: ``R^T (dv/dt -
-    g)`` at the states ``S`` under the held motor speeds ``U`` (RotorPy's IMU, no noise)."""
-    state_derivative = _kernels().state_derivative
-
-    vdot = state_derivative(P, S, U)[:, S_VEL]
+    g)`` at the states ``S`` under the held motor speeds ``U`` (RotorPy's IMU, no noise), or
+    from their acceleration ``vdot`` (:func:`_vdot`) when it is at hand."""
+    if vdot is None:
+        vdot = _vdot(P, S, U)
     acc = vdot - np.array([0.0, 0.0, -GRAVITY])
     q = S[:, S_QUAT] / np.linalg.norm(S[:, S_QUAT], axis=1, keepdims=True)
     x, y, z, w = q.T
@@ -169,14 +177,14 @@ def _clipped_se3(P, S, C, mode=2):
     return np.clip(u, P[SPEED_MIN], P[SPEED_MAX])
 
 
-def _aero_force(P, S, U):
+def _aero_force(P, S, U=None, vdot=None):
     """World-frame aerodynamic force [N] on the vehicle at the states ``S``: ``m dv/dt`` less
     gravity and the rotors' nominal thrust ``R e_z sum k_eta omega^2`` (frame drag, rotor
     drag, induced inflow and translational lift: the simulated counterpart of Neural-Fly's
-    ``fa``). ``U`` (the held motor commands) does not change it (only the motors' rates)."""
-    state_derivative = _kernels().state_derivative
-
-    vdot = state_derivative(P, S, U)[:, S_VEL]
+    ``fa``), ``dv/dt`` given as ``vdot`` or computed under the held motor commands ``U``
+    (which do not change it: only the motors' rates)."""
+    if vdot is None:
+        vdot = _vdot(P, S, U)
     m = P[MASS]
     nominal = P[K_ETA] * np.sum(S[:, S_ROTORS] ** 2, axis=1)
     gravity = np.array([0.0, 0.0, m * P[G]])

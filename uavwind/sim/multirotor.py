@@ -534,8 +534,9 @@ class Multirotor:
             C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, N_FLAT)))
             S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
             last = (k + 1) % per == 0
+            j = (k + 1) // per - 1
             if record_all and last:  # the state the held command is computed from
-                before[:, (k + 1) // per - 1] = S
+                before[:, j] = S
             control_step(P, S, T, C, mode, self.substeps, h, clipped)
             finite = np.isfinite(S).all(axis=1)
             if not finite.all():
@@ -553,7 +554,6 @@ class Multirotor:
                     f"(a multirotor does not fly through the floor); check the winds and the "
                     f"reference's height", env=i, time=(k + 1) * h_ctrl)
             if last:
-                j = (k + 1) // per - 1
                 positions[:, j] = S[:, S_POS]
                 if record_all:
                     states[:, j] = S
@@ -564,7 +564,7 @@ class Multirotor:
         held_from = before.reshape(n_env * n, -1)
         u_held = _clipped_se3(P, held_from, np.ascontiguousarray(
             np.broadcast_to(F[last_steps], (n_env, n, N_FLAT)).reshape(-1, N_FLAT)), mode)
-        rec = _recorded(P, states, u_held.reshape(n_env, n, 4))
+        rec = _recorded(P, states, u_held.reshape(n_env, n, 4), aero=True)
         rec["thrust"] = commands[:, :, None] * _body_z_batch(
             held_from[:, S_QUAT]).reshape(n_env, n, 3)
         times = (np.arange(n) + 1) * dt
