@@ -187,6 +187,33 @@ def test_the_lean_ukf_gives_rotorpys_estimates_exactly(monkeypatch):
             assert np.array_equal(lean, theirs, equal_nan=True)
 
 
+def test_the_lean_ukf_stops_at_the_step_rotorpys_own_filter_stops(monkeypatch):
+    """Where the filter fails (a drag a thousand or a million times too large: its covariance
+    is no longer positive definite, or no longer finite), the lean steps raise at the same
+    step as filterpy's own, so the estimate ends at the same sample; and the filterpy object
+    under it is the lean one (a RotorPy or filterpy that built it otherwise would leave it
+    as it is, and this would fail)."""
+    from uavwind.analysis import filters
+    from uavwind.core.seeding import child_rng, child_seed, root_seed
+
+    s = uw.make_setting("light constant", "strong shear", 2, uav=Multirotor(start="hover"))
+    root = root_seed(7)
+    action = s.sample_thrust(child_rng(root, 0, 0))
+    f = uw.simulate_flight(action, s.wind(child_seed(root, 0, 1)), uav=s.uav,
+                           dt=filters.FILTER_DT, duration=s.duration)
+    ukf = filters._filter_class("ukf")(s.uav.quad_params(), dt=filters.FILTER_DT)
+    assert type(ukf.filter).__name__ == "LeanUnscentedKalmanFilter"
+    ended = []
+    for drag in (1e3, 1e6):
+        lean = filters.run_filter(f, action, s.uav, "ukf", [drag] * 3, env=0, seed=0)
+        with monkeypatch.context() as m:
+            m.setattr(filters, "_lean_filter", lambda ukf: ukf)
+            theirs = filters.run_filter(f, action, s.uav, "ukf", [drag] * 3, env=0, seed=0)
+        assert np.array_equal(lean, theirs, equal_nan=True)
+        ended.append(int(np.isfinite(lean[:, 0]).sum()))
+    assert 1 <= ended[1] < ended[0] < f.times.size  # both stop early, at different steps
+
+
 # --------------------------------------------------------------------------- #
 # the filters refuse what they cannot use (issue 33)
 # --------------------------------------------------------------------------- #

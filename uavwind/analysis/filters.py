@@ -24,6 +24,7 @@ averaging it in.
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 
@@ -113,8 +114,115 @@ def _lean_ukf(base):
                                       -self.c_Dy/self.mass*(xk[4]-xk[7])*va,
                                       uk[0]-self.c_Dz/self.mass*(xk[5]-xk[8])*va])
 
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            _lean_filter(self.filter)
+
     LeanWindUKF.__name__ = LeanWindUKF.__qualname__ = "LeanWindUKF"
     return LeanWindUKF
+
+
+def _lean_filter(ukf):
+    """Turn filterpy's ``UnscentedKalmanFilter`` ``ukf`` (as RotorPy's ``WindUKF`` builds it:
+    Merwe's scaled sigma points on scipy's Cholesky factor, ``np.subtract`` residuals,
+    ``np.add``, no mean functions) into :func:`_lean_ukf_class`'s: the same predict and
+    update, operation for operation, without filterpy's per-sigma-point Python loops."""
+    from filterpy.kalman import MerweScaledSigmaPoints
+    from scipy.linalg import cholesky
+
+    pts = ukf.points_fn
+    if not (type(pts) is MerweScaledSigmaPoints and pts.sqrt is cholesky
+            and pts.subtract is np.subtract and ukf.residual_x is np.subtract
+            and ukf.residual_z is np.subtract and ukf.state_add is np.add
+            and ukf.x_mean is None and ukf.z_mean is None):
+        return ukf  # not the filter whose steps the lean class repeats: left as it is
+    ukf.__class__ = _lean_ukf_class(type(ukf))
+    return ukf
+
+
+@functools.cache
+def _lean_ukf_class(base):
+    """filterpy's ``UnscentedKalmanFilter`` (``base``) whose ``predict``, ``update`` and
+    ``cross_variance`` compute what filterpy's do, the same numpy operations on the same
+    operands (so the same doubles: ``tests/test_future_work.py`` checks every estimate against
+    RotorPy's own filter with ==), on all sigma points at once where filterpy loops over them:
+
+    * the sigma points: ``x - (-U[k])`` and ``x - U[k]`` for every row ``k`` of the Cholesky
+      factor in one subtraction each, the factor from LAPACK's ``potrf`` as scipy's
+      ``cholesky`` calls it (its errors: a non-finite matrix is a ``ValueError``, one that is
+      not positive definite a ``LinAlgError``);
+    * the cross variance: each term ``Wc[i] * outer(dx_i, dz_i)`` at once, then added to the
+      zero matrix in filterpy's order.
+
+    Any other call (another fx/hx, R, UT, or keyword arguments) is filterpy's own."""
+    from filterpy.kalman import unscented_transform
+    from scipy.linalg import LinAlgError
+    from scipy.linalg.lapack import get_lapack_funcs
+
+    potrf, = get_lapack_funcs(("potrf",), (np.zeros((1, 1)),))
+
+    def sigma_points(pts, x, P):
+        n = pts.n
+        lambda_ = pts.alpha**2 * (n + pts.kappa) - n
+        a = np.asarray_chkfinite((lambda_ + n) * P)  # scipy's check_finite: a ValueError
+        U, info = potrf(a, lower=False, overwrite_a=False, clean=True)
+        if info > 0:
+            raise LinAlgError(f"{info}-th leading minor of the array is not positive definite")
+        if info < 0:
+            raise ValueError(f"LAPACK reported an illegal value in {-info}-th argument on "
+                             f"entry to \"POTRF\".")
+        sigmas = np.zeros((2 * n + 1, n))
+        sigmas[0] = x
+        sigmas[1:n + 1] = np.subtract(x, -U)
+        sigmas[n + 1:] = np.subtract(x, U)
+        return sigmas
+
+    class LeanUnscentedKalmanFilter(base):
+        def predict(self, dt=None, UT=None, fx=None, **fx_args):
+            if UT is not None or fx is not None or fx_args or np.size(self.x) != self.points_fn.n:
+                return super().predict(dt, UT, fx, **fx_args)
+            if dt is None:
+                dt = self._dt
+            sigmas = sigma_points(self.points_fn, self.x, np.atleast_2d(self.P))
+            for i, s in enumerate(sigmas):
+                self.sigmas_f[i] = self.fx(s, dt)
+            self.x, self.P = unscented_transform(self.sigmas_f, self.Wm, self.Wc, self.Q,
+                                                 None, np.subtract)
+            self.sigmas_f = sigma_points(self.points_fn, self.x, np.atleast_2d(self.P))
+            self.x_prior = np.copy(self.x)
+            self.P_prior = np.copy(self.P)
+
+        def update(self, z, R=None, UT=None, hx=None, **hx_args):
+            if z is None or R is not None or UT is not None or hx is not None or hx_args:
+                return super().update(z, R, UT, hx, **hx_args)
+            self.sigmas_h = np.atleast_2d([self.hx(s) for s in self.sigmas_f])
+            zp, self.S = unscented_transform(self.sigmas_h, self.Wm, self.Wc, self.R, None,
+                                             np.subtract)
+            self.SI = self.inv(self.S)
+            Pxz = self.cross_variance(self.x, zp, self.sigmas_f, self.sigmas_h)
+            self.K = np.dot(Pxz, self.SI)
+            self.y = np.subtract(z, zp)
+            self.x = np.add(self.x, np.dot(self.K, self.y))
+            self.P = self.P - np.dot(self.K, np.dot(self.S, self.K.T))
+            self.z = copy.deepcopy(z)
+            self.x_post = self.x.copy()
+            self.P_post = self.P.copy()
+            self._log_likelihood = None
+            self._likelihood = None
+            self._mahalanobis = None
+
+        def cross_variance(self, x, z, sigmas_f, sigmas_h):
+            dx = np.subtract(sigmas_f, x)
+            dz = np.subtract(sigmas_h, z)
+            terms = self.Wc[:, None, None] * (dx[:, :, None] * dz[:, None, :])
+            Pxz = np.zeros((sigmas_f.shape[1], sigmas_h.shape[1]))
+            for t in terms:
+                Pxz += t
+            return Pxz
+
+    LeanUnscentedKalmanFilter.__name__ = LeanUnscentedKalmanFilter.__qualname__ = \
+        "LeanUnscentedKalmanFilter"
+    return LeanUnscentedKalmanFilter
 
 
 def _rotation(q):
