@@ -89,7 +89,7 @@ def _lean_ukf(base):
     ``h`` evaluated on Python floats: the same expressions, operation for operation, so the
     same doubles (``tests/test_future_work.py`` checks every estimate with ``==``), without
     building numpy arrays and identity matrices for each of the 19 sigma points of every
-    step."""
+    step; and the filterpy filter under it made lean in the same way (:func:`_lean_filter`)."""
 
     def airspeed(xk):  # RotorPy's va: the norm of the air-relative velocity
         return math.sqrt((xk[3]-xk[6])**2 + (xk[4]-xk[7])**2 + (xk[5]-xk[8])**2)
