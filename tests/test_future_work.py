@@ -160,6 +160,30 @@ def test_the_filters_find_a_known_wind_on_a_hover_probe(tmp_path):
         filter_comparison(uw.make_setting("light constant", "strong constant", 2))
 
 
+def test_the_lean_ukfs_models_fall_back_to_rotorpys_where_a_float_would_raise():
+    """A state whose air-relative speed squares past the largest double (a filter running
+    away): Python's float ** raises OverflowError where RotorPy's numpy gives inf, so the lean
+    f and h hand that call to RotorPy's own and give its inf and nan (before, the
+    OverflowError went through run_filter, which reads only LinAlgError and ValueError as a
+    diverged filter, and ended the whole table); on ordinary states they are RotorPy's too."""
+    import warnings
+
+    from rotorpy.estimators.wind_ukf import WindUKF
+
+    from uavwind.analysis import filters
+
+    qp = Multirotor().quad_params()
+    ukf, ukf0 = filters._filter_class("ukf")(qp, dt=0.01), WindUKF(qp, dt=0.01)
+    ukf.uk = ukf0.uk = np.array([9.81, 0.1, -0.2, 0.3])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        for x in (np.r_[0, 0, 0, 1e200, 0, 0, 0, 0, 0.0], np.r_[0.1, 0.2, 0.3, 1, 2, 3, 1, 2, 3.0],
+                  np.r_[0.1, 0.2, 0.3, 1, 2, 3, 0.5, 1.5, -2.0]):
+            assert np.array_equal(ukf.f(x, 0.01), ukf0.f(x, 0.01), equal_nan=True)
+            assert np.array_equal(ukf.h(x), ukf0.h(x), equal_nan=True)
+        assert not np.isfinite(ukf.f(np.r_[0, 0, 0, 1e200, 0, 0, 0, 0, 0.0], 0.01)).all()
+
+
 @pytest.mark.filterwarnings("ignore:Gimbal lock detected")
 def test_the_lean_ukf_gives_rotorpys_estimates_exactly(monkeypatch):
     """The filter table's UKF (RotorPy's WindUKF with f and h on Python floats) against
