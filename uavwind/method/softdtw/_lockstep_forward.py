@@ -128,6 +128,14 @@ def _mstep_call(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
     return _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep)
 
 
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False, inline="always")
+def _cost_column(x, y, i0, nb, j, n, d, D):
+    """The costs of column j of rows i0 .. i0 + nb - 1 into D's rows 0 .. nb - 1, as
+    :func:`_cost_rows` (with ``sqrtsq``) stores them: the same operations in the same order."""
+    for r in range(nb):
+        vstore(D, (r * n + j) * N, _cost_at(x, y, i0 + r, j, d, True))
+
+
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 def _forward(x, y, m, n, d, gamma, S, D, Rf):
     """The soft-DTW recursion of the N lane-interleaved pairs (x: m steps, y: n steps, d
@@ -155,13 +163,21 @@ def _forward(x, y, m, n, d, gamma, S, D, Rf):
         S[l] = 0.0 * inv if pow2 else 0.0 / ng
     last = splat(0.0)
     i0 = np.int64(0)
+    ahead = False  # this block's costs were computed during the last block's steps
     while i0 < m:
         rb = min(R, m - i0)
         # the block's rows: of the whole matrices (keep), else the block buffer and no Rf
         roff = i0 * n * N if keep else 0
         Db = D[roff:]
         Rb = Rf[roff:]
-        _cost_rows(x, y, i0, rb, n, d, keep, Db)
+        if not ahead:
+            _cost_rows(x, y, i0, rb, n, d, keep, Db)
+        # keep: the next block's costs (a square root each) column by column, one column a
+        # step of this block's wavefront, whose dependent chain leaves the square-root unit
+        # idle (computed before the block, as for the first, they cost a third of the pass)
+        nb = min(R, m - i0 - rb) if keep else 0
+        ahead = nb > 0 and not (rb < R or n <= R)
+        Dn = D[roff + rb * n * N:]
         for r in range(rb):
             for l in range(N):
                 S[(r + 1) * W + l] = -np.inf
@@ -173,6 +189,8 @@ def _forward(x, y, m, n, d, gamma, S, D, Rf):
                         last = _mstep_call(S, Db, Rb, W, n, r, j, ng, inv, pow2, keep)
         else:
             for t in range(R - 1):  # prologue triangle
+                if ahead:
+                    _cost_column(x, y, i0 + rb, nb, t, n, d, Dn)
                 for r in range(t + 1):
                     _mstep_call(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
             t = R - 1
@@ -185,6 +203,8 @@ def _forward(x, y, m, n, d, gamma, S, D, Rf):
                 ps2 = vload(S, 3 * W + (t - 3) * N)
                 cs3 = vload(S, 4 * W + (t - 3) * N)
                 while t < n:  # steady state: 4 cells per step, all cheap on every lane
+                    if ahead:
+                        _cost_column(x, y, i0 + rb, nb, t, n, d, Dn)
                     a0 = vload(S, (t + 1) * N)
                     c0 = vload(S, t * N)
                     m0 = vmax(a0, cs0)
