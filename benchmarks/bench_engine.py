@@ -341,6 +341,22 @@ def _heldout_loop(i):
     return loop_inputs(2 * (5, 10)[i % 2], 20_000 + i, scenario=i % 7 + 1)
 
 
+#: How the held-out check's AVX2 child compiles: Haswell's name and the host's features with
+#: every AVX-512 (and AMX, AVX10) feature off.
+AVX2_CODE = "NUMBA_CPU_NAME=haswell, NUMBA_CPU_FEATURES without AVX-512"
+
+
+def avx2_features():
+    """The host's LLVM feature string with every AVX-512, AMX and AVX10 feature off: the code
+    an AVX2 host of this machine kind would run (``NUMBA_CPU_NAME`` alone keeps them on)."""
+    from llvmlite import binding
+    feats = binding.get_host_cpu_features()
+    for name in list(feats):
+        if name.startswith(("avx512", "amx", "avx10", "evex512")):
+            feats[name] = False
+    return feats.flatten()
+
+
 def heldout_times(engines=("fast", "tslearn"), n_loops=12, side_by_side=False):
     """``{engine: (wall seconds, CPU seconds, [(labels, score)])}`` over the held-out loops,
     the engines taking turns on each loop (so a burst of load falls on both). With
@@ -373,8 +389,10 @@ def bench_heldout(report, n_loops=12, rounds=3):
     side by side, ``rounds`` times (this host's speed drifts: the
     same 12 loops took tslearn 26-45 s in one day, so one round's ratio is not the host's);
     the figures are the rounds' medians, with the range. Then the fast engine alone with AVX2
-    code (``NUMBA_CPU_NAME=haswell``, a cache of its own) in a child process, the narrower
-    vectors another host of this kind may give, set against the median tslearn time."""
+    code (:data:`AVX2_CODE`, a cache of its own) in a child process, the narrower vectors
+    another host of this kind may give, set against the median tslearn time: 4 lanes, as an
+    AVX2 host runs them (``NUMBA_CPU_NAME=haswell`` alone kept the host's AVX-512 features,
+    so that child ran 512-bit code)."""
     import subprocess
     import tempfile
 
@@ -406,8 +424,9 @@ def bench_heldout(report, n_loops=12, rounds=3):
     print(f"  median {med['speedup']:.1f}x (rounds {min(ratios):.1f}x-{max(ratios):.1f}x); "
           f"side by side {med['side_by_side_speedup']:.1f}x ({min(sbs):.1f}x-{max(sbs):.1f}x)")
     code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
+            "from uavwind.method.softdtw._simd import N; "
             f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
-            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2]]))")
+            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2], N]))")
 
     def alone(**env):
         """The fast engine alone on the loops, in a child process (no tslearn between its
@@ -417,11 +436,12 @@ def bench_heldout(report, n_loops=12, rounds=3):
         return json.loads(res.stdout.strip().splitlines()[-1])
     native = alone()  # the native code, as the AVX2 code below is run: like for like
     with tempfile.TemporaryDirectory() as cache:
-        avx2 = alone(NUMBA_CPU_NAME="haswell", NUMBA_CACHE_DIR=cache)
+        avx2 = alone(NUMBA_CPU_NAME="haswell", NUMBA_CPU_FEATURES=avx2_features(),
+                     NUMBA_CACHE_DIR=cache)
     avx2_same, native_same = (sum(a == [b[0], b[1]] for a, b in zip(r[2], t["tslearn"][2]))
                               for r in (avx2, native))
     print(f"  alone in a child process (no tslearn between the loops): native code "
-          f"{native[0]:.2f} s, AVX2 code (NUMBA_CPU_NAME=haswell) {avx2[0]:.2f} s, "
+          f"{native[0]:.2f} s, AVX2 code ({AVX2_CODE}, {avx2[3]} lanes) {avx2[0]:.2f} s, "
           f"{med['tslearn_seconds'] / avx2[0]:.1f}x the median tslearn; identical on "
           f"{avx2_same}/{n_loops}")
     report["heldout"] = {
@@ -430,7 +450,7 @@ def bench_heldout(report, n_loops=12, rounds=3):
         "rounds": runs,
         "native_alone": {"fast_seconds": native[0], "identical": native_same},
         "avx2": {"fast_seconds": avx2[0], "speedup": med["tslearn_seconds"] / avx2[0],
-                 "identical": avx2_same},
+                 "identical": avx2_same, "lanes": avx2[3], "code": AVX2_CODE},
         "command": "ONLY=heldout make bench", "commit": source_commit(mark_changes=True)}
 
 

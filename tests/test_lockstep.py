@@ -350,3 +350,36 @@ def test_the_barycentre_workspace_is_per_thread_and_never_reused_dirty(monkeypat
         _one_centre(Z, X, 0.5)
     monkeypatch.setattr(_lockstep, "_objgrad_serial", real)
     assert check(0)
+
+
+def test_the_lanes_follow_the_features_numba_compiles_for(tmp_path):
+    """N is 8 where the compiled code may use AVX-512F and 4 otherwise, read from
+    NUMBA_CPU_FEATURES where it is set (numba's cache keys on those features, so a kernel of
+    one lane count is never loaded under the other): a child process compiled for Haswell
+    with AVX-512 off runs 4 lanes and gives the same soft-DTW values as this process."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    from uavwind.method.softdtw._simd import lanes_for
+    assert lanes_for("+avx2,+fma,+avx512f,+avx512bw") == 8
+    assert lanes_for("+avx2,+avx512f,-avx512f") == 4  # the last mention decides
+    assert lanes_for("+avx2,+fma,-avx512f") == 4 and lanes_for("") == 4
+    assert lanes_for("+avx2, +avx512f") == 8
+    code = ("import json, numpy as np; from uavwind.method.softdtw._simd import N; "
+            "from uavwind.method.softdtw._lockstep import _sdtw_cross_lockstep; "
+            "A = np.random.default_rng(3).normal(size=(5, 30, 3)).cumsum(1); "
+            "o = np.empty((5, 5)); _sdtw_cross_lockstep(A, A, 0.5, o); "
+            "print(json.dumps([N, o.tolist()]))")
+    env = {**os.environ, "NUMBA_CPU_NAME": "haswell",
+           "NUMBA_CPU_FEATURES": "+avx,+avx2,+fma,+sse4.2,-avx512f",
+           "NUMBA_CACHE_DIR": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                         text=True, timeout=600, check=True)
+    lanes, values = json.loads(out.stdout.strip().splitlines()[-1])
+    assert lanes == 4
+    A = np.random.default_rng(3).normal(size=(5, 30, 3)).cumsum(1)
+    here = np.empty((5, 5))
+    _sdtw_cross_lockstep(A, A, 0.5, here)
+    assert np.array(values).tolist() == here.tolist()

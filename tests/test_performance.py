@@ -206,6 +206,11 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     assert [i.split(", ", 1)[1] for i in t.index] == [
         "native code", "native code, alone", "AVX2 code (NUMBA_CPU_NAME=haswell), alone",
         "native code, the loops side by side (score_loops)"]
+    # a record from 2026-12-02 on names the AVX2 child's code and its own lanes
+    rep["heldout"]["avx2"].update(lanes=4, code="NUMBA_CPU_NAME=haswell, no AVX-512")
+    t = report_tables(rep)["heldout"]
+    assert t.index[2] == "4 lanes, AVX2 code (NUMBA_CPU_NAME=haswell, no AVX-512), alone"
+    assert t.index[0].startswith("8 lanes, native code")
 
 
 def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():

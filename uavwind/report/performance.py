@@ -107,7 +107,10 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
         if alone:  # both alone in a child process: like for like
             rows.append((f"{lanes} lanes, native code, alone", alone["fast_seconds"],
                          h["tslearn_seconds"] / alone["fast_seconds"], alone["identical"]))
-        rows.append((f"{lanes} lanes, AVX2 code (NUMBA_CPU_NAME=haswell)"
+        # records before 2026-12-02 compiled it with NUMBA_CPU_NAME=haswell alone, which kept
+        # the host's AVX-512 features and its lanes: what they ran, named as they ran it
+        rows.append((f"{avx2.get('lanes', lanes)} lanes, AVX2 code "
+                     f"({avx2.get('code', 'NUMBA_CPU_NAME=haswell')})"
                      + (", alone" if alone else ""),
                      avx2["fast_seconds"], avx2["speedup"], avx2["identical"]))
         if "side_by_side_seconds" in h:

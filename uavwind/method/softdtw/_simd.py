@@ -4,7 +4,8 @@
 numba types; the functions below are numba intrinsics that emit LLVM vector IR through
 llvmlite, so a lane's arithmetic is vector code whatever LLVM's auto-vectoriser decides
 (numba's auto-vectoriser left the same loops scalar). ``N`` is fixed per process from the
-host CPU: 8 lanes with AVX-512, 4 otherwise (LLVM splits or widens as the target needs).
+features numba compiles for (the host's, or ``NUMBA_CPU_FEATURES``): 8 lanes with AVX-512F,
+4 otherwise (LLVM splits or widens as the target needs).
 
 Every operation is IEEE-exact: no fast-math flags, so LLVM may not contract or reassociate.
 :func:`vmax` and :func:`vmin` reproduce numba's builtin ``max``/``min`` (``max(a, b) = b if
@@ -17,16 +18,34 @@ from numba.core import cgutils
 from numba.core.extending import intrinsic, models, register_model
 
 
-def _host_lanes():
-    """float64 lanes of the host's widest vector unit: 8 with AVX-512F, else 4."""
+def lanes_for(features):
+    """float64 lanes per vector for code compiled with the LLVM feature string ``features``
+    (``"+avx2,-avx512f,..."``, the last mention of a feature decides): 8 with AVX-512F, else 4."""
+    on = False
+    for f in features.split(","):
+        f = f.strip()
+        if f in ("+avx512f", "-avx512f"):
+            on = f[0] == "+"
+    return 8 if on else 4
+
+
+def _target_lanes():
+    """float64 lanes of the vector unit numba compiles for: the host's, unless
+    ``NUMBA_CPU_FEATURES`` names other features (``NUMBA_CPU_NAME`` alone keeps the host's
+    features, AVX-512 included, where the host has it). Numba's on-disk cache keys its
+    entries on the CPU name and these features, so a kernel compiled for one lane count is
+    never loaded under the other."""
+    from numba.core import config
     try:
+        if config.CPU_FEATURES is not None:
+            return lanes_for(config.CPU_FEATURES)
         return 8 if _llvm.get_host_cpu_features().get("avx512f", False) else 4
     except Exception:  # pragma: no cover - a platform llvmlite cannot query
         return 4
 
 
 #: Lanes per vector: (series, centre) pairs computed in lockstep.
-N = _host_lanes()
+N = _target_lanes()
 
 
 class VecF(types.Type):
