@@ -240,6 +240,11 @@ def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():
     two["heldout_hosts"]["Xeon"] = rec("2026-11-28 10:00 UTC", "Xeon", 8, 4.0, 64.0)
     assert "moves with the fast engine's own time more than tslearn's" in summary_lines(
         two)["heldout_hosts"]
+    # records of one commit say nothing of the code; of several, they name them
+    assert "different commits" not in summary_lines(two)["heldout_hosts"]
+    two["heldout_hosts"]["Xeon"]["commit"] = "def5678"
+    assert ("of different commits (def5678, abc1234), so the fast engine's time also moves "
+            "with its code") in summary_lines(two)["heldout_hosts"]
 
 
 def test_a_section_measured_on_another_host_keeps_the_first_hosts_record(monkeypatch):

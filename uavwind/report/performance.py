@@ -278,10 +278,15 @@ def _hosts_line(hosts: Mapping[str, Any]) -> str:
     f_ratio, t_ratio = max(fast) / min(fast), max(slow) / min(slow)
     whose = ("tslearn's own time, not the fast engine's" if t_ratio > f_ratio
              else "the fast engine's own time more than tslearn's")
+    commits = list(dict.fromkeys(h.get("commit", "?") for _, h in rows))
+    code = ("" if len(commits) < 2 else
+            f" and of different commits ({', '.join(commits)}), so the fast engine's time also "
+            "moves with its code")
     return (f"*The same twelve loops on each host the check has run on:* {each}. Between the "
             f"hosts the fast engine's time differs by {f_ratio:.2f} times and tslearn's by "
             f"{t_ratio:.2f} times: the speed-up moves with {whose}. The records are of "
-            "different days, and a host's speed drifts within a day (the rounds' ranges).")
+            f"different days{code}, and a host's speed drifts within a day (the rounds' "
+            "ranges).")
 
 
 def _span(rows, key, fmt):
