@@ -57,11 +57,15 @@ def _modules(package):
 
 
 def _copy_numba_cache(src, dst):
+    from uavwind.method.softdtw._cache import STAMP
     for f in src.rglob("__pycache__/*.nb[ic]"):
         rel = f.relative_to(src)
         if (dst / rel.parent.parent / f.name.split(".")[0]).with_suffix(".py").exists():
             (dst / rel.parent).mkdir(exist_ok=True)
             shutil.copy2(f, dst / rel)
+    for f in src.rglob(f"__pycache__/{STAMP}"):  # the engine's sources' stamp goes along
+        (dst / f.relative_to(src).parent).mkdir(exist_ok=True)
+        shutil.copy2(f, dst / f.relative_to(src))
 
 
 def _pins():

@@ -508,3 +508,42 @@ def test_no_kernel_is_compiled_for_a_literal_or_uint64_argument():
            for sig in disp.signatures if any("Literal" in str(t) or str(t) == "uint64"
                                              for t in sig)]
     assert not bad, "\n".join(bad)
+
+
+def test_cached_kernels_of_other_sources_are_cleared_before_any_loads(tmp_path):
+    """numba's cache sees only a kernel's own file: the engine's stamp (the SHA-256 of its
+    sources) beside the cache decides. A folder whose stamp is another digest, or has none,
+    loses every entry of the engine's modules (another package's stay) and gets the stamp;
+    one whose stamp matches keeps them; the digest changes with any source's bytes."""
+    from pathlib import Path
+
+    from uavwind.method.softdtw import _cache, _lockstep
+
+    package = Path(_cache.__file__).parent
+    mine = [tmp_path / "_lockstep._objgrad_serial-307.py311.nbi",
+            tmp_path / "_lockstep_forward._forward-131.py311.1.nbc",
+            tmp_path / "_vlibm.vexp-27.py311.nbi"]
+    theirs = tmp_path / "_rotor_kernels.step-40.py311.nbi"
+    for f in mine + [theirs]:
+        f.write_bytes(b"x")
+    (tmp_path / _cache.STAMP).write_text("0" * 64 + "\n")
+    gone = _cache.clear_stale(tmp_path, package)
+    assert sorted(gone) == sorted(mine) and not any(f.exists() for f in mine)
+    assert theirs.exists()
+    digest = _cache.sources_digest(package)
+    assert (tmp_path / _cache.STAMP).read_text().strip() == digest
+    mine[0].write_bytes(b"x")  # compiled from the present sources: kept
+    assert _cache.clear_stale(tmp_path, package) == [] and mine[0].exists()
+    (tmp_path / _cache.STAMP).unlink()  # no stamp (a cache from before stamps): cleared
+    assert _cache.clear_stale(tmp_path, package) == [mine[0]]
+    copy = tmp_path / "pkg"
+    copy.mkdir()
+    for f in package.glob("*.py"):
+        (copy / f.name).write_bytes(f.read_bytes())
+    assert _cache.sources_digest(copy) == digest
+    (copy / "_lockstep_forward.py").write_bytes(
+        (copy / "_lockstep_forward.py").read_bytes() + b"\n# changed\n")
+    assert _cache.sources_digest(copy) != digest
+    # the engine's own cache folder carries the present stamp once the package is imported
+    folder = Path(_lockstep._objgrad_serial._cache._cache_path)
+    assert (folder / _cache.STAMP).read_text().strip() == digest

@@ -18,7 +18,9 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
 * :mod:`._lbfgsb` -- the L-BFGS-B driver of the barycentres, with a scipy-version guard;
 * :mod:`.kmeans` -- :class:`SoftDTWKMeans` and its loop, and :func:`fit_many`, several fits
   side by side;
-* :mod:`.silhouette` -- :func:`silhouette_score`.
+* :mod:`.silhouette` -- :func:`silhouette_score`;
+* :mod:`._cache` -- the stamp of these sources beside numba's cache, which clears the
+  entries compiled from other sources (numba's cache sees only a kernel's own file).
 
 The replication notes ("The fast engine") say why the arithmetic is the same and where it
 could stop being so.
@@ -38,9 +40,13 @@ import contextlib
 import numpy as np
 from numpy.typing import ArrayLike
 
+from . import _cache, _lockstep
 from .kmeans import EmptyClusterError, KMeansResult, SoftDTWKMeans, fit, fit_many
 from .metrics import dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad
 from .silhouette import silhouette
+
+# before any kernel loads: entries numba cached from other sources of this subpackage go
+_cache.check(_lockstep._objgrad_serial)
 
 __all__ = ["SoftDTWKMeans", "fit_many", "silhouette_score", "EmptyClusterError", "soft_dtw",
            "soft_dtw_cross", "soft_dtw_grad", "soft_dtw_objgrad", "dtw", "dtw_pdist",
