@@ -3,7 +3,8 @@
 This module owns what the lockstep kernels of :mod:`._lockstep` (values, value + gradient)
 start from, as :mod:`._scalar_forward` is the scalar kernels' start: one cell on every lane
 (``_cellv``: tslearn's softmin3 on the lanes that need the sum, exactly ``0.0 + mx`` on the
-others), the squared-Euclidean cost of lane-interleaved series by rows and by cell, the exact
+others), the squared-Euclidean cost of lane-interleaved series by rows, by cell and by column
+(the gradient's next block of costs, computed inside this block's wavefront), the exact
 cell through memory (``_mstep``) and the forward pass (``_forward``): blocks of :data:`R`
 rows walking a staggered wavefront in registers. :mod:`._lockstep`'s text gives the
 arithmetic, the skip rule as a lane mask, the schedule and the layout.
