@@ -137,6 +137,7 @@ def bench_paper_profile(report, engine):
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
                                        page_cell_seconds=pages,
                                        measured_commit=source_commit(mark_changes=True),
+                                       host=host_cpu(),
                                        measured_how="make bench FULL=1: the venv and numba "
                                        "cache as they were, memory summed over the process "
                                        "tree every 0.5 s",

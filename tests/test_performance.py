@@ -39,6 +39,9 @@ def test_paper_and_compile_tables_show_the_new_figures():
     assert t["paper"].loc["of which filling the result cache (min)", "value"] == "19.0"
     assert t["fill"].loc[("exp1", "inferred"), "CPU (min)"] == 1.0
     assert t["fill"].loc[("exp6", "halves"), "CPU per row (ms)"] == 200.0
+    assert "measured on" not in t["paper"].index  # a record from before hosts were kept
+    report["paper_profile"]["host"] = {"model": "Some Xeon", "llvm_cpu": "cpu", "lanes": 8}
+    assert report_tables(report)["paper"].loc["measured on", "value"] == "Some Xeon (cpu, 8 lanes)"
     line = summary_lines({**report, "cores": 2, "machine": "x86_64", "python": "3.11",
                           "numpy": "2"})["fill"]
     assert "19.0 of the build's 20.0 min" in line and "300 result rows (loops, CEM samples" in line

@@ -211,6 +211,10 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                 f"{p['measured_seconds'] / 60:.1f}"
             if "measured_commit" in p:
                 rows["measured at commit"] = p["measured_commit"]
+            if "host" in p:  # the machine kind comes as an AMD EPYC or an Intel Xeon
+                rows["measured on"] = (f"{p['host'].get('model', '?')} "
+                                       f"({p['host'].get('llvm_cpu', '?')}, "
+                                       f"{p['host'].get('lanes', '?')} lanes)")
             if "fill_seconds" in p:
                 rows["of which filling the result cache (min)"] = f"{p['fill_seconds'] / 60:.1f}"
             if "cpu_percent" in p:
