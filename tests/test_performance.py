@@ -314,6 +314,8 @@ def test_the_builds_sentence_gives_every_run_against_its_target():
     assert "`make test` 600 s and 650 s (target 7 min: missed by 230 s (1.5x))" in line
     assert "`make book PROFILE=quick` 170 s and 175 s (target 3 min: met), **1 run(s) failed**" \
         in line
+    b["quick book"]["runs"][1] = run(187.0)  # a miss under a tenth: two decimals, not 1.0x
+    assert "(target 3 min: missed by 7 s (1.04x))" in summary_lines({"builds": b})["builds"]
     # each host's record, dated, oldest first
     epyc = {**b, "host": {"model": "EPYC", "lanes": 4}, "measured": "2026-12-01 22:00 UTC"}
     hosts = {"EPYC": epyc, "Xeon": {**b, "measured": "2026-11-28 15:50 UTC"}}
