@@ -86,6 +86,28 @@ def test_barycentre_objective_equals_tslearn():
     assert np.allclose(np.ravel(G), ref_G, rtol=1e-12, atol=1e-9)
 
 
+@pytest.mark.parametrize("lockstep", [True, False])
+def test_a_barycentre_batch_is_each_clusters_objective_whichever_clusters_it_is_asked(
+        lockstep):
+    """ObjgradBatch (one k-means round's clusters, packed once) gives, for every set of
+    clusters asked and in the order asked, each cluster's objective and gradient alone
+    (``_objgrad``) with ==; its packing is made once for each set of clusters (asked
+    again, the same arrays), on the lockstep and the scalar kernels."""
+    from uavwind.method.softdtw._dispatch import ObjgradBatch, _objgrad
+
+    rng = np.random.default_rng(11)
+    Xss = [rng.normal(size=(n, 14, 3)).cumsum(1) for n in (3, 6, 1)]
+    Zs = [rng.normal(size=(14, 3)).cumsum(0) for _ in Xss]
+    batch = ObjgradBatch(Xss, 0.5, False, True, lockstep)
+    for ks in ([0, 1, 2], [2, 0], [1], [0, 1, 2], [2, 0]):
+        got = batch([Zs[k] for k in ks], ks)
+        for k, (obj, G) in zip(ks, got):
+            ref_obj, ref_G = _objgrad(Zs[k], Xss[k], 0.5, False, True, lockstep)
+            assert obj == ref_obj and np.array_equal(G, ref_G)
+    if lockstep:
+        assert sorted(batch._packed) == [(0, 1, 2), (1,), (2, 0)]
+
+
 def test_dtw_equals_tslearn():
     for x, y in _pairs(7):
         assert fk.dtw(x, y) == pytest.approx(ts_dtw(x, y), rel=1e-12)
@@ -128,8 +150,9 @@ def test_fits_side_by_side_are_each_fit_and_tslearn_to_the_double(monkeypatch):
     Xs = [_loop(s, seed=20 + s, n_per_group=n)[0] for s, n in ((1, 3), (4, 5), (7, 3))]
     Xs.append(Xs[1][:, :40])
     calls = []
-    objgrad = kmeans._objgrad_many
-    monkeypatch.setattr(kmeans, "_objgrad_many", lambda *a: calls.append(1) or objgrad(*a))
+    objgrad = kmeans.ObjgradBatch.__call__
+    monkeypatch.setattr(kmeans.ObjgradBatch, "__call__",
+                        lambda *a: calls.append(1) or objgrad(*a))
     for par in (False, True):
         for n_init in (1, 2):
             calls.clear()

@@ -2,6 +2,8 @@
 (the scalar kernels) or N pairs per SIMD vector (the lockstep kernel). Every choice does the
 same arithmetic and gives the same doubles (see the replication notes)."""
 
+import itertools
+
 import numpy as np
 
 from . import _consts
@@ -59,26 +61,64 @@ def _objgrad(Z, Xs, gamma, par, fx, lockstep=None):
 
 
 def _objgrad_many(Zs, Xss, gamma, par, fx, lockstep=None):
-    """``[(objective, gradient) of Zs[j] over Xss[j]]``: the lockstep kernel evaluates
-    every centre's series in one call, N per vector whichever centre they belong to (two
-    clusters of 10 series fill 3 vectors of 8 lanes instead of 4); the scalar kernels one
-    centre at a time. Each pair is the same doubles either way."""
-    if _use_lockstep(fx, lockstep) and jacobian_contracts():
-        sizes = np.array([X.shape[0] for X in Xss], dtype=np.int64)
-        starts = np.zeros(len(Xss) + 1, dtype=np.int64)
-        np.cumsum(sizes, out=starts[1:])
-        Xs = Xss[0] if len(Xss) == 1 else np.ascontiguousarray(np.concatenate(Xss))
-        Zs = np.ascontiguousarray(np.stack(Zs))
-        cid = np.repeat(np.arange(len(Xss), dtype=np.int64), sizes)
-        objs, G = _objgrad_lockstep(Zs, cid, starts, Xs, gamma,
-                                    _n_workers(par, (Xs.shape[0] + N - 1) // N))
-        return [(objs[j], G[j]) for j in range(len(Xss))]
-    out = []
-    for Z, Xs in zip(Zs, Xss):
-        nw = _n_workers(par, Xs.shape[0])
-        out.append(_objgrad_batch_par(Z, Xs, gamma, fx, nw) if nw > 1
-                   else _objgrad_batch_serial(Z, Xs, gamma, fx))
-    return out
+    """``[(objective, gradient) of Zs[j] over Xss[j]]``: :class:`ObjgradBatch` of ``Xss``
+    evaluated once, at every centre."""
+    return ObjgradBatch(Xss, gamma, par, fx, lockstep)(Zs, range(len(Xss)))
+
+
+class ObjgradBatch:
+    """The barycentre objectives and gradients of one k-means round's clusters, evaluated
+    at centres again and again (one L-BFGS-B step of each cluster a call): the clusters'
+    series ``Xss`` stay the same for the batch's life, so the lockstep kernel's stacked
+    series, centre ids and offsets are made once for each set of clusters asked
+    (on the k-means loop's inputs, 24 us of each call's Python at 1,049 calls).
+
+    ``batch(Zs, ks)``: ``[(objective, gradient) of Zs[i] over Xss[ks[i]]]``. The lockstep
+    kernel evaluates every asked cluster's series in one call, N per vector whichever
+    centre they belong to (two clusters of 10 series fill 3 vectors of 8 lanes instead of
+    4); the scalar kernels one centre at a time. Each pair is the same doubles either
+    way. The arrays of ``Xss`` must not change while the batch is used."""
+
+    __slots__ = ("_Xss", "_gamma", "_par", "_fx", "_lockstep", "_packed")
+
+    def __init__(self, Xss, gamma, par, fx, lockstep=None):
+        self._Xss = list(Xss)
+        self._gamma = gamma
+        self._par = par
+        self._fx = fx
+        self._lockstep = _use_lockstep(fx, lockstep) and jacobian_contracts()
+        self._packed = {}
+
+    def _pack(self, ks):
+        """(stacked series, centre id of each, offsets of each centre's series) of the
+        clusters ``ks``, made the first time they are asked together."""
+        got = self._packed.get(ks)
+        if got is None:
+            Xss = [self._Xss[k] for k in ks]
+            sizes = [X.shape[0] for X in Xss]
+            starts = np.array([0, *itertools.accumulate(sizes)], dtype=np.int64)
+            Xs = Xss[0] if len(Xss) == 1 else np.concatenate(Xss)
+            cid = np.repeat(np.arange(len(Xss), dtype=np.int64), sizes)
+            got = self._packed[ks] = (Xs, cid, starts,
+                                      _n_workers(self._par, (Xs.shape[0] + N - 1) // N))
+        return got
+
+    def __call__(self, Zs, ks):
+        ks = tuple(ks)
+        if self._lockstep:
+            Xs, cid, starts, nw = self._pack(ks)
+            Zb = np.empty((len(Zs),) + Zs[0].shape)
+            for i, Z in enumerate(Zs):  # np.stack, without its checks (5 us a call)
+                Zb[i] = Z
+            objs, G = _objgrad_lockstep(Zb, cid, starts, Xs, self._gamma, nw)
+            return list(zip(objs, G))
+        out = []
+        for Z, k in zip(Zs, ks):
+            Xs = self._Xss[k]
+            nw = _n_workers(self._par, Xs.shape[0])
+            out.append(_objgrad_batch_par(Z, Xs, self._gamma, self._fx, nw) if nw > 1
+                       else _objgrad_batch_serial(Z, Xs, self._gamma, self._fx))
+        return out
 
 
 def _dtw_upper(X, out, par, lockstep=None):

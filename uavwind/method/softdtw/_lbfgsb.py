@@ -120,7 +120,7 @@ def _lbfgsb_steps(x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
         lb.setulb(m, x, low_bnd, upper_bnd, nbd, f, g, factr, gtol, wa, iwa, task,
                   lsave, isave, dsave, maxls, ln_task)
         if task[0] == 3:
-            if not np.array_equal(x, last_x):
+            if not (x == last_x).all():  # np.array_equal of two arrays of one shape
                 last_x = x.copy()
                 last_f, last_g = yield last_x.copy()
             f, g = last_f, last_g

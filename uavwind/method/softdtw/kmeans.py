@@ -21,7 +21,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ._checks import _as_dataset, _check_gamma, _same_features, _use_parallel
 from ._consts import env_flag
-from ._dispatch import _objgrad_many, _sdtw_cross
+from ._dispatch import ObjgradBatch, _sdtw_cross
 from ._lbfgsb import lbfgsb_many
 from ._libm import _libm_selfcheck
 
@@ -83,20 +83,22 @@ def _k_init_metric(X, n_clusters, cdist_metric, random_state):
 
 
 
-def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_many, tol=1e-3):
+def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3):
     """``[tslearn.barycenters.softdtw_barycenter(X=Xks[k], gamma, max_iter, init=inits[k])]``
     with unit weights and no constraint: ``scipy.optimize.minimize(method="L-BFGS-B",
     tol=tol, jac=True, options={"maxiter": max_iter})``, i.e. ``ftol = gtol = tol``, run by
     :func:`~uavwind.method.softdtw._lbfgsb.lbfgsb_many`: every cluster's L-BFGS-B side by
-    side, so each round's objectives and gradients are one kernel call. A barycentre
-    depends only on its own series and start, so this is tslearn's one-after-another
-    update, value for value."""
+    side, so each round's objectives and gradients are one call of
+    ``objgrad_batch(Xks)`` (an :class:`~uavwind.method.softdtw._dispatch.ObjgradBatch`). A
+    barycentre depends only on its own series and start, so this is tslearn's
+    one-after-another update, value for value."""
     if max_iter <= 0:
         return list(inits)
     m, d = inits[0].shape
+    batch = objgrad_batch(Xks)
 
     def fg_many(asked):
-        done = objgrad_many([x.reshape(m, d) for _, x in asked], [Xks[k] for k, _ in asked])
+        done = batch([x.reshape(m, d) for _, x in asked], [k for k, _ in asked])
         return [(float(obj), G.ravel()) for obj, G in done]
 
     xs = lbfgsb_many(fg_many, [init.ravel() for init in inits], max_iter, ftol=tol, gtol=tol)
@@ -214,8 +216,8 @@ def _drive(fits, gamma, max_iter_barycenter, parallel):
     par = _use_parallel(parallel)
     fx = _libm_selfcheck()
 
-    def objgrad_many(Zs, Xks):
-        return _objgrad_many(Zs, Xks, gamma, par, fx)
+    def objgrad_batch(Xks):
+        return ObjgradBatch(Xks, gamma, par, fx)
 
     out = [None] * len(fits)
     asked = {}
@@ -228,7 +230,7 @@ def _drive(fits, gamma, max_iter_barycenter, parallel):
         order = list(asked)
         new = _softdtw_barycenters([Xk for i in order for Xk in asked[i][0]],
                                    [c for i in order for c in asked[i][1]], gamma,
-                                   max_iter_barycenter, objgrad_many)
+                                   max_iter_barycenter, objgrad_batch)
         at = 0
         for i in order:
             k = len(asked[i][0])
@@ -261,7 +263,7 @@ def _fit_steps(X, n_clusters, gamma, max_iter, tol, n_init, random_state, parall
     def assign(centers):
         dists = cdist_sdtw(X, centers)
         labels = dists.argmin(axis=1)
-        inertia = np.sum(dists[arange, labels] ** 2) / n_ts
+        inertia = (dists[arange, labels] ** 2).sum() / n_ts  # np.sum's own reduction
         return labels, inertia
 
     rs = check_random_state(random_state)
