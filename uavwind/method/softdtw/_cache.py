@@ -14,6 +14,7 @@ loaded, and the kernels compile again. Other packages' entries in the folder are
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 #: The stamp's file name, in the folder numba caches this subpackage's kernels in.
@@ -48,11 +49,11 @@ def clear_stale(folder: Path, package: Path, digest: str | None = None) -> list[
             for f in sorted(folder.glob(f"{stem}.*.nb[ic]")):
                 f.unlink(missing_ok=True)
                 gone.append(f)
-        tmp = folder / f"{STAMP}.{id(gone)}.tmp"
+        tmp = folder / f"{STAMP}.{os.getpid()}.tmp"  # one writer per process
         tmp.write_text(digest + "\n")
         tmp.replace(stamp)  # atomic: a reader sees the old stamp or the new one
     except OSError:
-        return gone
+        pass  # read-only or vanished: what was deleted is reported, the stamp is not written
     return gone
 
 
