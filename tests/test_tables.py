@@ -44,11 +44,26 @@ def test_source_commit_marks_a_changed_tree_and_says_unknown_outside_git(monkeyp
     assert re.fullmatch(r"[0-9a-f]{4,40}|unknown", head)
     marked = tables.source_commit(mark_changes=True)
     assert marked in (head, head + "+changes")
-    dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                           capture_output=True, text=True,
-                           cwd=tables.__file__.rsplit("/", 1)[0]).stdout.strip()
+    dirty = [line for line in subprocess.run(
+        ["git", "status", "--porcelain", "--untracked-files=no"], capture_output=True,
+        text=True, cwd=tables.__file__.rsplit("/", 1)[0]).stdout.splitlines()
+        if line.split(None, 1)[-1] != tables.RECORDS_FILE]
     if head != "unknown":
         assert marked == (head + "+changes" if dirty else head)
+
+    # the benchmark's own record (rewritten by every section) does not mark a tree changed;
+    # any other tracked file does
+    real_run = subprocess.run
+    for status, mark in ((" M benchmarks/benchmark.json\n", ""),
+                         (" M benchmarks/benchmark.json\n M uavwind/sim/wind.py\n", "+changes"),
+                         ("M  uavwind/sim/wind.py\n", "+changes"), ("", "")):
+        def fake_git(args, *a, status=status, **kw):
+            out = "abc1234" if args[1] == "rev-parse" else status
+            return subprocess.CompletedProcess(args, 0, stdout=out, stderr="")
+        monkeypatch.setattr(subprocess, "run", fake_git)
+        assert tables.source_commit(mark_changes=True) == "abc1234" + mark
+        assert tables.source_commit() == "abc1234"
+    monkeypatch.setattr(subprocess, "run", real_run)
 
     def no_git(*args, **kwargs):
         raise FileNotFoundError("git")

@@ -286,10 +286,16 @@ def paired_spread(df: pd.DataFrame, sizing: Sizing) -> tuple[float, int]:
     return (max(sds) if n > 1 else float("nan")), n
 
 
+#: The benchmark's record, relative to the repository (written by ``make bench``).
+RECORDS_FILE = "benchmarks/benchmark.json"
+
+
 def source_commit(mark_changes: bool = False) -> str:
     """The short commit id of the checkout uavwind runs from (``"unknown"`` outside a git
     checkout); with ``mark_changes``, ``"+changes"`` appended when tracked files differ
-    from that commit (for figures measured from a working tree)."""
+    from that commit (for figures measured from a working tree), the benchmark's own
+    record (:data:`RECORDS_FILE`, which every section rewrites) aside: a second section
+    of one ``make bench`` is still of the commit."""
     import subprocess
 
     def git(*args):
@@ -298,8 +304,10 @@ def source_commit(mark_changes: bool = False) -> str:
 
     try:
         head = git("rev-parse", "--short", "HEAD") or "unknown"
-        if mark_changes and head != "unknown" and git("status", "--porcelain",
-                                                      "--untracked-files=no"):
+        changed = [line for line in git("status", "--porcelain",
+                                         "--untracked-files=no").splitlines()
+                   if line.split(None, 1)[-1] != RECORDS_FILE] if mark_changes else []
+        if head != "unknown" and changed:
             head += "+changes"
         return head
     except (OSError, subprocess.SubprocessError):
