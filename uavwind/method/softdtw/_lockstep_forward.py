@@ -104,18 +104,20 @@ def _cost_at(x, y, i, j, d, sqrtsq):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False, inline="always")
-def _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
-    """The exact cell (row r of the block, column j) through memory, D and Rf being the
-    block's rows; returns its r vector (and stores it in Rf, with ``keep``).
+def _mstep(S, D, W, n, r, j, ng, inv, pow2):
+    """The exact cell (row r of the block, column j) through memory, D being the block's
+    rows; returns its r vector (the caller stores it in the block's Rf rows, at
+    ``(r * n + j) * N``, where it keeps them).
     Inlined: as a call it cost the forward pass 10-20% (the arguments and the array
-    references each call), measured on a loop's barycentre inputs on an Intel Xeon."""
+    references each call), measured on a loop's barycentre inputs on an Intel Xeon. It
+    takes no Rf: an array stored to under a condition inside an inlined function is
+    reference-counted on every cell (an atomic increment and decrement, calls across which
+    every vector register is spilled)."""
     ub = r * W + (j + 1) * N
     cb = (r + 1) * W + j * N
-    k = (r * n + j) * N
-    rv, sv = _cellv(vload(S, ub), vload(S, cb), vload(S, ub - N), vload(D, k), ng, inv, pow2)
+    rv, sv = _cellv(vload(S, ub), vload(S, cb), vload(S, ub - N), vload(D, (r * n + j) * N),
+                    ng, inv, pow2)
     vstore(S, cb + N, sv)
-    if keep:
-        vstore(Rf, k, rv)
     return rv
 
 
@@ -126,7 +128,10 @@ def _mstep_call(S, D, Rf, W, n, r, j, ng, inv, pow2, keep):
     Inlined at those four sites too, the five copies of the exact cell (each with its
     inlined vector exp and log) made every forward pass a long compile; the hot site, the
     steady state's slow step, keeps it inlined. The same operations on the same doubles."""
-    return _mstep(S, D, Rf, W, n, r, j, ng, inv, pow2, keep)
+    rv = _mstep(S, D, W, n, r, j, ng, inv, pow2)
+    if keep:
+        vstore(Rf, (r * n + j) * N, rv)
+    return rv
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False, inline="always")
@@ -256,7 +261,9 @@ def _forward(x, y, m, n, d, gamma, S, D, Rf):
                     t += 1
                 if t < n:  # some lane needs the full sum: this step through memory
                     for r in range(R):
-                        _mstep(S, Db, Rb, W, n, r, t - r, ng, inv, pow2, keep)
+                        rv = _mstep(S, Db, W, n, r, t - r, ng, inv, pow2)
+                        if keep:
+                            vstore(Rb, (r * n + t - r) * N, rv)
                     t += 1
             for t in range(n, n + R - 1):  # epilogue triangle (holds the block's last cell)
                 for r in range(t - n + 1, R):
