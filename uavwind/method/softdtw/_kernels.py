@@ -175,15 +175,24 @@ def _objgrad_range(Z, Xs, gamma, fx, s0, s1, step, vals, Gs):
 def _reduce_objgrad(vals, Gs):
     """obj = 0; G = 0; obj += v_s; G += G_s in series order (tslearn's
     _acc_softdtw_func loop, unit weights: 1.0 * x == x)."""
+    G = np.zeros((Gs.shape[1], Gs.shape[2]))
+    return _reduce_objgrad_into(vals, Gs, G), G
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _reduce_objgrad_into(vals, Gs, G):
+    """:func:`_reduce_objgrad` into a zeroed G (m x d); returns the objective. Writing into
+    a row of the caller's array, not assigning a returned one to it, spares the kernels that
+    reduce many barycentres numba's broadcasting setitem, whose shape-mismatch error path
+    (its message formatting) was 3.6 s of a cold compile."""
     n_ts, m, d = Gs.shape
-    G = np.zeros((m, d))
     obj = 0.0
     for s in range(n_ts):
         obj += vals[s]
         for i in range(m):
             for k in range(d):
                 G[i, k] += Gs[s, i, k]
-    return obj, G
+    return obj
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

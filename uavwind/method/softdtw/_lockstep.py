@@ -47,7 +47,7 @@ import threading
 import numpy as np
 from numba import njit, prange
 
-from ._kernels import _reduce_objgrad, _unrank_upper
+from ._kernels import _reduce_objgrad_into, _unrank_upper
 # R and the cost rows are named here too (the benchmarks time them)
 from ._lockstep_forward import R, _cost_rows, _forward  # noqa: F401
 from ._scalar_forward import _is_pow2
@@ -297,10 +297,10 @@ def _reduce_many(vals, Gs, starts):
     reduction in series order; (objectives, gradients)."""
     K = starts.shape[0] - 1
     objs = np.empty(K)
-    G = np.empty((K, Gs.shape[1], Gs.shape[2]))
+    G = np.zeros((K, Gs.shape[1], Gs.shape[2]))
     for j in range(K):
-        objs[j], G[j] = _reduce_objgrad(vals[starts[j]:starts[j + 1]],
-                                        Gs[starts[j]:starts[j + 1]])
+        objs[j] = _reduce_objgrad_into(vals[starts[j]:starts[j + 1]],
+                                       Gs[starts[j]:starts[j + 1]], G[j])
     return objs, G
 
 
