@@ -4,7 +4,8 @@ Prints figures (no pass/fail) and writes them to benchmarks/benchmark.json, whic
 book's performance page reads. That file is committed: the book built from a fresh clone
 shows the figures last measured (with their date and machine) until ``make bench`` is run
 again on the machine at hand. ``FULL=1`` adds the measured paper profile (with
-``BENCH_KEEP=<empty folder>``, its book, results and build output are kept there).
+``BENCH_KEEP=<empty folder>``, its book, results and build output are kept there; with
+``FRESH=1``, built on a fresh clone of HEAD, empty numba cache included).
 Run with ``make bench``.
 """
 

@@ -124,9 +124,12 @@ def bench_paper_profile(report, engine):
                                "estimated_seconds_one_core": one_core,
                                "estimated_seconds_all_cores": one_core / cores}
     if os.environ.get("FULL") == "1":
-        wall, peak, peak_pss, cpu, times, pages = _measure_paper_book()
-        print(f"  measured (FULL=1): make book PROFILE=paper from an empty result cache into a "
-              f"temporary folder: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
+        fresh = os.environ.get("FRESH") == "1"
+        wall, peak, peak_pss, cpu, times, pages, commit = _measure_paper_book(fresh)
+        where = (f"on a fresh clone of {commit} (empty result and numba caches)" if fresh else
+                 "from an empty result cache into a temporary folder")
+        print(f"  measured (FULL=1{' FRESH=1' if fresh else ''}): make book PROFILE=paper "
+              f"{where}: {wall / 60:.1f} min wall, {cpu:.0f}% CPU; peak memory "
               f"{peak:.0f} MiB summed RSS, {peak_pss:.0f} MiB summed PSS (over the process "
               "tree, sampled every 0.5 s)")
         print(f"  the pages' code cells: {sum(pages.values()):.1f} s in all (papermill's cell "
@@ -136,10 +139,14 @@ def bench_paper_profile(report, engine):
                                        peak_tree_pss_mib=peak_pss,
                                        cpu_percent=cpu, measured_command="make book PROFILE=paper",
                                        page_cell_seconds=pages,
-                                       measured_commit=source_commit(mark_changes=True),
+                                       measured_commit=commit,
                                        host=host_cpu(),
-                                       measured_how="make bench FULL=1: the venv and numba "
-                                       "cache as they were, memory summed over the process "
+                                       measured_how=(
+                                           "make bench FULL=1 FRESH=1: a fresh clone of the "
+                                           "commit, empty result and numba caches, the venv "
+                                           "shared" if fresh else
+                                           "make bench FULL=1: the venv and numba cache as "
+                                           "they were") + ", memory summed over the process "
                                        "tree every 0.5 s",
                                        **where_the_fill_goes(times))
 
@@ -154,11 +161,13 @@ def where_the_fill_goes(times):
             "by_experiment": t.round({"cpu_seconds": 1, "share": 1}).to_dict("records")}
 
 
-def _measure_paper_book():
+def _measure_paper_book(fresh=False):
     """``make book PROFILE=paper`` into a temporary book folder with an empty result
-    cache (the venv and the numba cache as they are); return (wall seconds, peak summed
-    RSS and peak summed PSS of the process tree in MiB, CPU time of the waited-for process
-    tree as % of wall, the fill's ``--times`` record, the pages' cell seconds).
+    cache (the venv and the numba cache as they are), or with ``fresh`` on a fresh clone of
+    HEAD (:func:`_fresh_clone`: empty result and numba caches, the venv shared, as the
+    builds section runs the README's commands); return (wall seconds, peak summed RSS and
+    peak summed PSS of the process tree in MiB, CPU time of the waited-for process tree as
+    % of wall, the fill's ``--times`` record, the pages' cell seconds, the commit built).
     ``BENCH_KEEP=<empty folder>`` builds there instead and keeps the book, its results and
     the build's output (to read the paper pages afterwards)."""
     import contextlib
@@ -171,11 +180,18 @@ def _measure_paper_book():
         raise ValueError(f"BENCH_KEEP must name an existing empty folder, got {keep!r}")
     where = contextlib.nullcontext(keep) if keep else tempfile.TemporaryDirectory()
     with where as tmp:
-        book = Path(tmp) / "book"
-        book.mkdir()
-        for f in (root_dir / "book").iterdir():
-            if f.is_file():
-                shutil.copy(f, book / f.name)
+        if fresh:
+            commit = subprocess.run(["git", "-C", str(root_dir), "rev-parse", "HEAD"],
+                                    check=True, capture_output=True, text=True).stdout.strip()
+            root_dir = _fresh_clone(root_dir, Path(tmp) / "clone", commit)
+            book, commit = root_dir / "book", commit[:7]
+        else:
+            commit = source_commit(mark_changes=True)
+            book = Path(tmp) / "book"
+            book.mkdir()
+            for f in (root_dir / "book").iterdir():
+                if f.is_file():
+                    shutil.copy(f, book / f.name)
         env = {**os.environ, "UAVWIND_RESULTS": str(Path(tmp) / "results")}
         env.pop("MPLBACKEND", None)
         cpu0 = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -203,7 +219,7 @@ def _measure_paper_book():
                                f"{proc.returncode}; the end of its output:\n{tail}")
         cpu = (cpu1.ru_utime - cpu0.ru_utime) + (cpu1.ru_stime - cpu0.ru_stime)
         return (wall, peak, peak_pss, 100 * cpu / wall, json.loads(times.read_text()),
-                page_cell_seconds(book / "generated"))
+                page_cell_seconds(book / "generated"), commit)
 
 
 def page_cell_seconds(generated):

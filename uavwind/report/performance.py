@@ -211,6 +211,8 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                 f"{p['measured_seconds'] / 60:.1f}"
             if "measured_commit" in p:
                 rows["measured at commit"] = p["measured_commit"]
+            if "measured_how" in p:  # the working tree's caches, or a fresh clone's
+                rows["how it was run"] = p["measured_how"]
             if "host" in p:  # the machine kind comes as an AMD EPYC or an Intel Xeon
                 rows["measured on"] = (f"{p['host'].get('model', '?')} "
                                        f"({p['host'].get('llvm_cpu', '?')}, "
