@@ -43,9 +43,12 @@ def test_paper_and_compile_tables_show_the_new_figures():
     report["paper_profile"]["host"] = {"model": "Some Xeon", "llvm_cpu": "cpu", "lanes": 8}
     assert report_tables(report)["paper"].loc["measured on", "value"] == "Some Xeon (cpu, 8 lanes)"
     assert "how it was run" not in report_tables(report)["paper"].index
-    report["paper_profile"]["measured_how"] = "make bench FULL=1 FRESH=1: a fresh clone"
+    report["paper_profile"]["measured_how"] = "make bench FULL=1 FRESH=1: a fresh clone of .."
     assert (report_tables(report)["paper"].loc["how it was run", "value"]
-            == "make bench FULL=1 FRESH=1: a fresh clone")
+            == "a fresh clone, empty result and numba caches")
+    report["paper_profile"]["measured_how"] = "make bench FULL=1: the venv and numba cache .."
+    assert (report_tables(report)["paper"].loc["how it was run", "value"]
+            == "the working tree, its numba cache as it was")
     line = summary_lines({**report, "cores": 2, "machine": "x86_64", "python": "3.11",
                           "numpy": "2"})["fill"]
     assert "19.0 of the build's 20.0 min" in line and "300 result rows (loops, CEM samples" in line

@@ -212,7 +212,9 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
             if "measured_commit" in p:
                 rows["measured at commit"] = p["measured_commit"]
             if "measured_how" in p:  # the working tree's caches, or a fresh clone's
-                rows["how it was run"] = p["measured_how"]
+                rows["how it was run"] = ("a fresh clone, empty result and numba caches"
+                                          if "FRESH=1" in p["measured_how"] else
+                                          "the working tree, its numba cache as it was")
             if "host" in p:  # the machine kind comes as an AMD EPYC or an Intel Xeon
                 rows["measured on"] = (f"{p['host'].get('model', '?')} "
                                        f"({p['host'].get('llvm_cpu', '?')}, "
