@@ -181,10 +181,9 @@ def _measure_paper_book(fresh=False):
     where = contextlib.nullcontext(keep) if keep else tempfile.TemporaryDirectory()
     with where as tmp:
         if fresh:
-            commit = subprocess.run(["git", "-C", str(root_dir), "rev-parse", "HEAD"],
-                                    check=True, capture_output=True, text=True).stdout.strip()
-            root_dir = _fresh_clone(root_dir, Path(tmp) / "clone", commit)
-            book, commit = root_dir / "book", commit[:7]
+            head = _head_commit(root_dir)
+            root_dir = _fresh_clone(root_dir, Path(tmp) / "clone", head)
+            book, commit = root_dir / "book", head[:7]
         else:
             commit = source_commit(mark_changes=True)
             book = Path(tmp) / "book"
@@ -417,6 +416,12 @@ BUILD_TARGETS = {"make test": 7 * 60, "quick book": 3 * 60}
 BUILD_TIMEOUT = 1800
 
 
+def _head_commit(root: Path) -> str:
+    """The full hash of ``root``'s HEAD (what a fresh clone of it checks out)."""
+    return subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], check=True,
+                          capture_output=True, text=True).stdout.strip()
+
+
 def _fresh_clone(root: Path, where: Path, commit: str) -> Path:
     """A clean clone of ``root`` at ``commit`` at ``where``, sharing ``root``'s virtual
     environment (its build is not what is timed: CI builds it once) and never rebuilding it."""
@@ -453,8 +458,7 @@ def bench_builds(report, runs: int = 2):
     ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
     root = Path(__file__).resolve().parents[1]
     # every run the same commit, whatever is committed meanwhile
-    commit = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], check=True,
-                            capture_output=True, text=True).stdout.strip()
+    commit = _head_commit(root)
     print(f"\n== the README's commands on a fresh clone of {commit[:7]} ({runs} runs each, "
           "taking turns) ==")
     rows = {"make test": [], "quick book": []}
