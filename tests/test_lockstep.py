@@ -15,8 +15,7 @@ from uavwind.method.softdtw import _consts, _dispatch, _kernels
 from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
                                              _sdtw_forward)
 from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
-from uavwind.method.softdtw._lockstep import (N, _objgrad_lockstep,
-                                              _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
+from uavwind.method.softdtw._lockstep import N, _objgrad_lockstep, _sdtw_cross_lockstep
 from uavwind.method.softdtw._simd import vload, vlt, vstore
 from uavwind.method.softdtw._vlibm import vexp, vexp_care, vlog, vlog_care
 from uavwind.study.conditions import PAPER_SCENARIOS
@@ -49,7 +48,7 @@ def _check_kernels(X, centres, gamma, tslearn=True):
     lock2 = np.empty_like(lock)
     scal = np.empty_like(lock)
     _sdtw_cross_lockstep(X, centres, gamma, lock)
-    _sdtw_cross_lockstep_par(X, centres, gamma, 2, lock2)
+    _sdtw_cross_lockstep(X, centres, gamma, lock2, nw=2)
     _sdtw_cross_serial(X, centres, gamma, True, scal)
     assert _same(lock, scal) and _same(lock2, scal)
     if tslearn:
@@ -297,7 +296,7 @@ def test_lockstep_dtw_matrix_equals_the_scalar_kernel_and_tslearn(shape):
     from tslearn.metrics import cdist_dtw
 
     from uavwind.method.softdtw._kernels import _dtw_upper_range
-    from uavwind.method.softdtw._lockstep import _dtw_upper_lockstep, _dtw_upper_lockstep_par
+    from uavwind.method.softdtw._lockstep import _dtw_upper_lockstep
 
     nts, n, d = shape
     rng = np.random.default_rng(nts * n)
@@ -307,7 +306,7 @@ def test_lockstep_dtw_matrix_equals_the_scalar_kernel_and_tslearn(shape):
     for X in sets:
         lock, lock2, scal = (np.zeros((nts, nts)) for _ in range(3))
         _dtw_upper_lockstep(X, lock)
-        _dtw_upper_lockstep_par(X, 2, lock2)
+        _dtw_upper_lockstep(X, lock2, nw=2)
         _dtw_upper_range(X, 0, nts * (nts - 1) // 2, 1, scal)
         assert _same(lock, scal) and _same(lock2, scal)
         assert _same(lock, cdist_dtw(X))
@@ -399,5 +398,5 @@ def test_work_arrays_start_on_a_cache_line():
         z = _aligned_rows(nw, 8 * 13, zero=True)
         assert z.shape == (nw, 104) and not z.any()
         assert all(row.ctypes.data % ALIGN == 0 for row in z)
-    for arr in _objgrad_workspace(120, 120, 3, 2)[:6]:
-        assert all(row.ctypes.data % (N * 8) == 0 for row in arr)
+    for arr in _objgrad_workspace(120, 120, 3)[:6]:
+        assert arr.ctypes.data % (N * 8) == 0

@@ -66,8 +66,10 @@ def warmup(parallel: bool = False, every: bool = False) -> KMeansResult:
     Parameters
     ----------
     parallel : bool
-        Also the threaded (``prange``) variants. A loop of :func:`uavwind.score_loop`
-        uses only the serial ones; the threaded ones otherwise compile on their first use.
+        Also what the threads use: the helper threads' spins (:mod:`._share`; the lockstep
+        kernels are the same code with and without helpers) and the scalar kernels'
+        ``prange`` variants. A pool's worker runs the serial path only; otherwise they
+        compile on their first use.
     every : bool
         Also the kernels of the other entry points (:func:`soft_dtw`, :func:`soft_dtw_grad`,
         the soft-DTW silhouette). By default only what a loop uses compiles: k-means (soft-DTW

@@ -27,10 +27,11 @@ def env_flag(name, default=True):
     return value not in ("0", "false", "False", "")
 
 
-# Run the batched kernels on all cores (numba prange).  Turn off with
-# UAVWIND_SOFTDTW_PARALLEL=0 (e.g. when fit() is itself called from several
-# Python threads: numba's default "workqueue" threading layer is not
-# thread-safe).
+# Run the batched kernels on the process's threads: the lockstep kernels share a call's
+# lane groups with helper threads (._share), the scalar ones use numba's prange. Turn off
+# with UAVWIND_SOFTDTW_PARALLEL=0 (e.g. when fit() is itself called from several Python
+# threads: numba's default "workqueue" threading layer is not thread-safe; a second
+# caller of ._share while another holds the helpers runs alone).
 PARALLEL = env_flag("PARALLEL")
 
 # Soft-DTW values (the assignment step) N pairs per SIMD vector; the scalar kernel with

@@ -1,6 +1,7 @@
-"""Which kernel a batch runs on: serial, or threaded over numba workers; one pair at a time
-(the scalar kernels) or N pairs per SIMD vector (the lockstep kernel). Every choice does the
-same arithmetic and gives the same doubles (see the replication notes)."""
+"""Which kernel a batch runs on: one pair at a time (the scalar kernels, serial or threaded
+over numba's workers) or N pairs per SIMD vector (the lockstep kernels, their lane groups
+shared with helper threads, :mod:`._share`). Every choice does the same arithmetic and gives
+the same doubles (see the replication notes)."""
 
 import itertools
 
@@ -10,8 +11,7 @@ from . import _consts
 from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _jacobian_product_sq_euc,
                        _n_workers, _objgrad_batch_par, _objgrad_batch_serial,
                        _sdtw_cross_par_inner, _sdtw_cross_serial)
-from ._lockstep import (N, _dtw_upper_lockstep, _dtw_upper_lockstep_par, _objgrad_lockstep,
-                        _sdtw_cross_lockstep, _sdtw_cross_lockstep_par)
+from ._lockstep import N, _dtw_upper_lockstep, _objgrad_lockstep, _sdtw_cross_lockstep
 
 
 def _use_lockstep(fx, lockstep=None):
@@ -42,11 +42,7 @@ def jacobian_contracts():
 def _sdtw_cross(A, B, gamma, out, par, fx, lockstep=None):
     npairs = A.shape[0] * B.shape[0]
     if _use_lockstep(fx, lockstep):
-        nw = _n_workers(par, (npairs + N - 1) // N)
-        if nw > 1:
-            _sdtw_cross_lockstep_par(A, B, gamma, nw, out)
-        else:
-            _sdtw_cross_lockstep(A, B, gamma, out)
+        _sdtw_cross_lockstep(A, B, gamma, out, _n_workers(par, (npairs + N - 1) // N))
         return
     nw = _n_workers(par, npairs)
     if nw > 1:
@@ -126,11 +122,7 @@ def _dtw_upper(X, out, par, lockstep=None):
     only ``UAVWIND_SOFTDTW_LOCKSTEP`` (or ``lockstep``) decides the kernel."""
     npairs = X.shape[0] * (X.shape[0] - 1) // 2
     if _use_lockstep(True, lockstep):
-        nw = _n_workers(par, (npairs + N - 1) // N)
-        if nw > 1:
-            _dtw_upper_lockstep_par(X, nw, out)
-        else:
-            _dtw_upper_lockstep(X, out)
+        _dtw_upper_lockstep(X, out, _n_workers(par, (npairs + N - 1) // N))
         return
     nw = _n_workers(par, npairs)
     if nw > 1:

@@ -45,12 +45,13 @@ value and gradient, and DTW.
 import threading
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 from ._kernels import _reduce_objgrad_into, _unrank_upper
 # R and the cost rows are named here too (the benchmarks time them)
 from ._lockstep_forward import R, _cost_rows, _forward  # noqa: F401
 from ._scalar_forward import _is_pow2
+from ._share import NO_MAILBOX, announce, fetch_add, share
 from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vfma, vload, vmin,
                     vmul, vsqrt, vstore, vsub)
 from ._vlibm import vexp_care
@@ -102,10 +103,14 @@ def _pack_pairs(A, B, g, x, y):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _cross_groups(A, B, gamma, g0, g1, step, out):
-    """out[i, j] = soft-DTW(A[i], B[j]) for the pairs of lane groups g0, g0 + step, .. < g1."""
+def _cross_groups(A, B, gamma, claim, enter, out):
+    """out[i, j] = soft-DTW(A[i], B[j]) for the pairs of the lane groups this thread claims
+    (``claim``: the call's group counter, :func:`._share.fetch_add`), until none is left;
+    ``enter``: see :func:`._share.announce`."""
+    announce(enter)
     nb = B.shape[0]
     npairs = A.shape[0] * nb
+    ngroups = (npairs + N - 1) // N
     m, d = A.shape[1], A.shape[2]
     n = B.shape[1]
     x = _aligned_empty(m * d * N)
@@ -113,7 +118,10 @@ def _cross_groups(A, B, gamma, g0, g1, step, out):
     S = _aligned_empty((R + 1) * (n + 1) * N)
     D = _aligned_empty(R * n * N)
     Rf = np.empty(0)
-    for g in range(g0, g1, step):
+    while True:
+        g = fetch_add(claim, 1)
+        if g >= ngroups:
+            return
         _pack_pairs(A, B, g, x, y)
         last = _forward(x, y, m, n, d, gamma, S, D, Rf)
         for l in range(N):
@@ -123,19 +131,12 @@ def _cross_groups(A, B, gamma, g0, g1, step, out):
                 out[i, p - i * nb] = lane(last, l)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _sdtw_cross_lockstep(A, B, gamma, out):
-    """out[i, j] = soft-DTW(A[i], B[j]) = the scalar ``_sdtw_cross_serial``, N pairs at once."""
-    ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
-    _cross_groups(A, B, gamma, np.int64(0), ngroups, np.int64(1), out)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _sdtw_cross_lockstep_par(A, B, gamma, nw, out):
-    """:func:`_sdtw_cross_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
-    ngroups = (A.shape[0] * B.shape[0] + N - 1) // N
-    for w in prange(nw):
-        _cross_groups(A, B, gamma, np.int64(w), ngroups, nw, out)
+def _sdtw_cross_lockstep(A, B, gamma, out, nw=1):
+    """out[i, j] = soft-DTW(A[i], B[j]) = the scalar ``_sdtw_cross_serial``, N pairs at once;
+    with ``nw > 1`` the lane groups are shared with up to ``nw - 1`` helper threads
+    (:func:`._share.share`)."""
+    claim = np.zeros(1, dtype=np.int64)
+    share(lambda enter: _cross_groups(A, B, gamma, claim, enter, out), nw)
 
 
 # ------------------------- value and gradient ------------------------------
@@ -291,19 +292,26 @@ def _pack_centres(Zs, cid, g, zl):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _objgrad_groups(Zs, cid, Xs, gamma, g0, g1, step, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
+def _objgrad_groups(Zs, cid, Xs, gamma, claim, enter, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
     """vals[s], Gs[s] = tslearn's ``_softdtw_func(Zs[cid[s]], Xs[s], 1, gamma, ..)`` for the
-    series of lane groups g0, g0 + step, .. < g1, on one worker's workspace (zl .. jhi, as
-    :func:`_objgrad_workspace` makes them; E all zero on entry, and again on return).
+    series of the lane groups this thread claims (``claim``: the call's group counter,
+    :func:`._share.fetch_add`), until none is left, on this thread's workspace (zl .. rhi,
+    as :func:`_objgrad_workspace` makes them; E all zero on entry, and again on return;
+    ``enter``: see :func:`._share.announce`).
     A lane's centre is its series' own (``cid``), so one vector can serve series of several
     barycentres; a lane's arithmetic does not depend on its neighbours."""
     m, d = Zs.shape[1], Zs.shape[2]
     n = Xs.shape[1]
+    announce(enter)
     ns = Xs.shape[0]
+    ngroups = (ns + N - 1) // N
     one = Zs.shape[0] == 1
     if one:  # one centre: packed once
         _pack_centres(Zs, cid, np.int64(0), zl)
-    for g in range(g0, g1, step):
+    while True:
+        g = fetch_add(claim, 1)
+        if g >= ngroups:
+            return
         if not one:
             _pack_centres(Zs, cid, g, zl)
         _pack_series(Xs, g, x)
@@ -331,74 +339,71 @@ def _reduce_many(vals, Gs, starts):
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _objgrad_serial(Zs, cid, starts, Xs, gamma, zl, x, S, D, Rf, E, rlo, rhi):
+    """Every lane group on this thread, then the reductions (:func:`_reduce_many`)."""
     ns = Xs.shape[0]
     m, d = Zs.shape[1], Zs.shape[2]
     vals = np.empty(ns)
     Gs = np.empty((ns, m, d))
-    _objgrad_groups(Zs, cid, Xs, gamma, np.int64(0), (ns + N - 1) // N, np.int64(1), vals, Gs,
-                    zl[0], x[0], S[0], D[0], Rf[0], E[0], rlo[0], rhi[0])
+    _objgrad_groups(Zs, cid, Xs, gamma, np.zeros(1, dtype=np.int64), NO_MAILBOX, vals, Gs, zl,
+                    x, S, D, Rf, E, rlo, rhi)
     return _reduce_many(vals, Gs, starts)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi):
-    ngroups = (Xs.shape[0] + N - 1) // N
-    for w in prange(nw):
-        _objgrad_groups(Zs, cid, Xs, gamma, np.int64(w), ngroups, nw, vals, Gs, zl[w], x[w],
-                        S[w], D[w], Rf[w], E[w], rlo[w], rhi[w])
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
-def _objgrad_par(Zs, cid, starts, Xs, gamma, nw, zl, x, S, D, Rf, E, rlo, rhi):
-    ns = Xs.shape[0]
-    m, d = Zs.shape[1], Zs.shape[2]
-    vals = np.empty(ns)
-    Gs = np.empty((ns, m, d))
-    _objgrad_par_inner(Zs, cid, Xs, gamma, nw, vals, Gs, zl, x, S, D, Rf, E, rlo, rhi)
-    return _reduce_many(vals, Gs, starts)
-
-
-#: Per thread, the last workspace of the barycentre kernel: ``((m, n, d, nw), arrays)``.
+#: Per thread, the last workspace of the barycentre kernel: ``((m, n, d), arrays)``.
 _WORKSPACE = threading.local()
 
 
-def _objgrad_workspace(m, n, d, nw):
-    """The arrays :func:`_objgrad_groups` works in, one row per worker: packed centres and
-    series, the wavefront's S rows, the whole cost, accumulated and gradient matrices of N
-    lanes (E all zero) and the band's columns per row; about ``3 * m * n * N`` doubles a
-    worker (2.8 MB for 120 x 120 and 8 lanes), kept for the life of the thread.
+def _objgrad_workspace(m, n, d):
+    """The arrays :func:`_objgrad_groups` works in on one thread: packed centres and series,
+    the wavefront's S rows, the whole cost, accumulated and gradient matrices of N lanes (E
+    all zero) and the band's columns per row; about ``3 * m * n * N`` doubles (2.8 MB for
+    120 x 120 and 8 lanes), kept for the life of the thread.
 
-    Taken from this thread's cache when the last call had the same shape, else made (made
-    at every call, the pages of these megabytes can be faulted in and zeroed again each
-    time). The caller puts them back (:func:`_objgrad_lockstep`) only after the kernel
-    returned, so a call that failed half-way never leaves a dirty E to the next; each
-    thread has its own."""
-    key = (m, n, d, nw)
+    Taken from this thread's cache when its last call had the same shape, else made (made at
+    every call, the pages of these megabytes can be faulted in and zeroed again each time).
+    The thread puts them back (:func:`_with_workspace`) only after the kernel returned, so a
+    call that failed half-way never leaves a dirty E to the next; each thread (the caller and
+    each helper of :func:`._share.share`) has its own."""
+    key = (m, n, d)
     got = getattr(_WORKSPACE, "last", None)
     _WORKSPACE.last = None
     if got is not None and got[0] == key:
         return got[1]
     nN = m * n * N
-    return (_aligned_rows(nw, m * d * N), _aligned_rows(nw, n * d * N),
-            _aligned_rows(nw, (R + 1) * (n + 1) * N), _aligned_rows(nw, nN),
-            _aligned_rows(nw, nN), _aligned_rows(nw, nN, zero=True),
-            np.empty((nw, m), dtype=np.int64), np.empty((nw, m), dtype=np.int64))
+    return tuple(row[0] for row in (
+        _aligned_rows(1, m * d * N), _aligned_rows(1, n * d * N),
+        _aligned_rows(1, (R + 1) * (n + 1) * N), _aligned_rows(1, nN), _aligned_rows(1, nN),
+        _aligned_rows(1, nN, zero=True), np.empty((1, m), dtype=np.int64),
+        np.empty((1, m), dtype=np.int64)))
+
+
+def _with_workspace(m, n, d, kernel):
+    """``kernel(*workspace)`` on this thread's workspace, put back once it has returned."""
+    ws = _objgrad_workspace(m, n, d)
+    out = kernel(*ws)
+    _WORKSPACE.last = ((m, n, d), ws)  # E is all zero again
+    return out
 
 
 def _objgrad_lockstep(Zs, cid, starts, Xs, gamma, nw=1):
     """The barycentre objectives and gradients of ``K = len(Zs)`` centres at once, each =
     the scalar ``_objgrad_batch_serial(Zs[j], Xs[starts[j]:starts[j + 1]], ..)``: N series
     per vector (of any centres: k-means' clusters share the vectors), then each centre's
-    reduction in its series' order; with ``nw > 1`` the lane groups are dealt round-robin
-    to ``nw`` threads. The workspace is this thread's, reused from call to call."""
+    reduction in its series' order; with ``nw > 1`` the lane groups are shared with up to
+    ``nw - 1`` helper threads (:func:`._share.share`), each on its own workspace, and the
+    reductions run once they are all done."""
     m, d = Zs.shape[1], Zs.shape[2]
     n = Xs.shape[1]
-    nw = max(1, int(nw))  # a worker beyond the lane groups has none (the dispatch caps it)
-    ws = _objgrad_workspace(m, n, d, nw)
-    out = (_objgrad_par(Zs, cid, starts, Xs, gamma, nw, *ws) if nw > 1
-           else _objgrad_serial(Zs, cid, starts, Xs, gamma, *ws))
-    _WORKSPACE.last = ((m, n, d, nw), ws)  # E is all zero again
-    return out
+    if nw <= 1:
+        return _with_workspace(m, n, d, lambda *ws: _objgrad_serial(Zs, cid, starts, Xs, gamma,
+                                                                   *ws))
+    ns = Xs.shape[0]
+    vals = np.empty(ns)
+    Gs = np.empty((ns, m, d))
+    claim = np.zeros(1, dtype=np.int64)
+    share(lambda enter: _with_workspace(m, n, d, lambda *ws: _objgrad_groups(
+        Zs, cid, Xs, gamma, claim, enter, vals, Gs, *ws)), nw)
+    return _reduce_many(vals, Gs, starts)
 
 
 # ---------------------------------- DTW ------------------------------------
@@ -429,16 +434,23 @@ def _dtw_lanes(x, y, m, n, d, P, C):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
-def _dtw_upper_groups(X, g0, g1, step, out):
-    """out[i, j] = out[j, i] = DTW(X[i], X[j]) for the pairs i < j of lane groups g0, g0 +
-    step, .. < g1 (pair p is the p-th of the row-major upper triangle)."""
+def _dtw_upper_groups(X, claim, enter, out):
+    """out[i, j] = out[j, i] = DTW(X[i], X[j]) for the pairs i < j of the lane groups this
+    thread claims (``claim``: the call's group counter, :func:`._share.fetch_add`), until
+    none is left (pair p is the p-th of the row-major upper triangle); ``enter``: see
+    :func:`._share.announce`."""
+    announce(enter)
     nts, n, d = X.shape
     npairs = nts * (nts - 1) // 2
     x = _aligned_empty(n * d * N)
     y = _aligned_empty(n * d * N)
     P = _aligned_empty((n + 1) * N)
     C = _aligned_empty((n + 1) * N)
-    for g in range(g0, g1, step):
+    ngroups = (npairs + N - 1) // N
+    while True:
+        g = fetch_add(claim, 1)
+        if g >= ngroups:
+            return
         for l in range(N):
             i, j = _unrank_upper(min(g * N + l, npairs - 1), nts, np.int64(1))
             for s in range(n):
@@ -454,17 +466,8 @@ def _dtw_upper_groups(X, g0, g1, step, out):
                 out[j, i] = lane(v, l)
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _dtw_upper_lockstep(X, out):
-    """The DTW matrix's upper triangle (and its mirror) = the scalar ``_dtw_upper_range``."""
-    npairs = X.shape[0] * (X.shape[0] - 1) // 2
-    _dtw_upper_groups(X, np.int64(0), (npairs + N - 1) // N, np.int64(1), out)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-def _dtw_upper_lockstep_par(X, nw, out):
-    """:func:`_dtw_upper_lockstep` with the lane groups dealt round-robin to ``nw`` threads."""
-    npairs = X.shape[0] * (X.shape[0] - 1) // 2
-    ngroups = (npairs + N - 1) // N
-    for w in prange(nw):
-        _dtw_upper_groups(X, np.int64(w), ngroups, nw, out)
+def _dtw_upper_lockstep(X, out, nw=1):
+    """The DTW matrix's upper triangle (and its mirror) = the scalar ``_dtw_upper_range``;
+    with ``nw > 1`` the lane groups are shared with up to ``nw - 1`` helper threads."""
+    claim = np.zeros(1, dtype=np.int64)
+    share(lambda enter: _dtw_upper_groups(X, claim, enter, out), nw)

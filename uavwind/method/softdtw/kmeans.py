@@ -364,8 +364,8 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
         How the centres start: tslearn's k-means++ under soft-DTW, ``n_clusters`` distinct
         series drawn at random, or the given centres (any length ``sz_c``).
     parallel : bool, optional
-        Run the batched kernels over numba threads (default: ``UAVWIND_SOFTDTW_PARALLEL``);
-        the result does not depend on it.
+        Run the batched kernels on the process's threads, as many as numba has (default:
+        ``UAVWIND_SOFTDTW_PARALLEL``, on unless set to 0); the result does not depend on it.
 
     Attributes
     ----------
