@@ -27,6 +27,15 @@ from bench_common import compared_engines, host_cpu, loop_inputs, timeit
 from uavwind.analysis.tables import source_commit
 
 
+def fast_threads():
+    """Threads the fast engine's kernels use as ``score_loop`` runs them in this process:
+    numba's thread count where the kernels' threads are on (``UAVWIND_SOFTDTW_PARALLEL``,
+    default on), else 1 (a pool's worker is pinned to 1)."""
+    from uavwind.method.softdtw import _consts
+    from uavwind.method.softdtw._kernels import _n_workers
+    return _n_workers(_consts.PARALLEL, 1 << 30)
+
+
 def bench_loops(report):
     print("\n== score_loop(): one loop, median over 5 loops (same inputs for both engines) ==")
     engines = compared_engines()
@@ -55,6 +64,7 @@ def bench_loops(report):
               + (f"   speed-up {ratio:5.1f}x" if "fast" in res else ""))
         rows[f"{n_env}env_{steps}steps"] = {**res, "speedup": ratio}
     report["loop_seconds"] = rows
+    report["loop_threads"] = fast_threads()
 
 
 def _agree(seed):
@@ -385,7 +395,8 @@ def heldout_times(engines=("fast", "tslearn"), n_loops=12, side_by_side=False):
 def bench_heldout(report, n_loops=12, rounds=3):
     """The held-out check of the engine against tslearn: 12 loops of 5 or 10 environments a
     group, 120 steps, gamma 0.5, the default k-means and barycentre iterations, each engine
-    as ``score_loop`` runs it (tslearn with its default threads, the fast engine serially),
+    as ``score_loop`` runs it (each with its default threads: tslearn numba's, the fast
+    engine a call's lane groups shared with helper threads, :func:`fast_threads` of them),
     side by side, ``rounds`` times (this host's speed drifts: the
     same 12 loops took tslearn 26-45 s in one day, so one round's ratio is not the host's);
     the figures are the rounds' medians, with the range. Then the fast engine alone with AVX2
@@ -445,7 +456,7 @@ def bench_heldout(report, n_loops=12, rounds=3):
           f"{med['tslearn_seconds'] / avx2[0]:.1f}x the median tslearn; identical on "
           f"{avx2_same}/{n_loops}")
     report["heldout"] = {
-        "host": host, "loops": n_loops, "identical": same,
+        "host": host, "loops": n_loops, "identical": same, "fast_threads": fast_threads(),
         "side_by_side_identical": min(r["side_by_side_identical"] for r in runs), **med,
         "rounds": runs,
         "native_alone": {"fast_seconds": native[0], "identical": native_same},
@@ -454,11 +465,12 @@ def bench_heldout(report, n_loops=12, rounds=3):
         "command": "ONLY=heldout make bench", "commit": source_commit(mark_changes=True)}
 
 
-#: The kernels' thread settings :func:`bench_threads` compares: name -> the child's environment.
+#: The kernels' thread settings :func:`bench_threads` compares: name -> the child's environment
+#: (records before 2026-12-04 also have "threads, passive wait": numba's OpenMP pool with
+#: ``OMP_WAIT_POLICY=PASSIVE``, which the lockstep kernels no longer use).
 THREAD_SETTINGS = {
     "serial": {"UAVWIND_SOFTDTW_PARALLEL": "0"},
     "threads": {"UAVWIND_SOFTDTW_PARALLEL": "1"},
-    "threads, passive wait": {"UAVWIND_SOFTDTW_PARALLEL": "1", "OMP_WAIT_POLICY": "PASSIVE"},
 }
 
 
@@ -466,8 +478,7 @@ def engine_times(n_loops):
     """``[wall seconds, CPU seconds, [(labels, inertia)]]`` of the engine's k-means
     (:func:`uavwind.method.softdtw.fit`, the parameters of :func:`uavwind.score_loop`) on the
     first ``n_loops`` held-out loops, with the process's default threads (``parallel=None``:
-    ``UAVWIND_SOFTDTW_PARALLEL``); ``score_loop`` itself always runs its kernels serially
-    (a search's parallelism is its worker processes)."""
+    ``UAVWIND_SOFTDTW_PARALLEL``), as ``score_loop`` runs them outside a pool's workers."""
     from uavwind.method import softdtw
     from uavwind.method.clustering import DEFAULT_PARAMS
 
@@ -483,8 +494,9 @@ def engine_times(n_loops):
 
 def bench_threads(report, n_loops=6, rounds=3):
     """When the kernels' threads pay: the engine's k-means on the first ``n_loops`` held-out
-    loops (:func:`engine_times`), serially and with numba's threads (its OpenMP pool as it
-    comes, and with ``OMP_WAIT_POLICY=PASSIVE``), each run in a child process, ``rounds`` times, the settings
+    loops (:func:`engine_times`), serially and with the kernels' threads (a call's lane
+    groups shared with a helper thread, :mod:`uavwind.method.softdtw._share`), each run in a
+    child process, ``rounds`` times, the settings
     taking turns; on an idle machine, then beside busy cores (one process spinning on each
     core but one, as when a book builds beside the tests). The figures are the rounds' medians
     of the wall and CPU seconds; the labels and scores of every run are compared with the

@@ -15,9 +15,10 @@ import pytest
 # soft-DTW kernels run serially unless a test asks for threads (parallel=True; the tests of
 # the threaded kernels do). A numba thread that waits at a barrier for a core another process
 # holds spins, and the threaded kernels are then several times slower than the serial ones
-# (`ONLY=threads make bench`). Few tests call the engine with its default threads
-# (`score_loop` is always serial), so `make test` as a whole did not change measurably: 686 s
-# before and 695 s after on fresh clones, the same day. Set before uavwind is imported (the
+# (`ONLY=threads make bench`, for numba's OpenMP pool; the helper threads that replaced it
+# in the lockstep kernels are gentler, but still share the cores). When this was set,
+# `make test` as a whole did not change measurably: 686 s before and 695 s after on fresh
+# clones, the same day. Set before uavwind is imported (the
 # switch is read once); OMP_WAIT_POLICY before numba's OpenMP pool starts, so that the
 # threaded tests sleep while they wait.
 os.environ.setdefault("UAVWIND_SOFTDTW_PARALLEL", "0")

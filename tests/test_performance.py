@@ -214,8 +214,15 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     t = report_tables(rep)["heldout"]
     assert t["speed-up"].tolist() == [20.0, 25.0, 16.0, 25.0]
     assert [i.split(", ", 1)[1] for i in t.index] == [
-        "native code", "native code, alone", "AVX2 code (NUMBA_CPU_NAME=haswell), alone",
+        "native code, serially", "native code, alone",
+        "AVX2 code (NUMBA_CPU_NAME=haswell), alone",
         "native code, the loops side by side (score_loops)"]
+    assert "the fast engine serially)" in line  # a record before 2026-12-04: score_loop serial
+    rep["heldout"]["fast_threads"] = 2  # from 2026-12-04: the engine's default threads
+    assert report_tables(rep)["heldout"].index[0] == "8 lanes, native code, on 2 threads"
+    assert ("(each with its default threads: tslearn numba's, the fast engine on 2 threads)"
+            in summary_lines(rep)["heldout"])
+    del rep["heldout"]["fast_threads"]
     # a record from 2026-12-02 on names the AVX2 child's code and its own lanes
     rep["heldout"]["avx2"].update(lanes=4, code="NUMBA_CPU_NAME=haswell, no AVX-512")
     t = report_tables(rep)["heldout"]
@@ -307,6 +314,13 @@ def test_the_threads_section_sets_threads_against_serial_idle_and_beside_busy_co
     assert t.loc[("1 other core(s) busy", "threads"), "wall (s)"] == 3.3
     assert t.loc[("idle", "serial"), "wall range (s)"] == "0.90-1.10"
     assert len(t) == 6
+    # from 2026-12-04: serial against the helper threads, no OpenMP pool
+    for c in rep["threads"]["cases"].values():
+        del c["threads, passive wait"]
+    rep["threads"]["identical"] = True
+    line = summary_lines(rep)["threads"]
+    assert "OMP_WAIT_POLICY" not in line and "shared with a helper thread" in line
+    assert len(report_tables(rep)["threads"]) == 4
 
 
 def test_the_builds_sentence_gives_every_run_against_its_target():

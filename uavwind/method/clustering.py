@@ -218,14 +218,16 @@ def _fast_engine(p):
     engine = softdtw_engine()
     SoftDTWKMeans, silhouette_score = engine.SoftDTWKMeans, engine.silhouette_score
 
-    # serial kernels: parallelism comes from running loops in separate processes,
-    # and a fixed order of operations keeps results independent of the machine
+    # the kernels' default threads: a call's lane groups are shared with a helper thread
+    # where numba has more than one (numba.get_num_threads()); a worker process of a pool is
+    # pinned to one (core.parallel.pin_threads), so its loops run serially. Either way the
+    # same doubles: a lane group's arithmetic does not depend on the thread that runs it
     km = SoftDTWKMeans(n_clusters=2, gamma=p["gamma"], max_iter=p["max_iter"],
                        max_iter_barycenter=p["max_iter_barycenter"], tol=p["tol"],
-                       n_init=p["n_init"], random_state=p["random_state"], parallel=False)
+                       n_init=p["n_init"], random_state=p["random_state"], parallel=None)
 
     def silhouette(X, labels, metric, gamma):
-        return silhouette_score(X, labels, metric=metric, gamma=gamma, parallel=False)
+        return silhouette_score(X, labels, metric=metric, gamma=gamma, parallel=None)
     return km, silhouette
 
 

@@ -102,8 +102,8 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
         host = h.get("host", {})  # its model is named in the line above the table
         lanes = host.get("lanes", "?")
         avx2, alone = h["avx2"], h.get("native_alone")
-        rows = [(f"{lanes} lanes, native code", h["fast_seconds"], h["speedup"],
-                 h["identical"])]
+        rows = [(f"{lanes} lanes, native code, {_threads_of(h)}", h["fast_seconds"],
+                 h["speedup"], h["identical"])]
         if alone:  # both alone in a child process: like for like
             rows.append((f"{lanes} lanes, native code, alone", alone["fast_seconds"],
                          h["tslearn_seconds"] / alone["fast_seconds"], alone["identical"]))
@@ -131,6 +131,7 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
               "speed-up": h["speedup"],
               "rounds": _span(h["rounds"], "speedup", ".1f") if h.get("rounds") else "-",
               "side by side": h.get("side_by_side_speedup", float("nan")),
+              "fast engine": _threads_of(h),
               "identical": f"{h['identical']}/{h['loops']}"}
              for model, h in _by_date(report["heldout_hosts"])]).set_index("host")
     if "threads" in report:
@@ -341,7 +342,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
         when = later.get("loops", report.get("measured", "(date not recorded)"))
         out["loops"] = (f"*One-loop timings measured {when}*, each engine as `score_loop` "
                         "runs it (tslearn with the process's default numba threads, the fast "
-                        "engine serially), on one scenario.")
+                        f"engine {_threads_of({'fast_threads': report.get('loop_threads', 1)})})"
+                        ", on one scenario.")
         if "spread" in report:
             out["loops"] += (" The speed-up across varied loops below times each engine on "
                              "one thread, over many scenarios and group sizes; that is the "
@@ -354,7 +356,9 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
         when = later.get("heldout", report.get("measured", "(date not recorded)"))
         out["heldout"] = (f"*Measured {when} on {host.get('model', '?')}* "
                           f"({host.get('llvm_cpu', '?')}, {host.get('lanes', '?')} float64 "
-                          f"lanes): {h['loops']} loops, the engines taking turns on each, "
+                          f"lanes): {h['loops']} loops, the engines taking turns on each "
+                          f"(each with its default threads: tslearn numba's, the fast engine "
+                          f"{_threads_of(h)}), "
                           f"the fast engine {h['speedup']:.1f} times faster in wall time "
                           f"({h['cpu_speedup']:.1f} times in CPU time), labels and scores "
                           f"identical on {h['identical']} of {h['loops']}"
@@ -580,6 +584,13 @@ def _gradient_split(t: Mapping[str, Any]) -> str:
             f"with it and {costs['squared distance']:.2f} ns without). ")
 
 
+def _threads_of(record: Mapping[str, Any]) -> str:
+    """How a record's fast engine ran: ``"serially"`` or ``"on 2 threads"`` (its
+    ``fast_threads``; records before 2026-12-04 have none: ``score_loop`` was serial then)."""
+    n = int(record.get("fast_threads", 1))
+    return "serially" if n <= 1 else f"on {n} threads"
+
+
 def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
     """The sentence under the threads table: what the threads gain on an idle machine and
     what they cost beside busy cores, each against the serial kernels, from the medians."""
@@ -598,12 +609,18 @@ def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
             f"ran {phrase(ratio(idle, 'threads'))} the serial ones; with {t['busy_cores']} "
             f"other core(s) busy, {phrase(ratio(busy, 'threads'))} them, using "
             f"{busy['threads']['cpu_seconds']:.2f} CPU seconds against "
-            f"{busy['serial']['cpu_seconds']:.2f} (a thread waiting at a barrier for a core "
-            f"another process holds spins), and {phrase(ratio(busy, 'threads, passive wait'))} "
-            f"them with `OMP_WAIT_POLICY=PASSIVE`. Labels and scores were "
+            f"{busy['serial']['cpu_seconds']:.2f}"
+            + (f" (numba's OpenMP pool: a thread waiting at a barrier for a core another "
+               f"process holds spins), and {phrase(ratio(busy, 'threads, passive wait'))} "
+               f"them with `OMP_WAIT_POLICY=PASSIVE`"
+               if "threads, passive wait" in busy else
+               " (a call's lane groups shared with a helper thread: the caller never waits for "
+               "a helper that has not started, and runs alone for a while after one that was "
+               "late)")
+            + ". Labels and scores were "
             f"{'identical in every run' if t['identical'] else '**not** identical in every run'}. "
-            "The setting matters where the engine is called directly (`SoftDTWKMeans`, "
-            "`fit`): `score_loop` and the searches always run its kernels serially, their "
-            "parallelism being worker processes. The book's pages, which run side by side, and "
+            "The setting applies wherever the engine runs in a process of its own "
+            "(`score_loop`, the searches with one job, `SoftDTWKMeans`, `fit`); a pool's "
+            "workers run one thread each. The book's pages, which run side by side, and "
             "the tests, which run beside the quick book they build, default to serial kernels "
             "(`UAVWIND_SOFTDTW_PARALLEL=0`).")
