@@ -172,13 +172,17 @@ def bench_where_time_goes(report, n_loops=20):
     prof.disable()
     stats = pstats.Stats(prof)
     total = stats.total_tt
+    # the kernels as this thread enters them: serially, or its share of a call whose lane
+    # groups a helper thread shares (cProfile sees this thread only; its wait for the helper
+    # is a row of its own)
     names = {"_objgrad_serial": "barycentre updates: soft-DTW value + gradient",
-             "_objgrad_par": "barycentre updates: soft-DTW value + gradient",
+             "_objgrad_groups": "barycentre updates: soft-DTW value + gradient",
              "_objgrad_batch_serial": "barycentre updates: soft-DTW value + gradient",
-             "_sdtw_cross_lockstep": "assignment: soft-DTW to both centres",
+             "_cross_groups": "assignment: soft-DTW to both centres",
              "_sdtw_cross_serial": "assignment: soft-DTW to both centres",
-             "_dtw_upper_lockstep": "silhouette: DTW matrix",
-             "_dtw_upper_range": "silhouette: DTW matrix"}
+             "_dtw_upper_groups": "silhouette: DTW matrix",
+             "_dtw_upper_range": "silhouette: DTW matrix",
+             "_spin_until": "waiting for the helper thread to finish its lane groups"}
     shares = {label: 0.0 for label in names.values()}
     for (_, _, name), (_, _, tt, _, _) in stats.stats.items():
         if name in names:
