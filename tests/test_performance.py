@@ -220,8 +220,8 @@ def test_the_held_out_check_says_which_host_it_ran_on():
     assert "the fast engine serially)" in line  # a record before 2026-12-04: score_loop serial
     rep["heldout"]["fast_threads"] = 2  # from 2026-12-04: the engine's default threads
     assert report_tables(rep)["heldout"].index[0] == "8 lanes, native code, on 2 threads"
-    assert ("(each with its default threads: tslearn numba's, the fast engine on 2 threads)"
-            in summary_lines(rep)["heldout"])
+    assert ("(each with its default threads: tslearn on numba's, the fast engine on 2 "
+            "threads)" in summary_lines(rep)["heldout"])
     del rep["heldout"]["fast_threads"]
     # a record from 2026-12-02 on names the AVX2 child's code and its own lanes
     rep["heldout"]["avx2"].update(lanes=4, code="NUMBA_CPU_NAME=haswell, no AVX-512")
@@ -242,7 +242,7 @@ def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():
     one = {"heldout_hosts": {"EPYC": rec("2026-12-01 10:00 UTC", "EPYC", 4, 2.0, 60.0)}}
     line = summary_lines(one)["heldout_hosts"]
     assert line.startswith("*The held-out check has run on one host so far:*")
-    assert "the fast engine took 2.00 s and tslearn 60.0 s, 30.0 times" in line
+    assert "the fast engine took 2.00 s (serially) and tslearn 60.0 s, 30.0 times" in line
     two = {"heldout_hosts": {**one["heldout_hosts"],
                              "Xeon": rec("2026-11-28 10:00 UTC", "Xeon", 8, 2.5, 40.0)}}
     line = summary_lines(two)["heldout_hosts"]
@@ -262,6 +262,14 @@ def test_each_hosts_held_out_record_is_kept_and_the_gap_is_put_where_it_is():
     two["heldout_hosts"]["Xeon"]["commit"] = "def5678"
     assert ("of different commits (def5678, abc1234), so the fast engine's time also moves "
             "with its code") in summary_lines(two)["heldout_hosts"]
+    assert "with its threads" not in summary_lines(two)["heldout_hosts"]
+    # a record whose fast engine ran on threads beside serial ones: said, host by host
+    two["heldout_hosts"]["EPYC"]["fast_threads"] = 2
+    line = summary_lines(two)["heldout_hosts"]
+    assert "took 2.00 s (on 2 threads)" in line and "took 4.00 s (serially)" in line
+    assert "and with its threads (the records did not all run it the same way" in line
+    assert report_tables(two)["heldout_hosts"]["fast engine"].tolist() == ["serially",
+                                                                           "on 2 threads"]
 
 
 def test_a_section_measured_on_another_host_keeps_the_first_hosts_record(monkeypatch):

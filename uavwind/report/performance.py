@@ -278,8 +278,8 @@ def _hosts_line(hosts: Mapping[str, Any]) -> str:
     rows = _by_date(hosts)
     each = "; ".join(
         f"on {model} ({h['host'].get('lanes', '?')} lanes, {h.get('measured', '?')}) the fast "
-        f"engine took {h['fast_seconds']:.2f} s and tslearn {h['tslearn_seconds']:.1f} s, "
-        f"{h['speedup']:.1f} times" for model, h in rows)
+        f"engine took {h['fast_seconds']:.2f} s ({_threads_of(h)}) and tslearn "
+        f"{h['tslearn_seconds']:.1f} s, {h['speedup']:.1f} times" for model, h in rows)
     if len(rows) < 2:
         return f"*The held-out check has run on one host so far:* {each}."
     fast = [h["fast_seconds"] for _, h in rows]
@@ -291,6 +291,9 @@ def _hosts_line(hosts: Mapping[str, Any]) -> str:
     code = ("" if len(commits) < 2 else
             f" and of different commits ({', '.join(commits)}), so the fast engine's time also "
             "moves with its code")
+    if len({_threads_of(h) for _, h in rows}) > 1:
+        code += (", and with its threads (the records did not all run it the same way: "
+                 "the host by host figures above say how each did)")
     return (f"*The same twelve loops on each host the check has run on:* {each}. Between the "
             f"hosts the fast engine's time differs by {f_ratio:.2f} times and tslearn's by "
             f"{t_ratio:.2f} times: the speed-up moves with {whose}. The records are of "
@@ -357,8 +360,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
         out["heldout"] = (f"*Measured {when} on {host.get('model', '?')}* "
                           f"({host.get('llvm_cpu', '?')}, {host.get('lanes', '?')} float64 "
                           f"lanes): {h['loops']} loops, the engines taking turns on each "
-                          f"(each with its default threads: tslearn numba's, the fast engine "
-                          f"{_threads_of(h)}), "
+                          f"(each with its default threads: tslearn on numba's, the fast "
+                          f"engine {_threads_of(h)}), "
                           f"the fast engine {h['speedup']:.1f} times faster in wall time "
                           f"({h['cpu_speedup']:.1f} times in CPU time), labels and scores "
                           f"identical on {h['identical']} of {h['loops']}"
