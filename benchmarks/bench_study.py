@@ -101,13 +101,19 @@ def bench_paper_profile(report, engine):
                  else case_loops(prof, c))
             by_size[c.setting.n_env] = by_size.get(c.setting.n_env, 0) + n
     per_loop = {}
-    for n_env in sorted(by_size):
-        inputs = [loop_inputs(max(n_env, 2), seed) for seed in range(3)]
-        X, g = inputs[0]
-        uw.score_loop(X, g, engine=engine)
-        per_loop[n_env] = statistics.median(
-            [timeit(lambda X=X, g=g: uw.score_loop(X, g, engine=engine), repeat=1)
-             for X, g in inputs])
+    import numba
+    threads = numba.get_num_threads()
+    numba.set_num_threads(1)  # a loop as a fill's worker runs it: on one thread
+    try:
+        for n_env in sorted(by_size):
+            inputs = [loop_inputs(max(n_env, 2), seed) for seed in range(3)]
+            X, g = inputs[0]
+            uw.score_loop(X, g, engine=engine)
+            per_loop[n_env] = statistics.median(
+                [timeit(lambda X=X, g=g: uw.score_loop(X, g, engine=engine), repeat=1)
+                 for X, g in inputs])
+    finally:
+        numba.set_num_threads(threads)
     one_core = sum(by_size[n] * per_loop[n] for n in by_size)
     cores = os.cpu_count() or 1
     print(f"  {n_loops_total('paper')} loops (before cache sharing); engine {engine}")
