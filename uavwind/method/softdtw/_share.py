@@ -19,8 +19,9 @@ busy. ``ONLY=threads make bench`` measures the last against serial.
 
 A helper spins (without the GIL, :func:`_spin`) for about :data:`SPIN_TICKS` after each call
 before it sleeps: the L-BFGS-B step between two barycentre calls takes tens of microseconds,
-less than waking a sleeping thread takes on a virtual machine (about 50 us here, where the
-guest does not poll before it halts). It wakes when the caller's kernel announces itself
+less than waking a sleeping thread takes on a virtual machine (52-66 us here, the median
+from posting a call to a sleeping helper starting it, on a guest that does not poll before
+it halts; 8.7 us with the spin and the mailbox below). It wakes when the caller's kernel announces itself
 (:func:`announce`), so it takes the GIL while the caller has let go of it, and the caller
 waits for it, spinning too, until it has let go of the GIL again. After a call whose helper
 ended much later than the caller (its core was busy), calls run on the caller alone for
