@@ -387,16 +387,13 @@ def test_the_lanes_follow_the_features_numba_compiles_for(tmp_path):
 def test_work_arrays_start_on_a_cache_line():
     """The kernels' work arrays start on a 64-byte boundary (numba aligns its arrays to 32
     bytes and numpy to 16, where every other or every 8-lane load and store would straddle
-    two cache lines), rows included, whatever offset the allocator returns."""
-    from uavwind.method.softdtw._lockstep import (ALIGN, _aligned_empty, _aligned_rows,
-                                                  _objgrad_workspace)
+    two cache lines), whatever offset the allocator returns."""
+    from uavwind.method.softdtw._lockstep import ALIGN, _aligned_empty, _objgrad_workspace
     assert ALIGN == 64
     for k in (1, 7, 8, 100, 960, 115200):
         a = _aligned_empty(k)
         assert a.shape == (k,) and a.ctypes.data % ALIGN == 0 and a.flags.c_contiguous
-    for nw in (1, 2, 3):
-        z = _aligned_rows(nw, 8 * 13, zero=True)
-        assert z.shape == (nw, 104) and not z.any()
-        assert all(row.ctypes.data % ALIGN == 0 for row in z)
-    for arr in _objgrad_workspace(120, 120, 3)[:6]:
-        assert arr.ctypes.data % (N * 8) == 0
+    ws = _objgrad_workspace(120, 120, 3)
+    for arr in ws[:6]:
+        assert arr.ctypes.data % ALIGN == 0
+    assert ws[5].shape == (120 * 120 * N,) and not ws[5].any()  # E starts all zero

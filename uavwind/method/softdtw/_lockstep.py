@@ -73,15 +73,6 @@ def _aligned_empty(k):
     return buf[off:off + k]
 
 
-def _aligned_rows(nw, k, zero=False):
-    """``np.empty((nw, k))`` (``np.zeros`` with ``zero``) starting on an :data:`ALIGN`-byte
-    boundary; every row does too where ``k`` is a multiple of ALIGN // 8 doubles (with 8
-    lanes), and on a vector's boundary where ``k`` is a multiple of N (4 lanes)."""
-    buf = (np.zeros if zero else np.empty)(nw * k + ALIGN // 8)
-    off = ((-buf.ctypes.data) % ALIGN) // 8
-    return buf[off:off + nw * k].reshape(nw, k)
-
-
 @njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
 def _pack_pairs(A, B, g, x, y):
     """Lane-interleave the pairs g * N .. g * N + N - 1 of A x B (pair p = (p // nb, p % nb));
@@ -370,11 +361,11 @@ def _objgrad_workspace(m, n, d):
     if got is not None and got[0] == key:
         return got[1]
     nN = m * n * N
-    return tuple(row[0] for row in (
-        _aligned_rows(1, m * d * N), _aligned_rows(1, n * d * N),
-        _aligned_rows(1, (R + 1) * (n + 1) * N), _aligned_rows(1, nN), _aligned_rows(1, nN),
-        _aligned_rows(1, nN, zero=True), np.empty((1, m), dtype=np.int64),
-        np.empty((1, m), dtype=np.int64)))
+    E = _aligned_empty(nN)
+    E[:] = 0.0
+    return (_aligned_empty(m * d * N), _aligned_empty(n * d * N),
+            _aligned_empty((R + 1) * (n + 1) * N), _aligned_empty(nN), _aligned_empty(nN), E,
+            np.empty(m, dtype=np.int64), np.empty(m, dtype=np.int64))
 
 
 def _with_workspace(m, n, d, kernel):

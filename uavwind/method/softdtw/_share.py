@@ -99,16 +99,11 @@ def announce(enter):
 @njit(cache=True, nogil=True)
 def _spin(word, seen, back, ticks):
     """Bump ``back`` (if not empty: the last call's 'helper is back' count), then whether
-    ``word[0]`` differs from ``seen`` within about ``ticks`` timestamp ticks."""
+    ``word[0]``, which only grows (the mailbox), grows past ``seen`` within about ``ticks``
+    timestamp ticks."""
     if back.size > 0:
         fetch_add(back, 1)
-    t0 = _ticks()
-    while True:
-        for _ in range(64):
-            if _load_acquire(word) != seen:
-                return True
-        if _ticks() - t0 > ticks:
-            return False
+    return _spin_until(word, seen + 1, ticks)
 
 
 @njit(cache=True, nogil=True)
