@@ -38,6 +38,35 @@ def test_estimate_wind_is_unbiased_under_white_noise():
     assert np.all(np.abs(err.mean(axis=0)) < 3 * se)
 
 
+def test_the_std_is_the_noise_carried_through_the_estimate():
+    """With the positions' noise given, the std is sigma / sqrt(sum t^2) (the closed form),
+    and it is what the spread over noise draws shows; without it, the residuals' reading is
+    close to it; zero without noise."""
+    w = np.array([[1.0, 0.5, 0.0]])
+    f = _flight(uw.ConstantWind(w))
+    t = (np.arange(120) + 1.0) * 0.1
+    mean, std = estimate_wind(f.positions, uw.PAPER_EXAMPLE, return_std=True)
+    assert np.allclose(mean, w, atol=1e-12) and np.all(std < 1e-12)
+    _, std = estimate_wind(f.positions, uw.PAPER_EXAMPLE, return_std=True, position_noise=1.0)
+    assert np.allclose(std, 1.0 / np.sqrt(np.dot(t, t)), rtol=1e-15)
+    draws = [estimate_wind(observe(f, "position", Noise(position=1.0), seed=s), uw.PAPER_EXAMPLE,
+                           return_std=True) for s in range(300)]
+    spread = np.std([m[0] for m, _ in draws], axis=0, ddof=1)
+    assert np.allclose(spread, std[0], rtol=0.15)
+    read = np.mean([sd[0] for _, sd in draws], axis=0)  # the residuals' own reading
+    assert np.all((read > 0.5 * std[0]) & (read < 3.0 * std[0]))
+    _, sp = estimate_wind(f.positions, uw.PAPER_EXAMPLE, model="path", return_std=True,
+                          position_noise=0.5)
+    assert sp.shape == (1, 120, 3) and np.allclose(sp[0, 1:], np.sqrt(2) * 0.5 / 0.1)
+    assert np.allclose(sp[0, 0], 0.5 / 0.1)
+    with pytest.raises(ValueError, match="position_noise"):
+        estimate_wind(f.positions, uw.PAPER_EXAMPLE, model="path", return_std=True)
+    with pytest.raises(ValueError, match="position_noise"):
+        estimate_wind(f.positions, uw.PAPER_EXAMPLE, position_noise=-1.0)
+    with pytest.raises(TypeError, match="return_std"):
+        estimate_wind(f.positions, uw.PAPER_EXAMPLE, return_std=1)
+
+
 def test_two_means_separates_two_clouds_and_matches_kmeans():
     from sklearn.cluster import KMeans
 

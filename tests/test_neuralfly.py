@@ -100,12 +100,45 @@ def _set(col, row, value):
     (_set("w", 4, "[0.1, abc, 0.2]"), r"column 'w', row 4: not numbers"),
     (_set("T_sp", 9, ""), r"column 'T_sp', row 9: 0 values"),
     (_set("t", 10, 0.0), r"column 't' must increase, row 10"),
+    (_set("hover_throttle", 6, "[0.0]"), r"column 'hover_throttle', row 6: 0; .* positive"),
+    (_set("hover_throttle", 2, "[-0.4]"), r"column 'hover_throttle', row 2: -0.4"),
+    (_set("T_sp", 8, "[0_5]"), r"column 'T_sp', row 8: not numbers: '\[0_5\]'"),
+    (_set("fa", 3, "[1.0, \u0661, 0.0]"), r"column 'fa', row 3: not numbers"),
 ])
 def test_a_malformed_file_is_refused_naming_the_file_and_the_column(tmp_path, edit, match):
     write_flight(tmp_path, edit=edit)
     with pytest.raises(ValueError, match=match) as err:
         load_neuralfly(tmp_path)
     assert "custom_figure8_ctl_35wind.csv" in str(err.value)
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda d: (d / "custom_figure8_ctl_nowind.csv").symlink_to(d / "gone.csv"),
+     "custom_figure8_ctl_nowind.csv: .*cannot be read \\(a dangling symlink\\)"),
+    (lambda d: ((d / "custom_figure8_ctl_nowind.csv").symlink_to(d / "loop.csv"),
+                (d / "loop.csv").symlink_to(d / "custom_figure8_ctl_nowind.csv")),
+     "custom_figure8_ctl_nowind.csv: .*cannot be read \\(a symlink loop\\)"),
+    (lambda d: (d / "custom_figure8_ctl_nowind.csv").mkdir(),
+     "custom_figure8_ctl_nowind.csv: .*not a regular file"),
+])
+def test_a_file_named_like_a_flight_that_cannot_be_read_is_refused(tmp_path, make, match):
+    write_flight(tmp_path, condition="35wind")
+    make(tmp_path)
+    with pytest.raises(ValueError, match=match):
+        load_neuralfly(tmp_path)
+
+
+def test_a_flight_without_read_permission_is_refused_naming_it(tmp_path, monkeypatch):
+    """Mode 000 (root reads it anyway: the permission is what ``os.access`` says)."""
+    path = write_flight(tmp_path, condition="35wind")
+    path.chmod(0)
+    real = os.access
+    monkeypatch.setattr(nf.os, "access", lambda p, mode: False if Path(p) == path
+                        else real(p, mode))
+    with pytest.raises(ValueError, match="custom_figure8_ctl_35wind.csv: .*permission denied"):
+        load_neuralfly(tmp_path)
+    with pytest.raises(ValueError, match="gone.csv: cannot be read"):
+        nf.files_digest([tmp_path / "gone.csv"])
 
 
 def test_unknown_conditions_and_duplicates_are_refused(tmp_path):

@@ -136,6 +136,12 @@ CALLS = {
         "kind": ["estimate"] * 4, "method": ["drag", "drag", "ekf", "ekf"],
         "controller": ["a", "b", "a", "b"], "condition": ["35wind", "70p20sint"] * 2,
         "wind_speed": [4.2, 8.5] * 2, "estimate": [4.0, 8.1, 4.4, 8.9]})),
+    "wind_estimate_series": lambda f: plotting.wind_estimate_series(pd.DataFrame({
+        "kind": ["series"] * 8, "method": ["drag"] * 4 + ["ekf"] * 4, "controller": ["a"] * 8,
+        "condition": ["35wind", "35wind", "70p20sint", "70p20sint"] * 2,
+        "wind_speed": [4.2, 4.2, 8.5, 8.5] * 2, "t": [0.0, 1.0] * 4,
+        "estimate": [4.0, 4.3, 8.0, 9.0, 4.1, 4.2, 8.2, 8.8], "std": [0.3] * 8,
+        "truth": [4.2, 4.2, 8.5, 9.3] * 2})),
     "channel_pair_heatmap": lambda f: plotting.channel_pair_heatmap(pd.DataFrame({
         "condition_a": ["nowind"] * 2, "condition_b": ["35wind"] * 2,
         "channel": ["position", "attitude"], "mean": [40.0, 90.0]})),

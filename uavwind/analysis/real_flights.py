@@ -63,7 +63,7 @@ __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "co
 #: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are
 #: kept under the files' bytes, not the parsed arrays. 2: thrust over the hover throttle,
 #: the same-wind controls, the flight rows' lean, vertical force, spread and noise.
-REAL_VERSION = "2"
+REAL_VERSION = "3"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -291,7 +291,8 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
             "tilt_deg", "pitch_deg", "aero_force_x", "aero_force_z", "aero_force_norm",
             "tracking_rms", "thrust_sp", "fa_x_spread", "n_laps", *noise_columns(),
-            "method", "estimate", "sample_rmse", "amplitude", "phase", "phase_ref", "lag"]
+            "method", "protocol", "estimate", "sample_rmse", "coverage", "std", "amplitude",
+            "phase", "phase_ref", "lag", "t", "truth"]
     for c in cols:
         if c not in df.columns:
             df[c] = np.nan

@@ -1,11 +1,20 @@
 """Experiment 13, the wind estimated: :class:`~uavwind.method.wind_estimator.WindEstimator`
-held to the tunnel's winds, leaving one controller out.
+judged on flights it was not fitted on, under one protocol.
 
-This module owns :func:`estimation_rows` (for every method and controller: fit on the other
-controllers' flights, predict each of that controller's flights; one row per prediction) and
-:func:`estimation_table` (per method and wind: the RMSE over held-out controllers of each
-flight's mean estimated speed against the tunnel's, the per-sample RMSE, and for the
-sinusoidal wind the fitted amplitude, phase and lag).
+This module owns :func:`estimation_rows` (for every method: leave one controller out -- fit on
+the other controllers' flights, predict each of the held-out controller's -- and leave one
+wind out -- fit on the other controllers' flights at the other winds, predict the held-out
+controller's flight at the held-out wind; one row per prediction, plus a decimated time
+series of one controller's flights for the figure), :func:`estimation_table` (per method,
+protocol and wind) and :func:`summary_table` (per method and protocol, with intervals over
+the controllers). ``"clusters"`` is a classifier: it is scored by the share of laps that name
+the right wind (``accuracy``), under leave one controller out only (a wind it was not trained
+on it cannot name: its accuracy there is 0 by construction), never by an RMSE.
+
+*Per sample* means after :data:`SETTLE` s (the start-up lap and the filters' start); the
+vector RMSE is over the horizontal and vertical error; *coverage* is the share of those
+samples whose 95% interval (mean +- 1.96 std along the wind's direction) holds the tunnel's
+wind.
 
 *The sinusoid's phase.* Neural-Fly's ``70p20sint`` wind is 8.5 + 2.4 sin t m/s, but the
 files' time is not the fan's: the phase of the sinusoid at the vehicle is read off the force
@@ -21,17 +30,26 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import check_instance
-from ..core.stats import t_ci
-from ..data.neuralfly import CONDITIONS, RealFlight
-from ..method.wind_estimator import ESTIMATORS, WindEstimator
+from ..core.stats import N_BOOT, SEED, t_ci, wilson_ci
+from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
+from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
-__all__ = ["estimation_rows", "estimation_table", "force_phase", "SINUSOID", "TARGETS"]
+__all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
+           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
 SINUSOID = ("70p20sint", 2.4, 1.0)
-#: What the estimator aims at: RMSE of each flight's mean speed [m/s] and the sinusoid's
-#: amplitude error [m/s] (the project's targets).
-TARGETS = {"mean_speed_rmse": 0.3, "amplitude_error": 0.5}
+#: What the estimator aims at (the project's targets): RMSE of each held-out flight's mean
+#: speed [m/s] (leave one wind out; goal 0.4), per-sample vector RMSE [m/s] (goal 0.3), the
+#: 95% interval's coverage, and the sinusoid's amplitude error [m/s].
+TARGETS = {"mean_speed_rmse": 0.6, "sample_rmse": 0.4, "coverage": (0.85, 0.99),
+           "amplitude_error": 0.5}
+#: The two ways a flight is held out: its controller, or its controller and its wind.
+PROTOCOLS = ("controller", "wind")
+#: Per-sample scores count from this time [s].
+SETTLE = 10.0
+#: The series rows keep every this many samples (50 Hz: one per 0.2 s).
+SERIES_STEP = 10
 
 
 def _harmonic(t, y, omega):
@@ -58,77 +76,209 @@ def force_phase(sinusoid: RealFlight, steady: RealFlight, skip: float = 2 * np.p
     return float(_wrap(np.angle(z[0] - z[1]) - np.pi))
 
 
+def _truth(f, ref, t):
+    """The tunnel's wind speed [m/s] at times ``t`` of flight ``f`` (the sinusoid at the
+    force's phase ``ref``)."""
+    truth = np.full_like(t, f.wind_speed, dtype=float)
+    if f.condition == SINUSOID[0]:
+        truth = truth + SINUSOID[1] * np.sin(SINUSOID[2] * t + (ref if np.isfinite(ref) else 0.0))
+    return truth
+
+
+def _score(est, f, d, ref, base):
+    """One row of kind ``"estimate"`` for a drag or filter prediction of flight ``f``."""
+    mean, std = est.predict(f, return_std=True)
+    t = f.arrays["t"]
+    keep, late = t >= est.skip, t >= SETTLE
+    speed = mean @ d
+    sd = np.sqrt((std ** 2) @ (d ** 2))
+    truth = _truth(f, ref, t)
+    W = truth[:, None] * d
+    _, a, phi = _harmonic(t[keep], speed[keep], SINUSOID[2])
+    name = SINUSOID[0]
+    # a lag only where the estimate swings
+    lag = (float(_wrap(ref - phi) / SINUSOID[2])
+           if f.condition == name and a >= 0.1 * SINUSOID[1] and np.isfinite(ref) else np.nan)
+    return {**base, "estimate": float(speed[keep].mean()),
+            "sample_rmse": float(np.sqrt(np.mean(np.sum((mean[late] - W[late]) ** 2, axis=1)))),
+            "coverage": float(np.mean(np.abs(speed[late] - truth[late]) <= 1.96 * sd[late])),
+            "std": float(np.sqrt(np.mean(sd[late] ** 2))),
+            "amplitude": a, "phase": phi, "phase_ref": ref if f.condition == name else np.nan,
+            "lag": lag}, (t, speed, sd, truth)
+
+
+def _accuracy(est, f):
+    """The share of ``f``'s laps (after the first) whose named wind is its own."""
+    starts = flight_laps(f, ("position",), 8, 1)["starts"]
+    t = f.arrays["t"]
+    idx = np.clip(np.searchsorted(t, starts), 0, len(t) - 1)
+    named = est.predict(f)[idx] @ est.direction
+    return float(np.mean(np.abs(named - f.wind_speed) < 1e-6))
+
+
 def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
-                    direction=(-1.0, 0.0, 0.0)) -> list[dict]:
-    """Leave one controller out: for every method and controller, a
-    :class:`~uavwind.method.wind_estimator.WindEstimator` fitted on the other controllers'
-    flights predicts each of that controller's flights. One row per prediction (kind
-    ``"estimate"``): the flight's mean estimated speed along ``direction`` after the start-up
-    lap (``estimate``), its per-sample RMSE against the tunnel's wind (the sinusoid at the
-    force's phase for ``70p20sint``, :func:`force_phase`; ``sample_rmse``) and the harmonic
-    fitted to the estimated speed (``amplitude``, ``phase``; for a steady wind the amplitude
-    the figure-8 alone leaves), with the force's phase (``phase_ref``) and the ``lag`` [s]."""
+                    direction=(-1.0, 0.0, 0.0), protocols=PROTOCOLS,
+                    series_controller: str | None = None) -> list[dict]:
+    """Every prediction of the protocol (module text): one row per held-out flight, method
+    and protocol (kind ``"estimate"``): the flight's mean estimated speed along ``direction``
+    after the start-up lap (``estimate``), the per-sample vector RMSE (``sample_rmse``), the
+    95% interval's ``coverage`` and RMS ``std`` [m/s], the harmonic fitted to the estimated
+    speed (``amplitude``, ``phase``) with the force's phase (``phase_ref``) and the ``lag``
+    [s]; for ``"clusters"`` the ``accuracy`` only. Plus kind ``"series"`` rows: the leave-one-
+    controller-out estimate of ``series_controller``'s flights (default the first in name
+    order) every :data:`SERIES_STEP` samples (``t``, ``estimate``, ``std``, ``truth``)."""
     for f in flights:
         check_instance(f, "flights[i]", RealFlight)
+    for p in protocols:
+        if p not in PROTOCOLS:
+            raise ValueError(f"protocols must be among {list(PROTOCOLS)}, got {p!r}")
     controllers = sorted({f.controller for f in flights})
+    if len(controllers) < 2:
+        return []
+    series_controller = controllers[0] if series_controller is None else series_controller
     by = {(f.controller, f.condition): f for f in flights}
     d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
-    name, amp, omega = SINUSOID
+    winds = sorted({f.wind_speed for f in flights if f.condition not in UNRECORDED})
+    ref = {c: (force_phase(by[(c, SINUSOID[0])], by[(c, "70wind")])
+               if (c, SINUSOID[0]) in by and (c, "70wind") in by else np.nan)
+           for c in controllers}
     rows = []
-    if len(controllers) < 2:
-        return rows
     for method in methods:
-        for held in controllers:
-            est = WindEstimator(method, direction=d).fit(
-                [f for f in flights if f.controller != held])
-            ref = (force_phase(by[(held, name)], by[(held, "70wind")])
-                   if (held, name) in by and (held, "70wind") in by else np.nan)
-            for f in (f for f in flights if f.controller == held):
-                keep = f.arrays["t"] >= est.skip
-                t = f.arrays["t"][keep]
-                speed = est.predict(f)[keep] @ d
-                truth = np.full_like(t, f.wind_speed)
-                if f.condition == name:
-                    truth = truth + amp * np.sin(omega * t + (ref if np.isfinite(ref) else 0.0))
-                _, a, phi = _harmonic(t, speed, omega)
-                # a lag only where the estimate swings (a piecewise-constant one has no phase)
-                lag = (float(_wrap(ref - phi) / omega)
-                       if f.condition == name and a >= 0.1 * amp else np.nan)
-                rows.append({"kind": "estimate", "method": method, "controller": held,
-                             "condition": f.condition, "wind_speed": f.wind_speed,
-                             "estimate": float(speed.mean()),
-                             "sample_rmse": float(np.sqrt(np.mean((speed - truth) ** 2))),
-                             "amplitude": a, "phase": phi,
-                             "phase_ref": ref if f.condition == name else np.nan, "lag": lag})
+        for protocol in protocols:
+            if method == "clusters" and protocol == "wind":
+                continue  # a classifier cannot name a wind it was not trained on
+            for held in controllers:
+                if protocol == "controller":
+                    cases = [([f for f in flights if f.controller != held],
+                              [f for f in flights if f.controller == held])]
+                else:
+                    cases = [([f for f in flights if f.controller != held
+                               and f.wind_speed != w],
+                              [f for f in flights if f.controller == held
+                               and f.wind_speed == w and f.condition not in UNRECORDED])
+                             for w in winds]
+                for train, test in cases:
+                    if not test or len({f.wind_speed for f in train}) < 2:
+                        continue
+                    est = WindEstimator(method, direction=d).fit(train)
+                    for f in test:
+                        base = {"kind": "estimate", "method": method, "protocol": protocol,
+                                "controller": held, "condition": f.condition,
+                                "wind_speed": f.wind_speed}
+                        if method == "clusters":
+                            rows.append({**base, "accuracy": _accuracy(est, f)})
+                            continue
+                        row, (t, speed, sd, truth) = _score(est, f, d, ref[held], base)
+                        rows.append(row)
+                        if protocol == "controller" and held == series_controller:
+                            s = slice(None, None, SERIES_STEP)
+                            rows += [{**base, "kind": "series", "t": float(a), "estimate": float(b),
+                                      "std": float(c), "truth": float(e)}
+                                     for a, b, c, e in zip(t[s], speed[s], sd[s], truth[s])]
     return rows
 
 
+def _named(g):
+    """``"clusters"``' score over held-out flights ``g``: ``accuracy`` (the mean share of
+    laps naming the flight's wind), ``named`` (flights whose laps mostly name it), and the
+    share named with its Wilson interval (``named_share``, ``named_low``, ``named_high``)."""
+    k = int(np.sum(g["accuracy"].to_numpy(float) > 0.5))
+    share, lo, hi = wilson_ci(k, len(g))
+    return {"accuracy": float(g["accuracy"].mean()), "named": k, "named_share": share,
+            "named_low": lo, "named_high": hi}
+
+
+def _rms(x):
+    return np.sqrt(np.mean(np.square(np.asarray(x, dtype=float)), axis=-1))
+
+
 def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
-    """Per method and wind: the RMSE over held-out controllers of each flight's mean
-    estimated speed against the tunnel's (``rmse``) and the mean signed error (``bias``,
-    with a 95% t interval over controllers), the per-sample RMSE (RMS over controllers),
-    the harmonic's amplitude (mean over controllers, and its RMSE against 2.4 m/s for the
-    sinusoid) and the mean lag [s]; ``meets`` says whether the mean-speed RMSE is within
-    :data:`TARGETS` (and the amplitude, for the sinusoid)."""
+    """Per method, protocol and wind: the RMSE over held-out controllers of each flight's mean
+    estimated speed against the tunnel's (``rmse``), the mean signed error (``bias``, with a
+    95% t interval over controllers), the per-sample vector RMSE (RMS over controllers), the
+    coverage and RMS std, the harmonic's amplitude (mean over controllers, and its RMSE
+    against 2.4 m/s for the sinusoid) and the mean lag [s]; ``"clusters"``' ``accuracy``
+    and the flights it names (:func:`_named`, a Wilson interval). ``meets``: the mean-speed RMSE, the
+    per-sample RMSE and the coverage within :data:`TARGETS` (and the amplitude, for the
+    sinusoid); for ``"clusters"`` empty."""
     est = rows[rows["kind"] == "estimate"]
+    if "protocol" not in est.columns:
+        est = est.assign(protocol="controller")
     out = []
-    for (method, cond), g in est.groupby(["method", "condition"], sort=False):
+    for (method, protocol, cond), g in est.groupby(["method", "protocol", "condition"],
+                                                   sort=False):
+        row = {"method": method, "protocol": protocol, "condition": cond,
+               "wind_speed": CONDITIONS.get(cond, np.nan), "n_controllers": len(g)}
+        if method == "clusters":
+            out.append({**row, **_named(g), "meets": None})
+            continue
         err = g["estimate"] - g["wind_speed"]
         b, lo, hi = t_ci(err.to_numpy())
-        row = {"method": method, "condition": cond, "wind_speed": CONDITIONS.get(cond, np.nan),
-               "rmse": float(np.sqrt(np.mean(err ** 2))), "bias": b, "bias_low": lo,
-               "bias_high": hi, "sample_rmse": float(np.sqrt(np.mean(g["sample_rmse"] ** 2))),
-               "amplitude": float(g["amplitude"].mean()),
-               "amplitude_rmse": (float(np.sqrt(np.mean((g["amplitude"] - SINUSOID[1]) ** 2)))
-                                  if cond == SINUSOID[0] else np.nan),
-               "lag": float(g["lag"].mean()) if g["lag"].notna().all() else np.nan,
-               "n_controllers": len(g)}
-        row["meets"] = bool(row["rmse"] <= TARGETS["mean_speed_rmse"] and (
-            cond != SINUSOID[0] or abs(row["amplitude"] - SINUSOID[1])
-            <= TARGETS["amplitude_error"]))
+        row.update({"rmse": float(_rms(err)), "bias": b, "bias_low": lo, "bias_high": hi,
+                    "sample_rmse": float(_rms(g["sample_rmse"])),
+                    "coverage": float(g["coverage"].mean()), "std": float(_rms(g["std"])),
+                    "amplitude": float(g["amplitude"].mean()),
+                    "amplitude_rmse": (float(_rms(g["amplitude"] - SINUSOID[1]))
+                                       if cond == SINUSOID[0] else np.nan),
+                    "lag": float(g["lag"].mean()) if g["lag"].notna().all() else np.nan})
+        lowc, highc = TARGETS["coverage"]
+        row["meets"] = bool(row["rmse"] <= TARGETS["mean_speed_rmse"]
+                            and row["sample_rmse"] <= TARGETS["sample_rmse"]
+                            and lowc <= row["coverage"] <= highc
+                            and (cond != SINUSOID[0] or abs(row["amplitude"] - SINUSOID[1])
+                                 <= TARGETS["amplitude_error"]))
         out.append(row)
     df = pd.DataFrame(out)
     if not len(df):
         return df
-    rank = {**{m: i for i, m in enumerate(ESTIMATORS)}, **{c: i for i, c in enumerate(CONDITIONS)}}
-    return df.sort_values(["method", "condition"], key=lambda s: s.map(rank), ignore_index=True)
+    rank = {**{m: i for i, m in enumerate(ESTIMATORS)}, **{p: i for i, p in enumerate(PROTOCOLS)},
+            **{c: i for i, c in enumerate(CONDITIONS)}}
+    return df.sort_values(["method", "protocol", "condition"], key=lambda s: s.map(rank),
+                          ignore_index=True)
+
+
+def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per method and protocol, over the steady winds' held-out flights: the RMSE of the mean
+    speed, the per-sample vector RMSE and the coverage, each with a 95% bootstrap interval
+    over the held-out controllers (each controller's flights resampled together); for
+    ``"clusters"`` the accuracy and the flights named (:func:`_named`). ``n_flights``,
+    ``n_controllers``."""
+    est = rows[(rows["kind"] == "estimate") & ~rows["condition"].isin(UNRECORDED)]
+    out = []
+    for (method, protocol), g in est.groupby(["method", "protocol"], sort=False):
+        per = g.groupby("controller")
+        row = {"method": method, "protocol": protocol, "n_flights": len(g),
+               "n_controllers": per.ngroups}
+        if method == "clusters":
+            out.append({**row, **_named(g)})
+            continue
+        # per controller: its flights' squared errors summed and counted, so a resample of
+        # controllers gives the RMSE over their flights
+        sq = per.apply(lambda x: pd.Series({
+            "se": float(np.sum((x["estimate"] - x["wind_speed"]) ** 2)),
+            "ss": float(np.sum(x["sample_rmse"] ** 2)), "cov": float(np.sum(x["coverage"])),
+            "n": len(x)}), include_groups=False).to_numpy(float)
+
+        for name, col, root in (("rmse", 0, True), ("sample_rmse", 1, True),
+                                ("coverage", 2, False)):
+            def stat(x, col=col, root=root):
+                x = np.asarray(x)
+                r = np.sum(x[..., col], axis=-1) / np.sum(x[..., 3], axis=-1)
+                return np.sqrt(r) if root else r
+            v = float(stat(sq))
+            lo, hi = _controller_ci(sq, stat)
+            row[name], row[f"{name}_low"], row[f"{name}_high"] = v, lo, hi
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _controller_ci(per, stat, n_boot: int = N_BOOT, seed: int = SEED):
+    """95% percentile interval of ``stat`` over controllers resampled with replacement
+    (``per``: one row per controller); NaN below 3 controllers."""
+    if len(per) < 3:
+        return np.nan, np.nan
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, len(per), size=(n_boot, len(per)))
+    vals = stat(per[idx])  # (n_boot, n_controllers, k) -> (n_boot,)
+    lo, hi = np.percentile(vals, [2.5, 97.5])
+    return float(lo), float(hi)

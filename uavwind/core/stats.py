@@ -26,7 +26,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["bootstrap_ci", "t_ci", "paired_difference", "correct_share", "summarise", "loops_needed",
-           "ci_halfwidth", "N_BOOT", "SEED", "LEVEL"]
+           "ci_halfwidth", "wilson_ci", "N_BOOT", "SEED", "LEVEL"]
 
 #: Bootstrap resamples of every interval.
 N_BOOT = 2000
@@ -182,3 +182,21 @@ def ci_halfwidth(sd: float, n: int, level: float = 0.95) -> float:
     """
     n = check_scalar(n, "n", low=0, integer=True)
     return _z(level) * sd / sqrt(n) if n > 1 else float("inf")
+
+
+def wilson_ci(k: int, n: int, level: float = LEVEL) -> tuple[float, float, float]:
+    """``(share, low, high)`` of ``k`` successes in ``n`` trials, with Wilson's score
+    interval at ``level``: never zero-width, inside [0, 1] (``n = 0``: all NaN).
+
+    >>> share, lo, hi = wilson_ci(5, 5)
+    >>> share, round(lo, 3), hi
+    (1.0, 0.566, 1.0)
+    """
+    n = check_scalar(n, "n", low=0, integer=True)
+    k = check_scalar(k, "k", low=0, high=n, integer=True)
+    if n == 0:
+        return float("nan"), float("nan"), float("nan")
+    z, p = _z(level), k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return p, max(0.0, centre - half), min(1.0, centre + half)

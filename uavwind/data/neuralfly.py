@@ -26,6 +26,7 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+import stat
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -120,8 +121,9 @@ def flight_files(folder: os.PathLike | str | None = None, trajectory: str = "fig
     files, seen = [], {}
     for f in sorted(path.iterdir()):
         m = _NAME.match(f.name)
-        if not f.is_file() or m is None or m["trajectory"] != trajectory:
+        if m is None or m["trajectory"] != trajectory:
             continue
+        _check_readable(f)
         if m["condition"] not in CONDITIONS:
             raise ValueError(f"{f.name}: unknown wind condition {m['condition']!r} (known: "
                              f"{', '.join(CONDITIONS)})")
@@ -138,15 +140,38 @@ def flight_files(folder: os.PathLike | str | None = None, trajectory: str = "fig
     return files
 
 
+def _check_readable(f: Path) -> None:
+    """``ValueError`` naming ``f`` unless it is a regular file this process may read: a
+    dangling symlink, a symlink loop, a folder or a file without read permission named like a
+    flight is refused, never skipped in silence."""
+    try:
+        st = f.stat()
+    except (FileNotFoundError, RuntimeError, OSError) as exc:
+        kind = ("a symlink loop" if isinstance(exc, RuntimeError)
+                or getattr(exc, "errno", None) == 40 else
+                "a dangling symlink" if f.is_symlink() else type(exc).__name__)
+        raise ValueError(f"{f.name}: named like a Neural-Fly flight but cannot be read "
+                         f"({kind})") from None
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"{f.name}: named like a Neural-Fly flight but is not a regular file")
+    if not os.access(f, os.R_OK):
+        raise ValueError(f"{f.name}: named like a Neural-Fly flight but cannot be read "
+                         f"(permission denied)")
+
+
 def files_digest(files: list[Path]) -> str:
     """SHA-256 of the files' names and bytes as stored (about 40 ms for the 25 flights,
     against 5 s to parse them): a key for what is computed from them."""
     h = hashlib.sha256()
     for f in files:
         h.update(Path(f).name.encode() + b"\0")
-        with open(f, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                h.update(block)
+        try:
+            with open(f, "rb") as fh:
+                for block in iter(lambda: fh.read(1 << 20), b""):
+                    h.update(block)
+        except OSError as exc:
+            raise ValueError(f"{Path(f).name}: cannot be read ({type(exc).__name__}: "
+                             f"{exc.strerror or exc})") from None
         h.update(b"\0")
     return h.hexdigest()
 
@@ -207,6 +232,10 @@ def read_columns(file: os.PathLike | str) -> dict[str, np.ndarray]:
         a = _vectors(df[col], name, col, width)
         out[col] = a[:, 0] if width == 1 else a.reshape(-1, 3, 3) if col == "R" else a
         out[col].setflags(write=False)
+    if not np.all(out["hover_throttle"] > 0):
+        i = int(np.argmin(out["hover_throttle"] > 0))
+        raise ValueError(f"{name}: column 'hover_throttle', row {i}: {out['hover_throttle'][i]:g}; "
+                         f"the throttle at hover must be positive (the thrust is T_sp over it)")
     if not np.all(np.diff(out["t"]) > 0):
         i = int(np.argmin(np.diff(out["t"]) > 0)) + 1
         raise ValueError(f"{name}: column 't' must increase, row {i} is {out['t'][i]:g} after "
@@ -217,6 +246,9 @@ def read_columns(file: os.PathLike | str) -> dict[str, np.ndarray]:
 #: What :func:`_vectors` strips from a cell before reading its numbers: the list brackets
 #: and whitespace.
 _STRIP = str.maketrans("", "", "[] \t\n\r\f\v")
+#: What a cell may hold besides those: the characters of decimal numbers (and "nan", "inf",
+#: refused later as not finite) and the separators; anything else is not a number.
+_NUMBER_CHARS = str.maketrans("", "", "[] \t\n\r\f\v0123456789+-.eE,;naifNAIFty")
 
 
 def _vectors(cells: pd.Series, file: str, col: str, width: int) -> np.ndarray:
@@ -224,8 +256,13 @@ def _vectors(cells: pd.Series, file: str, col: str, width: int) -> np.ndarray:
     the column's cells joined and stripped in one pass (a regular expression per cell took
     half of a file's read)."""
     strings = cells.tolist()
+    joined = ";".join(strings)
+    odd = joined.translate(_NUMBER_CHARS)
+    if odd:  # Python's float reads "0_5" as 5 and other digits than ASCII: refuse them
+        i = next(i for i, t in enumerate(strings) if t.translate(_NUMBER_CHARS))
+        raise ValueError(f"{file}: column {col!r}, row {i}: not numbers: {cells.iloc[i]!r}")
     text = [t.translate(_STRIP) for t in strings] if any(";" in t for t in strings) \
-        else ";".join(strings).translate(_STRIP).split(";")
+        else joined.translate(_STRIP).split(";")
     counts = np.fromiter((t.count(",") + 1 if t else 0 for t in text), np.int64, len(text))
     bad = np.flatnonzero(counts != width)
     if bad.size:

@@ -57,8 +57,12 @@ def _still_air(thrust, uav, dt, n, start):
 
 def estimate_wind(positions: ArrayLike, thrust: ThrustSequence, uav: UAV | None = None,
                   dt: float = 0.1, model: str = "constant",
-                  start_position: ArrayLike | None = None) -> np.ndarray:
-    """Estimate each environment's wind from its positions and the known thrust.
+                  start_position: ArrayLike | None = None, return_std: bool = False,
+                  position_noise: float | None = None):
+    """Estimate each environment's wind from its positions and the known thrust: the point
+    mass's member of the wind estimators, whose multirotor member is
+    :class:`uavwind.WindEstimator` (the same quantity, the velocity of the air mass [m/s] in
+    the world frame, and the same ``return_std`` convention, scikit-learn's).
 
     Parameters
     ----------
@@ -73,10 +77,18 @@ def estimate_wind(positions: ArrayLike, thrust: ThrustSequence, uav: UAV | None 
     model : {"constant", "path"}
     start_position : array_like, shape (3,), optional
         Known start [m]; default (0, 0, 10) as :func:`uavwind.simulate`.
+    return_std : bool
+        Also return the estimate's standard deviation, of the same shape [m/s].
+    position_noise : float, optional
+        The positions' noise [m] (white, per axis), in [0, 1e6]. With it the std is the
+        noise carried through the estimate (``"constant"``: ``sigma / sqrt(sum t_k^2)``;
+        ``"path"``: ``sqrt(2) sigma / dt``, the first step ``sigma / dt``); without it,
+        ``"constant"``'s std is read off the fit's own residuals and ``"path"``, which has no
+        residual (one position per wind sample), refuses ``return_std``.
 
     Returns
     -------
-    ndarray
+    ndarray, or (ndarray, ndarray) with ``return_std``
         ``"constant"``: (n_env, 3) [m/s]; ``"path"``: (n_env, n_steps, 3) [m/s].
 
     Examples
@@ -102,13 +114,34 @@ def estimate_wind(positions: ArrayLike, thrust: ThrustSequence, uav: UAV | None 
         raise ValueError(f"model must be one of {list(WIND_MODELS)}, got {model!r}")
     start = (np.array([0.0, 0.0, 10.0]) if start_position is None
              else check_array(start_position, "start_position", shape=(3,)))
+    if not isinstance(return_std, (bool, np.bool_)):
+        raise TypeError(f"return_std must be a bool, got {type(return_std).__name__}")
+    if position_noise is not None:
+        position_noise = check_scalar(position_noise, "position_noise", low=0.0, high=1e6)
+    if return_std and model == "path" and position_noise is None:
+        raise ValueError("return_std with model='path' needs position_noise [m]: the path "
+                         "model has one position per wind sample, so no residual to read a "
+                         "std from")
     n = p.shape[1]
     drift = p - _still_air(thrust, uav, dt, n, start)[None]  # (n_env, n, 3): sum of w dt
     if model == "constant":
         t = (np.arange(n) + 1.0) * dt
-        return np.einsum("k,ekx->ex", t, drift) / np.dot(t, t)
+        w = np.einsum("k,ekx->ex", t, drift) / np.dot(t, t)
+        if not return_std:
+            return w
+        if position_noise is None:
+            resid = drift - t[None, :, None] * w[:, None, :]
+            sigma = np.sqrt(np.sum(resid ** 2, axis=1) / max(n - 1, 1))
+        else:
+            sigma = np.full_like(w, position_noise)
+        return w, sigma / np.sqrt(np.dot(t, t))
     prev = np.concatenate([np.zeros_like(drift[:, :1]), drift[:, :-1]], axis=1)
-    return (drift - prev) / dt
+    w = (drift - prev) / dt
+    if not return_std:
+        return w
+    std = np.full_like(w, np.sqrt(2.0) * position_noise / dt)
+    std[:, 0] = position_noise / dt
+    return w, std
 
 
 def two_means(points: ArrayLike, max_iter: int = 100) -> np.ndarray:

@@ -1,38 +1,76 @@
 """Wind estimated on a multirotor's flight, scikit-learn style: :class:`WindEstimator`.
 
 This module owns :class:`WindEstimator` (``fit(flights)`` on flights whose wind is known,
-``predict(flight)`` -> the wind ``(n, 3)`` [m/s] in the world frame, one row per sample) and
-:func:`training_wind`, the wind a training flight was flown in. It is the multirotor's member
-of the family whose point-mass member is :func:`uavwind.estimate_wind` (Exp 9): the same
-quantity (the velocity of the air mass, world frame, z up, [m/s]), the same reasoning (a drag
-model inverted: what the air does to the vehicle says how the air moves), on a vehicle that
-holds its path under a position controller instead of flying an open-loop thrust sequence.
+``predict(flight)`` -> the wind ``(n, 3)`` [m/s] in the world frame, one row per sample;
+``predict(flight, return_std=True)`` -> ``(mean, std)``, scikit-learn's convention),
+:class:`DragModel` (the fitted force model) and :func:`training_wind`. It is the multirotor's
+member of the family whose point-mass member is :func:`uavwind.estimate_wind` (Exp 9): the
+same quantity (the velocity of the air mass, world frame, z up, [m/s]), the same reasoning (a
+drag model inverted: what the air does to the vehicle says how the air moves) and the same
+``return_std`` convention, on a vehicle that holds its path under a position controller.
 
-Three methods (``method=``):
+**The force model** (:class:`DragModel`). ``fa`` is the aerodynamic force the flight records
+(the authors' residual of the force balance of thrust, attitude and acceleration, so it
+carries every channel the autopilot logs). In the body frame ``b`` (``R`` body -> world), with
+``tau = T_sp / hover_throttle`` the thrust in hovers, its horizontal components are::
 
-* ``"drag"`` -- drag-model inversion per horizontal axis. The air velocity relative to the
-  vehicle is ``r = W - v`` (wind minus ground velocity); on the training flights the curve
-  ``r = c + h(fa)``, ``h`` an odd cubic of the aerodynamic force, is fitted by least squares
-  on the force and velocity low-passed at ``cutoff`` Hz (causal), and ``W = v + r`` on the
-  flight to predict. The curve is fitted in wind space because the tunnel's drag grows faster
-  between 8.5 and 12.1 m/s than a quadratic through the slower winds allows.
-* ``"ekf"`` -- an extended Kalman filter per horizontal axis on ``[v, W]`` (PX4 EKF2's idea of
-  fusing a drag model): ``m dv/dt = T (R e_z) + c + D(W - v)`` with ``T = m g T_sp /
-  hover_throttle`` along the body's z axis and ``D`` the forward drag curve fitted on the
-  training flights' ``fa``; ``W`` a random walk; the measured ground velocity corrects it.
-* ``"clusters"`` -- causal curiosity's clusters as a classifier: each lap of the flight (its
-  aerodynamic force and attitude, :func:`uavwind.data.flight_laps`) takes the mean wind of
-  its ``neighbours`` DTW-nearest training laps; piecewise constant, and it can only name a
-  wind it was trained on.
+    fa_b,xy / tau = delta + k u + (c / tau) |u| u,    u = [R^T (s(p) W - v)]_xy,
+    s(p) = 1 + g . (p - p_c)
+
+* ``k [N s/m]``: rotor drag, linear in the airspeed across the rotor discs and proportional
+  to the thrust (blade flapping and induced drag: Kai et al. 2017, Faessler et al. 2018).
+  On the Neural-Fly flights ``(fa_b,x / tau - delta) / u_b,x`` is 1.04, 0.98 and 0.99 N s/m at
+  4.2, 8.5 and 12.1 m/s: the quadratic parasitic drag ``c`` of the frame (``parasitic=True``;
+  fitted at or above 0, and solved in closed form) is left out by default, since a fitted one
+  takes the still-air intercept with it (still air left out of the fit is then read as 4-5
+  m/s). RotorPy's vehicle, the twin, has one.
+* ``delta [N]``: the thrust-axis offset (the body z axis as logged is not the thrust's: the
+  still-air lean of -2.5 to -3.2 deg), per hover thrust.
+* ``s(p)``: the tunnel's jet is not uniform. The estimate's error along a lap follows the
+  vehicle's position (R^2 0.6-0.8 in wind), so the wind is taken as ``W`` at the centre of the
+  reference path ``p_c`` (mean ``p_d``) scaled linearly with the distance from it; ``g``
+  [1/m] is fitted on the training flights (clipped to ``s`` in [0.5, 2]). ``W`` is what the
+  estimator returns: the jet's wind at the path's centre (``jet=False``: a uniform wind).
+* the vertical wind is taken as zero (every method returns 0 in z, with std 0: assumed, not
+  estimated); the equation is solved for ``W_xy`` per sample (a 2 x 2 system, invertible below
+  90 deg of tilt).
+
+The model is linear in its six parameters and fitted by least squares on every sample after
+``skip`` of the training flights, each flight weighted alike.
+
+**Methods** (``method=``):
+
+* ``"drag"`` -- the model inverted at every sample, on the force, velocity, attitude and thrust
+  low-passed at ``cutoff`` Hz (causal 2nd-order Butterworth).
+* ``"ekf"`` -- a Kalman filter on ``W_xy`` (a random walk of ``sigma_wind_rate``) whose
+  measurement is the same equation averaged over blocks of ``update_period`` s (the force's
+  noise is coloured: block means are close to white); causal: a sample's estimate uses the
+  blocks before its own. Linear in ``W`` without the parasitic term (the filter is then
+  exact); with it, the gain is taken at the prior's airspeed.
+* ``"clusters"`` -- causal curiosity's clusters as a *classifier*: each lap (its force and
+  attitude, :func:`uavwind.data.flight_laps`) takes the mean wind of its ``neighbours``
+  DTW-nearest training laps. It can only name a wind it was trained on, so it has no std and
+  is scored by its accuracy, never by an RMSE.
+
+**Uncertainty** (``return_std=True``): per world axis, ``std^2 = noise(W)^2 + flight(W)^2``.
+``noise``: the estimate's scatter about its own flight mean on the training flights (for
+``"ekf"``, the filter's variance with the block noise fitted the same way); ``flight``: the
+error of a flight's mean when its controller is left out of the fit (refitted once per
+training controller), which carries the controllers' differences and the tunnel labels'
+between-session uncertainty. Each is ``sqrt(a + b W^2)``, fitted on the squared errors.
 
 Training flights give their wind as ``wind_speed`` along ``direction`` (Neural-Fly's fan:
 -x). A flight whose wind varies in a way the flight does not record (Neural-Fly's
-``70p20sint``, whose sinusoid's phase is not referenced to the file's time) is left out of
-the drag fits and labelled with its mean by ``"clusters"``. Samples before ``skip`` [s] (the
-start-up lap) are never fitted on.
+``70p20sint``) is left out of the drag fits and labelled with its mean by ``"clusters"``.
+Samples before ``skip`` [s] (the start-up lap) are never fitted on. A flight is checked once,
+where it enters (:meth:`WindEstimator.fit`, :meth:`WindEstimator.predict`); the private
+functions below trust what they are given.
 """
 
 from __future__ import annotations
+
+import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -40,29 +78,97 @@ from ..core.checks import check_array, check_choice, check_instance, check_scala
 from ..data.neuralfly import RealFlight, flight_laps
 from .clustering import softdtw_engine
 
-__all__ = ["WindEstimator", "ESTIMATORS", "training_wind", "UNRECORDED"]
+__all__ = ["WindEstimator", "DragModel", "ESTIMATORS", "training_wind", "UNRECORDED",
+           "check_flight"]
 
 #: The methods of :class:`WindEstimator`.
 ESTIMATORS = ("drag", "ekf", "clusters")
 #: Conditions whose wind varies in a way the flight does not record: fitted on (by
 #: ``"clusters"``) with their mean only.
 UNRECORDED = ("70p20sint",)
-_GRAVITY = 9.81
+#: The columns a flight needs, and each row's shape.
+_COLUMNS = {"t": (), "p": (3,), "p_d": (3,), "v": (3,), "R": (3, 3), "T_sp": (),
+            "hover_throttle": (), "fa": (3,)}
+#: The fewest samples a flight may have (a low-pass and a block need a few).
+MIN_SAMPLES = 10
+#: The jet's speed profile is clipped to this range (a flight far off the path).
+_JET_RANGE = (0.5, 2.0)
+
+
+def _unit(direction, name="direction"):
+    """``direction`` as a horizontal unit vector (scaled before it is normalised, so a huge
+    or tiny vector is not an overflow)."""
+    d = check_array(direction, name, shape=(3,))
+    big = float(np.max(np.abs(d)))
+    if not big > 0:
+        raise ValueError(f"{name} must be a non-zero (3,) vector, got {d.tolist()}")
+    d = d / big
+    d = d / np.linalg.norm(d)
+    if abs(d[2]) > 1e-9:
+        raise ValueError(f"{name} must be horizontal (z component 0): the model takes the "
+                         f"vertical wind as zero, got {d.tolist()}")
+    return d
+
+
+def check_flight(flight, name: str = "flight") -> RealFlight:
+    """``flight`` if it is a :class:`~uavwind.data.RealFlight` the estimator can read: the
+    columns it uses present, of one length (at least :data:`MIN_SAMPLES`), finite, times
+    increasing, ``hover_throttle`` and ``T_sp`` positive, the body upright (tilt below 90
+    deg) and a finite ``wind_speed``; else a ``ValueError`` naming the flight and the column."""
+    check_instance(flight, name, RealFlight)
+    who = f"{name} {flight.source!r}"
+    a = flight.arrays
+    missing = [c for c in _COLUMNS if c not in a]
+    if missing:
+        raise ValueError(f"{who} lacks column(s) {missing} (the estimator reads "
+                         f"{list(_COLUMNS)})")
+    n = None
+    for col, shape in _COLUMNS.items():
+        x = np.asarray(a[col])
+        if x.dtype.kind not in "fiu":
+            raise ValueError(f"{who}: column {col!r} must hold numbers, got dtype {x.dtype}")
+        if n is None:
+            n = len(x) if x.ndim else 0
+        if x.ndim != 1 + len(shape) or x.shape[1:] != shape or len(x) != n:
+            raise ValueError(f"{who}: column {col!r} must have shape ({n}, "
+                             f"{', '.join(map(str, shape))}{')' if shape else ')'}, "
+                             f"got {x.shape}".replace(", )", ")"))
+        if not np.all(np.isfinite(x)):
+            i = int(np.flatnonzero(~np.isfinite(x.reshape(len(x), -1)).all(axis=1))[0])
+            raise ValueError(f"{who}: column {col!r} has a NaN or infinite value at row {i}")
+    if n < MIN_SAMPLES:
+        raise ValueError(f"{who} has {n} sample(s); the estimator needs at least "
+                         f"{MIN_SAMPLES}")
+    t = np.asarray(a["t"], dtype=float)
+    steps = np.diff(t)
+    if not np.all(steps > 0):
+        i = int(np.argmin(steps > 0)) + 1
+        raise ValueError(f"{who}: column 't' must increase, row {i} is {t[i]:g} after "
+                         f"{t[i - 1]:g}")
+    for col in ("hover_throttle", "T_sp"):
+        if not np.all(np.asarray(a[col]) > 0):
+            raise ValueError(f"{who}: column {col!r} must be positive (a thrust), got "
+                             f"{float(np.min(a[col])):g}")
+    if not np.all(np.asarray(a["R"])[:, 2, 2] > 0):
+        raise ValueError(f"{who}: column 'R' has the body tilted 90 deg or more (R[2, 2] <= 0): "
+                         f"the drag model is written for a flying multirotor")
+    if not (isinstance(flight.wind_speed, (int, float, np.integer, np.floating))
+            and math.isfinite(flight.wind_speed)):
+        raise ValueError(f"{who}: wind_speed must be a finite number [m/s], got "
+                         f"{flight.wind_speed!r}")
+    return flight
 
 
 def training_wind(flight: RealFlight, direction=(-1.0, 0.0, 0.0)) -> np.ndarray:
     """The wind ``(n, 3)`` [m/s] a training flight was flown in: ``wind_speed`` along the unit
     vector ``direction`` at every sample (the mean, for a condition in :data:`UNRECORDED`)."""
     check_instance(flight, "flight", RealFlight)
-    d = check_array(direction, "direction", shape=(3,))
-    d = d / np.linalg.norm(d)
+    d = _unit(direction)
     return np.broadcast_to(flight.wind_speed * d, (flight.n_samples, 3)).copy()
 
 
-def _odd_cubic(x):
-    """Basis of the drag curves: ``x, |x| x, x^3`` (odd: a curve through the origin's
-    symmetry, up to the fitted intercept)."""
-    return np.column_stack([x, np.abs(x) * x, x ** 3])
+def _dt(flight):
+    return float(np.median(np.diff(flight.arrays["t"])))
 
 
 def _lowpass(x, dt, cutoff):
@@ -75,8 +181,159 @@ def _lowpass(x, dt, cutoff):
     return signal.lfilter(b, a, x, axis=0, zi=zi)[0]
 
 
-def _dt(flight):
-    return float(np.median(np.diff(flight.arrays["t"])))
+def _signals(flight, cutoff):
+    """What the model reads of a flight, low-passed at ``cutoff`` [Hz] (None: raw): the
+    body-frame force over the thrust ``f`` (n, 2) [N], the body-frame ground velocity ``vb``
+    (n, 3), the thrust in hovers ``tau`` (n,), ``RT`` (n, 3, 3) world -> body and ``dp`` (n, 3)
+    [m] the offset from the path's centre."""
+    a = flight.arrays
+    R = np.asarray(a["R"], dtype=float)
+    fa_b = np.einsum("nji,nj->ni", R, a["fa"])
+    tau = np.asarray(a["T_sp"], dtype=float) / np.asarray(a["hover_throttle"], dtype=float)
+    dp = np.asarray(a["p"], dtype=float) - np.asarray(a["p_d"], dtype=float).mean(axis=0)
+    X = np.column_stack([fa_b[:, :2], np.asarray(a["v"], dtype=float), tau, R.reshape(-1, 9), dp])
+    if cutoff is not None:
+        X = _lowpass(X, _dt(flight), cutoff)
+    RT = np.transpose(X[:, 6:15].reshape(-1, 3, 3), (0, 2, 1))
+    return {"t": np.asarray(a["t"], dtype=float), "f": X[:, :2] / X[:, 5:6], "tau": X[:, 5],
+            "vb": np.einsum("nij,nj->ni", RT, X[:, 2:5]), "RT": RT, "dp": X[:, 15:18]}
+
+
+@dataclass(frozen=True)
+class DragModel:
+    """The fitted force model (module text): ``offset`` ``delta`` (2,) [N per hover thrust],
+    ``gain`` ``k`` [N s/m], ``jet`` ``g`` (3,) [1/m] and ``parasitic`` ``c`` [N s^2/m^2]
+    (0 unless fitted with ``parasitic=True``)."""
+
+    offset: tuple
+    gain: float
+    jet: tuple
+    parasitic: float = 0.0
+
+    def _scale(self, sig):
+        return np.clip(1.0 + sig["dp"] @ np.asarray(self.jet), *_JET_RANGE)
+
+    def measurement(self, sig, W=None):
+        """``(z, H)``: the equation as ``z = H W_xy`` per sample, z (n, 2), H (n, 2, 2); with
+        a parasitic term the gain is taken at the airspeed of ``W`` (n, 2) or (2,) (the
+        filter's prior; default: the force's own reading, :meth:`airspeed`)."""
+        s = self._scale(sig)
+        gain = np.full(len(s), self.gain)
+        if self.parasitic:
+            if W is None:
+                rho = np.linalg.norm(self.airspeed(sig), axis=1)
+            else:
+                u = s[:, None] * np.einsum("nij,nj->ni", sig["RT"][:, :2, :2],
+                                           np.broadcast_to(W, (len(s), 2))) - sig["vb"][:, :2]
+                rho = np.linalg.norm(u, axis=1)
+            gain = gain + self.parasitic * rho / sig["tau"]
+        z = sig["f"] - np.asarray(self.offset) + gain[:, None] * sig["vb"][:, :2]
+        return z, (gain * s)[:, None, None] * sig["RT"][:, :2, :2]
+
+    def airspeed(self, sig):
+        """The in-plane airspeed ``u_b,xy`` (n, 2) [m/s] the force says, the model solved
+        for it (closed form: ``k rho + c rho^2 / tau = |f - delta|``)."""
+        g = sig["f"] - np.asarray(self.offset)
+        gn = np.linalg.norm(g, axis=1)
+        c = self.parasitic / sig["tau"]
+        rho = 2.0 * gn / (self.gain + np.sqrt(self.gain ** 2 + 4.0 * c * gn))
+        return g * (rho / np.maximum(gn, 1e-300))[:, None]
+
+    def invert(self, sig):
+        """``W_xy`` (n, 2) [m/s] solving the equation at every sample."""
+        u = self.airspeed(sig) + sig["vb"][:, :2]
+        H = self._scale(sig)[:, None, None] * sig["RT"][:, :2, :2]
+        return np.linalg.solve(H, u[..., None])[..., 0]
+
+
+def _normal(sig, W, keep):
+    """The least-squares normal equations ``(G, h)`` (7 x 7, 7) of one flight (both body
+    axes) for a wind ``W`` (3,) world; each flight weighs alike. Columns: the offsets, the
+    rotor drag, the jet (3) and the parasitic drag."""
+    n = int(keep.sum())
+    Wb = np.einsum("nij,j->ni", sig["RT"][keep], W)
+    u = Wb[:, :2] - sig["vb"][keep, :2]
+    un = np.linalg.norm(u, axis=1) / sig["tau"][keep]
+    G, h = np.zeros((7, 7)), np.zeros(7)
+    for ax in (0, 1):
+        A = np.zeros((n, 7))
+        A[:, ax] = 1.0
+        A[:, 2] = u[:, ax]
+        A[:, 3:6] = Wb[:, ax:ax + 1] * sig["dp"][keep]
+        A[:, 6] = un * u[:, ax]
+        G += A.T @ A
+        h += A.T @ sig["f"][keep, ax]
+    return G / n, h / n
+
+
+def _fit_model(normals, jet, parasitic=False):
+    """The :class:`DragModel` solving the summed normal equations ``normals`` (a parasitic
+    coefficient fitted below 0 is dropped: the force must grow with the airspeed);
+    ``ValueError`` if the flights do not determine it."""
+    G, h = sum(g for g, _ in normals), sum(v for _, v in normals)
+    used = [0, 1, 2] + ([3, 4, 5] if jet else []) + ([6] if parasitic else [])
+    coef = np.zeros(7)
+    while True:
+        Gu = G[np.ix_(used, used)]
+        rank = np.linalg.matrix_rank(Gu, tol=1e-10 * max(1.0, float(np.abs(Gu).max())))
+        if rank < len(used):
+            raise ValueError(f"flights do not determine the drag model (rank {rank} of "
+                             f"{len(used)}): they need distinct winds and a path that moves")
+        coef[:] = 0.0
+        coef[used] = np.linalg.solve(Gu, h[used])
+        if 6 in used and coef[6] < 0:
+            used.remove(6)
+            continue
+        break
+    if not coef[2] > 0:
+        raise ValueError(f"flights give a rotor-drag gain k = {coef[2]:.3g} N s/m <= 0: the "
+                         f"force does not grow with the airspeed across them")
+    return DragModel(offset=(float(coef[0]), float(coef[1])), gain=float(coef[2]),
+                     jet=tuple(float(c) for c in coef[3:6]), parasitic=float(coef[6]))
+
+
+def _variance_curve(speeds, sq):
+    """``(a, b)`` >= 0 of ``var(W) = a + b W^2`` fitted to squared errors ``sq`` at wind
+    speeds ``speeds`` (least squares, non-negative)."""
+    from scipy.optimize import nnls
+
+    speeds, sq = np.asarray(speeds, float), np.asarray(sq, float)
+    A = np.column_stack([np.ones_like(speeds), speeds ** 2])
+    if np.ptp(speeds) == 0:
+        return float(np.mean(sq)), 0.0
+    a, b = nnls(A, sq)[0]
+    return float(a), float(b)
+
+
+def _blocks(n, dt, period):
+    """Sample index where each block of ``period`` [s] starts (the last may be shorter)."""
+    size = max(1, int(round(period / dt)))
+    return np.arange(0, n, size)
+
+
+def _kalman(model, sig, starts, q, noise):
+    """The causal Kalman filter of the module text: ``(W_xy, var)`` (n, 2) each. Each block's
+    measurement is ``model``'s equation averaged over the block, its gain taken at the prior
+    (exact for a linear model); ``noise`` (callable of the current speed) is the block
+    measurement's std in wind units, ``q`` the random walk's variance per block. The filter
+    starts from the first block's own reading."""
+    n = len(sig["t"])
+    out, var = np.empty((n, 2)), np.empty((n, 2))
+    ends = np.append(starts[1:], n)
+    x, P = model.invert(sig)[:ends[0]].mean(axis=0), np.eye(2) * 100.0
+    for s, e in zip(starts, ends):
+        P = P + np.eye(2) * q
+        out[s:e], var[s:e] = x, np.diag(P)  # causal: this block's samples see the blocks before
+        block = {k: v[s:e] for k, v in sig.items()}
+        z, H = model.measurement(block, x)
+        zz, HH = z.mean(axis=0), H.mean(axis=0)
+        r = noise(float(np.linalg.norm(x))) ** 2 * (HH @ HH.T)
+        S = HH @ P @ HH.T + r
+        K = np.linalg.solve(S.T, (P @ HH.T).T).T
+        x = x + K @ (zz - HH @ x)
+        P = (np.eye(2) - K @ HH) @ P
+        P = 0.5 * (P + P.T)
+    return out, var
 
 
 class WindEstimator:
@@ -85,59 +342,67 @@ class WindEstimator:
     Parameters
     ----------
     method : {"drag", "ekf", "clusters"}
-    mass : float
-        The vehicle's mass [kg] (the EKF's force balance), in (0, 1000]; default 2.6, the
-        Neural-Fly quadrotor's.
     direction : array_like, shape (3,)
-        The direction the training flights' wind blows along (unit after normalising);
-        default -x, Neural-Fly's fan.
+        The direction the training flights' wind blows along (horizontal; unit after
+        normalising); default -x, Neural-Fly's fan.
     cutoff : float
-        ``"drag"``: the low-pass on the force and velocity [Hz], in (0, 10]; default 1.
-    sigma_force, sigma_wind_rate, sigma_velocity : float
-        ``"ekf"``: the process noise of the force balance [N], the wind's random walk
-        [m/s per sqrt(s)] and the ground velocity's measurement noise [m/s]; defaults 0.6,
-        3 and 0.02 (set by hand, not tuned on the flights scored).
+        ``"drag"``: the low-pass on the force, velocity, attitude and thrust [Hz], in
+        (0, 10] and below each flight's Nyquist frequency; default 1.
+    sigma_wind_rate : float
+        ``"ekf"``: the wind's random walk [m/s per sqrt(s)], in [1e-3, 100]; default 0.3.
+    update_period : float
+        ``"ekf"``: the length of a measurement block [s], in [0.02, 10]; default 0.5.
+    jet : bool
+        Fit the jet's linear speed profile (module text); default True.
+    parasitic : bool
+        Add the quadratic parasitic drag ``c |u| u`` to the model (module text); default
+        False: on the real flights the rotor drag alone holds, and a fitted quadratic term
+        takes the still-air intercept with it when still air is left out. RotorPy's vehicle
+        (the twin) has one.
     channels : tuple of str
         ``"clusters"``: the lap channels compared (:data:`uavwind.data.CHANNELS`).
     neighbours : int
-        ``"clusters"``: laps whose winds are averaged, in [1, 100].
+        ``"clusters"``: laps whose winds are averaged, in [1, 100] and at most the training
+        laps.
     skip : float
         Training samples before this time [s] are not fitted on (the start-up lap), in
         [0, 1e4]; default 2 pi.
 
     Notes
     -----
-    After :meth:`fit`: ``coef_`` (``"drag"``, ``"ekf"``), per horizontal axis (0, 1) the
-    curve's weights ``w``, intercept ``c`` and the fit's RMS residual; ``laps_``,
-    ``lap_winds_`` and ``scale_`` (``"clusters"``), the training laps, their wind speeds
-    [m/s] and the channel scales.
+    After :meth:`fit`: ``model_`` (:class:`DragModel`), ``noise_`` and ``flight_`` (each per
+    world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]) and ``block_noise_`` (``"ekf"``);
+    ``laps_``, ``lap_winds_`` and ``scale_`` (``"clusters"``). A fit that fails leaves the
+    estimator as it was.
 
     Examples
     --------
     >>> est = WindEstimator(method="drag")  # doctest: +SKIP
-    >>> est.fit(training_flights).predict(flight).shape  # doctest: +SKIP
-    (2500, 3)
+    >>> mean, std = est.fit(training_flights).predict(flight, return_std=True)  # doctest: +SKIP
+    >>> mean.shape, std.shape  # doctest: +SKIP
+    ((2500, 3), (2500, 3))
     """
 
-    def __init__(self, method: str = "drag", *, mass: float = 2.6,
-                 direction=(-1.0, 0.0, 0.0), cutoff: float = 1.0, sigma_force: float = 0.6,
-                 sigma_wind_rate: float = 3.0, sigma_velocity: float = 0.02,
+    def __init__(self, method: str = "drag", *, direction=(-1.0, 0.0, 0.0),
+                 cutoff: float = 1.0, sigma_wind_rate: float = 0.3,
+                 update_period: float = 0.5, jet: bool = True, parasitic: bool = False,
                  channels=("aero_force", "attitude"), neighbours: int = 1,
                  skip: float = 2 * np.pi):
         self.method = check_choice(method, "method", ESTIMATORS)
-        self.mass = check_scalar(mass, "mass", low=0.0, low_inclusive=False, high=1e3)
-        d = check_array(direction, "direction", shape=(3,))
-        if not np.linalg.norm(d) > 0:
-            raise ValueError("direction must be a non-zero (3,) vector")
-        self.direction = d / np.linalg.norm(d)
+        self.direction = _unit(direction)
         self.cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=10.0)
-        self.sigma_force = check_scalar(sigma_force, "sigma_force", low=0.0,
-                                        low_inclusive=False, high=1e3)
-        self.sigma_wind_rate = check_scalar(sigma_wind_rate, "sigma_wind_rate", low=0.0,
-                                            low_inclusive=False, high=1e3)
-        self.sigma_velocity = check_scalar(sigma_velocity, "sigma_velocity", low=0.0,
-                                           low_inclusive=False, high=1e3)
-        if isinstance(channels, str) or not channels:
+        self.sigma_wind_rate = check_scalar(sigma_wind_rate, "sigma_wind_rate", low=1e-3,
+                                            high=100.0)
+        self.update_period = check_scalar(update_period, "update_period", low=0.02,
+                                          high=10.0)
+        if not isinstance(jet, (bool, np.bool_)):
+            raise TypeError(f"jet must be a bool, got {type(jet).__name__}")
+        self.jet = bool(jet)
+        if not isinstance(parasitic, (bool, np.bool_)):
+            raise TypeError(f"parasitic must be a bool, got {type(parasitic).__name__}")
+        self.parasitic = bool(parasitic)
+        if isinstance(channels, str) or not isinstance(channels, (tuple, list)) \
+                or not channels:
             raise TypeError(f"channels must be a non-empty tuple of channel names, got "
                             f"{channels!r}")
         self.channels = tuple(channels)
@@ -147,42 +412,85 @@ class WindEstimator:
     def __repr__(self):
         return f"WindEstimator(method={self.method!r})"
 
+    # -- checks at the boundary --------------------------------------------- #
+    def _check_cutoff(self, flight):
+        nyquist = 0.5 / _dt(flight)
+        if self.method == "drag" and not self.cutoff < nyquist:
+            raise ValueError(f"cutoff must be below the Nyquist frequency of flight "
+                             f"{flight.source!r} ({nyquist:g} Hz), got {self.cutoff:g} Hz")
+
+    def _kept(self, flight, name):
+        keep = flight.arrays["t"] >= self.skip
+        if keep.sum() < MIN_SAMPLES:
+            raise ValueError(f"skip={self.skip:g} s leaves {int(keep.sum())} sample(s) of "
+                             f"{name} {flight.source!r} (it ends at "
+                             f"{float(flight.arrays['t'][-1]):g} s); at least {MIN_SAMPLES} "
+                             f"are needed")
+        return keep
+
     # -- fitting ------------------------------------------------------------ #
     def fit(self, flights) -> WindEstimator:
         """Fit on ``flights`` (a list of :class:`~uavwind.data.RealFlight` whose
-        ``wind_speed`` is known); returns ``self``."""
+        ``wind_speed`` is known); returns ``self``. A fit that fails raises and leaves the
+        estimator as it was."""
         if not isinstance(flights, (list, tuple)) or not flights:
             raise TypeError("flights must be a non-empty list of RealFlight")
-        for f in flights:
-            check_instance(f, "flights[i]", RealFlight)
+        for i, f in enumerate(flights):
+            check_flight(f, f"flights[{i}]")
         if self.method == "clusters":
-            return self._fit_laps(flights)
+            state = self._fit_laps(flights)
+        else:
+            state = self._fit_drag(flights)
+        for k in ("model_", "noise_", "flight_", "block_noise_", "laps_", "lap_winds_",
+                  "scale_"):
+            self.__dict__.pop(k, None)
+        self.__dict__.update(state)
+        return self
+
+    def _fit_drag(self, flights):
         usable = [f for f in flights if f.condition not in UNRECORDED]
         if not usable:
             raise ValueError(f"flights must hold a flight whose wind is recorded (not only "
                              f"{list(UNRECORDED)})")
-        self.coef_ = {}
-        for ax in (0, 1):
-            force, air = [], []
-            for f in usable:
-                a = f.arrays
-                keep = a["t"] >= self.skip
-                W = training_wind(f, self.direction)[:, ax]
-                if self.method == "drag":
-                    lp = _lowpass(np.column_stack([a["fa"][:, ax], a["v"][:, ax]]), _dt(f),
-                                  self.cutoff)
-                    fa, v = lp[:, 0], lp[:, 1]
-                else:
-                    fa, v = a["fa"][:, ax], a["v"][:, ax]
-                force.append(fa[keep])
-                air.append(W[keep] - v[keep])
-            F, r = np.concatenate(force), np.concatenate(air)
-            x, y = (F, r) if self.method == "drag" else (r, F)  # drag: r = c + h(fa)
-            X = np.column_stack([_odd_cubic(x), np.ones_like(x)])
-            coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-            self.coef_[ax] = {"w": coef[:3], "c": float(coef[3]),
-                              "rms": float(np.sqrt(np.mean((y - X @ coef) ** 2)))}
-        return self
+        speeds = sorted({float(f.wind_speed) for f in usable})
+        if len(speeds) < 2:
+            raise ValueError(f"flights must span at least two wind speeds to fit the drag "
+                             f"model, got only {speeds[0]:g} m/s")
+        for f in usable:
+            self._check_cutoff(f)
+        cut = self.cutoff if self.method == "drag" else None
+        items = [(f, _signals(f, cut), self._kept(f, "training flight")) for f in usable]
+        normals = [_normal(sig, f.wind_speed * self.direction, keep) for f, sig, keep in items]
+        model = _fit_model(normals, self.jet, self.parasitic)
+        # the scatter about each flight's mean, and each flight's mean error with its
+        # controller left out of the fit (once per controller; in-sample with one controller)
+        controllers = sorted({f.controller for f in usable})
+        held = {c: (_fit_model([nm for (f, _, _), nm in zip(items, normals)
+                                if f.controller != c], self.jet, self.parasitic)
+                    if len(controllers) > 1 else model) for c in controllers}
+        sp, fast, mean, blocks = [], [], [], []
+        for f, sig, keep in items:
+            W = f.wind_speed * self.direction[:2]
+            err = model.invert(sig)[keep] - W
+            if self.method == "ekf":
+                starts = _blocks(int(keep.sum()), _dt(f), self.update_period)
+                b = np.add.reduceat(err, starts) / np.diff(np.append(starts, len(err)))[:, None]
+                blocks.append(np.mean((b - b.mean(axis=0)) ** 2, axis=0))
+            sp.append(f.wind_speed)
+            fast.append(np.mean((err - err.mean(axis=0)) ** 2, axis=0))
+            try:
+                e_held = held[f.controller].invert(sig)[keep] - W
+            except np.linalg.LinAlgError:
+                e_held = err
+            mean.append(e_held.mean(axis=0) ** 2)
+        fast, mean = np.array(fast), np.array(mean)
+        state = {"model_": model,
+                 "noise_": tuple(_variance_curve(sp, fast[:, ax]) for ax in (0, 1)),
+                 "flight_": tuple(_variance_curve(sp, mean[:, ax]) for ax in (0, 1))}
+        if self.method == "ekf":
+            blocks = np.array(blocks)
+            state["block_noise_"] = _variance_curve(sp, blocks.mean(axis=1))
+        return state
 
     def _lap_windows(self, flight):
         L = flight_laps(flight, self.channels, 120, 1)
@@ -194,65 +502,60 @@ class WindEstimator:
             laps, _ = self._lap_windows(f)
             X.append(laps)
             y.append(np.full(len(laps), float(f.wind_speed)))
-        self.laps_, self.lap_winds_ = np.concatenate(X), np.concatenate(y)
-        self.scale_ = self.laps_.reshape(-1, self.laps_.shape[2]).std(axis=0) + 1e-9
-        return self
+        laps, winds = np.concatenate(X), np.concatenate(y)
+        if self.neighbours > len(laps):
+            raise ValueError(f"neighbours must be at most the training laps ({len(laps)}), "
+                             f"got {self.neighbours}")
+        return {"laps_": laps, "lap_winds_": winds,
+                "scale_": laps.reshape(-1, laps.shape[2]).std(axis=0) + 1e-9}
 
     # -- predicting --------------------------------------------------------- #
-    def predict(self, flight: RealFlight) -> np.ndarray:
-        """The wind ``(n, 3)`` [m/s], world frame, at every sample of ``flight`` (the
-        vertical component 0: no method models a vertical wind)."""
-        check_instance(flight, "flight", RealFlight)
-        if not (hasattr(self, "coef_") or hasattr(self, "laps_")):
+    def predict(self, flight: RealFlight, return_std: bool = False):
+        """The wind ``(n, 3)`` [m/s], world frame, at every sample of ``flight`` (z: 0, the
+        vertical wind is assumed zero); with ``return_std=True`` also its standard deviation
+        ``(n, 3)`` [m/s] per axis (module text; z: 0). ``"clusters"`` is a classifier and
+        has no std."""
+        check_flight(flight)
+        if not isinstance(return_std, (bool, np.bool_)):
+            raise TypeError(f"return_std must be a bool, got {type(return_std).__name__}")
+        if not (hasattr(self, "model_") or hasattr(self, "laps_")):
             raise ValueError("this WindEstimator is not fitted: call fit(flights) first")
         if self.method == "clusters":
+            if return_std:
+                raise ValueError("method 'clusters' is a classifier (it names a trained "
+                                 "wind): it gives no std; use 'drag' or 'ekf'")
             return self._predict_laps(flight)
+        self._check_cutoff(flight)
         if self.method == "drag":
-            return self._predict_drag(flight)
-        return self._predict_ekf(flight)
+            W, var = self._predict_drag(flight)
+        else:
+            W, var = self._predict_ekf(flight)
+        mean = np.zeros((flight.n_samples, 3))
+        mean[:, :2] = W
+        if not np.all(np.isfinite(mean)):
+            raise ValueError(f"flight {flight.source!r}: the drag model cannot be inverted on "
+                             f"it (a non-finite estimate)")
+        if not return_std:
+            return mean
+        std = np.zeros_like(mean)
+        speed = np.linalg.norm(W, axis=1)
+        for ax in (0, 1):
+            a, b = self.flight_[ax]
+            std[:, ax] = np.sqrt(var[:, ax] + a + b * speed ** 2)
+        return mean, std
 
     def _predict_drag(self, flight):
-        a, dt = flight.arrays, _dt(flight)
-        fa = _lowpass(np.asarray(a["fa"][:, :2], dtype=float), dt, self.cutoff)
-        v = _lowpass(np.asarray(a["v"][:, :2], dtype=float), dt, self.cutoff)
-        W = np.zeros((flight.n_samples, 3))
-        for ax in (0, 1):
-            k = self.coef_[ax]
-            W[:, ax] = v[:, ax] + k["c"] + _odd_cubic(fa[:, ax]) @ k["w"]
-        return W
+        W = self.model_.invert(_signals(flight, self.cutoff))
+        speed2 = np.sum(W ** 2, axis=1)
+        var = np.column_stack([a + b * speed2 for a, b in self.noise_])
+        return W, var
 
     def _predict_ekf(self, flight):
-        a = flight.arrays
-        t, R = a["t"], a["R"]
-        m = self.mass
-        c = np.array([self.coef_[ax]["c"] for ax in (0, 1)])
-        w = np.stack([self.coef_[ax]["w"] for ax in (0, 1)]) / m  # (2, 3): per axis
-        thrust = m * _GRAVITY * a["T_sp"] / a["hover_throttle"]
-        drive = (R[:, :2, 2] * thrust[:, None] + c) / m          # the non-drag acceleration
-        steps = np.diff(t, prepend=t[0] - _dt(flight))
-        qv, qw = (self.sigma_force / m) ** 2, self.sigma_wind_rate ** 2
-        rv = self.sigma_velocity ** 2
-        v_meas = np.asarray(a["v"][:, :2], dtype=float)
-        out = np.zeros((len(t), 3))
-        xv, xw = v_meas[0].copy(), np.zeros(2)
-        P00, P01, P11 = np.full(2, rv), np.zeros(2), np.full(2, 100.0)
-        for k in range(len(t)):
-            h = steps[k]
-            if k > 0:  # predict: v' = drive + D(W - v)/m, W' = 0
-                r = xw - xv
-                ar = np.abs(r)
-                xv = xv + h * (drive[k - 1] + r * (w[:, 0] + ar * (w[:, 1] + w[:, 2] * ar)))
-                slope = w[:, 0] + ar * (2.0 * w[:, 1] + 3.0 * w[:, 2] * ar)
-                f00, f01 = 1.0 - h * slope, h * slope
-                P00, P01, P11 = (f00 * f00 * P00 + 2 * f00 * f01 * P01 + f01 * f01 * P11
-                                 + qv * h, f00 * P01 + f01 * P11, P11 + qw * h)
-            s = P00 + rv  # correct on the measured ground velocity
-            k0, k1 = P00 / s, P01 / s
-            innovation = v_meas[k] - xv
-            xv, xw = xv + k0 * innovation, xw + k1 * innovation
-            P00, P01, P11 = (1 - k0) * P00, (1 - k0) * P01, P11 - k1 * P01
-            out[k, :2] = xw
-        return out
+        sig = _signals(flight, None)
+        starts = _blocks(len(sig["t"]), _dt(flight), self.update_period)
+        a, b = self.block_noise_
+        q = self.sigma_wind_rate ** 2 * self.update_period
+        return _kalman(self.model_, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
 
     def _predict_laps(self, flight):
         dtw = softdtw_engine().dtw  # the kernels load when a lap is compared, not on import

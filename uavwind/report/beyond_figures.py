@@ -14,7 +14,8 @@ test cannot reach elsewhere.
 * :func:`closed_loop_curves`, :func:`reliability_diagram`, :func:`manoeuvre_plot` -- the
   closed loop (Exp 12), each policy drawn as :data:`POLICY_STYLES` and
   :data:`POLICY_MARKERS` say;
-* :func:`twin_validation`, :func:`wind_estimates`, :func:`channel_pair_heatmap` -- the real
+* :func:`twin_validation`, :func:`wind_estimates`, :func:`wind_estimate_series`,
+  :func:`channel_pair_heatmap` -- the real
   flights (Exp 13).
 
 :mod:`uavwind.report.plotting` re-exports every one of them.
@@ -39,7 +40,7 @@ if TYPE_CHECKING:
 __all__ = ["noise_curves", "observation_bars", "baseline_vs_clustering", "vehicle_trajectories",
            "vehicle_scores", "future_grid", "flyable_scores", "POLICY_STYLES", "POLICY_MARKERS",
            "closed_loop_curves", "reliability_diagram", "manoeuvre_plot", "twin_validation",
-           "wind_estimates", "channel_pair_heatmap"]
+           "wind_estimates", "wind_estimate_series", "channel_pair_heatmap"]
 
 
 def noise_curves(table: pd.DataFrame) -> Figure:
@@ -390,25 +391,65 @@ def twin_validation(table) -> Figure:
 
 def wind_estimates(rows) -> Figure:
     """Exp 13: each held-out flight's mean estimated wind speed against the tunnel's, one
-    panel per :class:`~uavwind.method.wind_estimator.WindEstimator` method (``rows``: the
-    real rows' kind ``"estimate"``; the sinusoidal wind's flights drawn beside the steady
-    8.5 m/s), the identity line dashed."""
+    panel per drag-model method and protocol (``rows``: the real rows' kind ``"estimate"``;
+    the sinusoidal wind's flights drawn beside the steady 8.5 m/s), the identity dashed."""
     plt = _plt()
-    est = rows[rows["kind"] == "estimate"]
-    methods = list(dict.fromkeys(est["method"]))
-    fig, axes = plt.subplots(1, len(methods), figsize=(3.4 * len(methods), 3.4),
+    est = rows[(rows["kind"] == "estimate") & (rows["method"] != "clusters")]
+    if "protocol" not in est.columns or est["protocol"].isna().all():
+        est = est.assign(protocol="controller")
+    panels = list(dict.fromkeys(zip(est["method"], est["protocol"])))
+    names = {"controller": "controller held out", "wind": "controller and wind held out"}
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.3 * len(panels), 3.6),
                              constrained_layout=True, sharey=True, squeeze=False)
-    for ax, m in zip(axes[0], methods):
-        g = est[est["method"] == m]
+    for ax, (m, p) in zip(axes[0], panels):
+        g = est[(est["method"] == m) & (est["protocol"] == p)]
         for ctl, d in g.groupby("controller"):
             x = d["wind_speed"].to_numpy(float) + np.where(d["condition"] == "70p20sint",
                                                            0.35, 0.0)
             ax.plot(x, d["estimate"], "o", ms=5, alpha=0.8, label=ctl)
         ax.plot([0, 13], [0, 13], "--", color="0.5", lw=1)
-        ax.set(title=m, xlabel="tunnel wind [m/s]", xticks=[0, 4.2, 8.5, 12.1])
+        ax.set(title=f"{m}: {names.get(p, p)}", xlabel="tunnel wind [m/s]",
+               xticks=[0, 4.2, 8.5, 12.1])
+        ax.title.set_fontsize(10)
         ax.grid(alpha=0.3)
     axes[0, 0].set_ylabel("estimated mean wind [m/s]")
     axes[0, 0].legend(title="held out", fontsize=8, loc="upper left")
+    return fig
+
+
+def wind_estimate_series(rows) -> Figure:
+    """Exp 13: the estimated wind speed with its 95% band against the tunnel's wind over
+    time, one flight per wind (columns) and one drag-model method per row (``rows``: the real
+    rows' kind ``"series"``, one held-out controller)."""
+    plt = _plt()
+    ser = rows[rows["kind"] == "series"]
+    methods = list(dict.fromkeys(ser["method"]))
+    conds = list(dict.fromkeys(ser["condition"]))
+    fig, axes = plt.subplots(len(methods), len(conds), figsize=(2.9 * len(conds),
+                             2.5 * len(methods) + 0.6), constrained_layout=True,
+                             sharex=True, squeeze=False)
+    for i, m in enumerate(methods):
+        for j, c in enumerate(conds):
+            ax = axes[i, j]
+            d = ser[(ser["method"] == m) & (ser["condition"] == c)]
+            t, y, sd = (d[k].to_numpy(float) for k in ("t", "estimate", "std"))
+            ax.fill_between(t, y - 1.96 * sd, y + 1.96 * sd, color="C0", alpha=0.25, lw=0,
+                            label="95% interval")
+            ax.plot(t, y, color="C0", lw=1, label="estimate")
+            ax.plot(t, d["truth"], color="k", lw=1, ls="--", label="tunnel")
+            lo, hi = np.nanmin(d["truth"]), np.nanmax(d["truth"])
+            ax.set_ylim(lo - 3.0, hi + 3.0)
+            ax.grid(alpha=0.3)
+            if i == 0:
+                ax.set_title(("8.5 + 2.4 sin t" if c == "70p20sint" else
+                              f"{d['wind_speed'].iloc[0]:g}") + " m/s", fontsize=10)
+            if j == 0:
+                ax.set_ylabel(f"{m}: wind [m/s]")
+            if i == len(methods) - 1:
+                ax.set_xlabel("time [s]")
+    axes[0, -1].legend(fontsize=8, loc="upper right")
+    who = ", ".join(dict.fromkeys(ser["controller"]))
+    fig.suptitle(f"Held-out controller {who}, fitted on the others' flights", fontsize=11)
     return fig
 
 

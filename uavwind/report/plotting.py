@@ -38,7 +38,7 @@ from .beyond_figures import (POLICY_MARKERS, POLICY_STYLES, baseline_vs_clusteri
                              channel_pair_heatmap, closed_loop_curves, flyable_scores,
                              future_grid, manoeuvre_plot, noise_curves, observation_bars,
                              reliability_diagram, twin_validation, vehicle_scores,
-                             vehicle_trajectories, wind_estimates)
+                             vehicle_trajectories, wind_estimate_series, wind_estimates)
 
 if TYPE_CHECKING:
     import pandas as pd
