@@ -9,6 +9,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 # The quick book builds beside the suite (below) on the same cores, so the suite's own
@@ -50,23 +51,45 @@ def compiled_kernels():
 # ---- the result store's tests (tests/test_cache.py, test_store.py, test_future_work.py,
 # test_explore.py): forged entries, and reads that must not hang
 
-#: Parquet metadata key of the content digest stored with every parquet entry.
-DIGEST_KEY = b"uavwind.sha256"
-
-
 def _rewrite_parquet(path, edit, keep_digest=True):
-    """Edit a parquet entry's content, keeping its stored digest (as a careless editor would:
-    a value changed, the digest not) or writing it back without one (as ``to_parquet``
-    does)."""
+    """Edit a parquet entry's content, keeping its stored digest and key (as a careless editor
+    would: a value changed, the metadata not) or writing it back without them (as
+    ``to_parquet`` does)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     table = pq.read_table(path)
     new = pa.Table.from_pandas(edit(table.to_pandas()), preserve_index=False)
-    if keep_digest:
-        new = new.replace_schema_metadata({**(new.schema.metadata or {}),
-                                           DIGEST_KEY: table.schema.metadata[DIGEST_KEY]})
+    if keep_digest:  # the entry's digest and key kept (the store's metadata)
+        kept = {k: v for k, v in table.schema.metadata.items() if k.startswith(b"uavwind.")}
+        new = new.replace_schema_metadata({**(new.schema.metadata or {}), **kept})
     pq.write_table(new, path)
+
+
+def _forge_parquet(path, edit, with_key=True):
+    """Rewrite a parquet entry with ``edit(df)`` and its checksum recomputed: with its own
+    key (``with_key``: a forger who knows the store's recipe; only the caller's range rules
+    can tell) or as the checksum of before was made (of the content alone, no key)."""
+    import pyarrow.parquet as pq
+
+    from uavwind.core import store
+
+    key = pq.read_table(path).schema.metadata[store.KEY_KEY].decode()
+    df = edit(pd.read_parquet(path))
+    if with_key:
+        store.atomic_write(path, df, key=key)
+    else:
+        import pyarrow as pa
+        table = pa.Table.from_pandas(df)
+        pq.write_table(table.replace_schema_metadata(
+            {**table.schema.metadata, store.DIGEST_KEY: store.content_digest(df).encode()}),
+            path)
+
+
+@pytest.fixture
+def forge_parquet():
+    """:func:`_forge_parquet`: ``forge_parquet(path, edit, with_key=True)``."""
+    return _forge_parquet
 
 
 @pytest.fixture

@@ -71,7 +71,7 @@ def test_a_chunk_copied_over_another_is_detected(tmp_path, exp5_computed):
     _copy_of(exp5_computed["all"], tmp_path)
     a, b = _chunks(tmp_path)
     b.write_bytes(a.read_bytes())
-    with pytest.warns(cache.CorruptChunkWarning, match="setting_key"):
+    with pytest.warns(cache.CorruptChunkWarning, match="another entry"):
         df = ex.run_experiment("exp5", results=tmp_path, profile=TINY, n_jobs=1, progress=False)
     assert df.attrs["cached"] == 1
 
@@ -101,7 +101,7 @@ def test_a_full_disk_leaves_no_orphan_file(tmp_path, monkeypatch):
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(pq, "write_table", full)
     with pytest.raises(OSError, match="No space"):
-        store.atomic_write(tmp_path / "x.parquet", pd.DataFrame({"score": [1.0]}))
+        store.atomic_write(tmp_path / "x.parquet", pd.DataFrame({"score": [1.0]}), key="k")
     assert list(tmp_path.iterdir()) == []
 
 
@@ -116,7 +116,7 @@ def test_user_paths_are_expanded(tmp_path, monkeypatch):
 
 def test_two_runs_on_one_chunk_compute_it_once(tmp_path):
     path = tmp_path / "loops" / "chunk.parquet"
-    expect = cache.Expected("k", 1, "fast", 1)
+    expect = cache.Expected("k", 1, "fast", 1, key="chunk k")
     meta = {"setting_key": "k", "seed": 1, "engine": "fast"}
     calls = []
 
@@ -141,7 +141,7 @@ def test_two_runs_on_one_chunk_compute_it_once(tmp_path):
 
 def test_a_correct_loop_with_a_negative_silhouette_is_cached(tmp_path):
     path = tmp_path / "loops" / "c.parquet"
-    expect = cache.Expected("k", 1, "fast", 2)
+    expect = cache.Expected("k", 1, "fast", 2, key="chunk k")
     rows = pd.DataFrame({"score": [-12.5, 0.0], "silhouette": [-0.125, 0.4],
                          "correct": [True, False], "n_iter": [3, 4],
                          "labels": [[0, 0, 1], [0, 1, 1]]})
@@ -193,12 +193,13 @@ def _one_chunk(tmp_path, computed):
      "checksum"),
     (lambda d: d.drop(columns=["n_iter"]), True, "checksum"),
     (lambda d: d.drop(columns=["n_iter"]), False, "no checksum"),
-    # stamped 0.1 (no checksum expected), but the labels contradict the correct flag
+    # issue 68: a chunk claiming uavwind 0.1 skipped the digest (rewritten with plain pandas,
+    # one score changed to 99.9: trusted); there is no path without a digest now
     (lambda d: d.assign(uavwind_version="0.1.0",
-                        labels=[np.array([0, 1] * (len(x) // 2)) for x in d["labels"]]),
-     False, "contradict"),
-    (lambda d: d.assign(uavwind_version="0.1.0").drop(columns=["silhouette"]), False,
-     "no silhouette column"),
+                        score=[99.9] + d["score"].tolist()[1:],
+                        silhouette=[0.999] + d["silhouette"].tolist()[1:],
+                        correct=[True] + d["correct"].tolist()[1:]), False, "no checksum"),
+    (lambda d: d.assign(uavwind_version="0.1.0"), False, "no checksum"),
 ])
 def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why, exp5_computed, rewrite_parquet):
     path = _one_chunk(tmp_path, exp5_computed)
@@ -209,17 +210,20 @@ def test_an_edited_chunk_is_caught(tmp_path, edit, keep, why, exp5_computed, rew
     assert path.with_name(path.name + ".corrupt").exists()
 
 
-def test_a_sound_chunk_of_0_1_is_trusted_and_given_its_checksum(tmp_path, exp5_computed,
-                                                               rewrite_parquet):
-    path = _one_chunk(tmp_path, exp5_computed)
-    before = pd.read_parquet(path)
-    rewrite_parquet(path, lambda d: d.assign(uavwind_version="0.1.0"), keep_digest=False)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", cache.CorruptChunkWarning)
-        df = ex.run_experiment("exp5", results=tmp_path, **RUN)
-    assert df.attrs["cached"] == 1 and df["score"].tolist() == before["score"].tolist()
-    import pyarrow.parquet as pq
-    assert cache.CHECKSUM_KEY in pq.read_table(path).schema.metadata  # upgraded in place
+def test_a_chunk_copied_over_another_loop_range_is_refused_and_recomputed(tmp_path):
+    """Issue 68: a chunk of loops 0-49 copied over loops 50-99 was trusted (same setting,
+    seed and engine stamps, same row count): the chunk holds its loop range in its key."""
+    prof = {**TINY, "loops": 4}
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(runner, "CHUNK", 2)
+        first = ex.run_experiment("exp5", results=tmp_path, **{**RUN, "profile": prof})
+        low, high = sorted(_chunks(tmp_path))  # loops 0-1 and 2-3 of case 0
+        assert "-0000-0002-" in low.name and "-0002-0004-" in high.name
+        shutil.copyfile(low, high)
+        with pytest.warns(cache.CorruptChunkWarning, match=f"{high.name}.*another entry"):
+            again = ex.run_experiment("exp5", results=tmp_path, **{**RUN, "profile": prof})
+    assert again.attrs["cached"] == 1 and exact_cells(again) == exact_cells(first)
+    assert high.with_name(high.name + ".corrupt").exists()
 
 
 def test_a_second_corrupt_copy_keeps_the_first(tmp_path, exp5_computed):
@@ -239,17 +243,17 @@ def test_a_chunk_that_cannot_be_read_is_left_in_place_and_nothing_is_recomputed(
 
     path = _one_chunk(tmp_path, exp5_computed)
     good = path.read_bytes()
-    real = Path.read_bytes
+    real = os.open
 
-    def no_fds(self):
-        if self == path:
+    def no_fds(file, *args, **kwargs):
+        if Path(file) == path:
             raise OSError(errno.EMFILE, "Too many open files")
-        return real(self)
-    monkeypatch.setattr(Path, "read_bytes", no_fds)
+        return real(file, *args, **kwargs)
+    monkeypatch.setattr(os, "open", no_fds)
     monkeypatch.setattr(runner, "random_search", lambda *a, **k: pytest.fail("recomputed"))
     with pytest.raises(cache.TransientReadError, match="left in place"):
         ex.run_experiment("exp5", results=tmp_path, **RUN)
-    monkeypatch.setattr(Path, "read_bytes", real)
+    monkeypatch.setattr(os, "open", real)
     assert path.read_bytes() == good and not any(".corrupt" in p.name
                                                  for p in path.parent.iterdir())
 
@@ -295,8 +299,12 @@ def test_the_default_results_folder_is_the_user_cache_never_the_package(tmp_path
     monkeypatch.delenv("UAVWIND_RESULTS", raising=False)
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
     assert cache.results_dir() == tmp_path / "xdg" / "uavwind" / "results"
-    monkeypatch.setenv("UAVWIND_RESULTS", "")  # empty = unset
-    assert cache.results_dir() == tmp_path / "xdg" / "uavwind" / "results"
+    for empty in ("", "  "):  # issue 68: silently the user's cache folder; now a mistake named
+        monkeypatch.setenv("UAVWIND_RESULTS", empty)
+        with pytest.raises(ValueError, match="UAVWIND_RESULTS must name a folder"):
+            cache.results_dir()
+    assert cache.results_dir(tmp_path) == tmp_path  # a named folder needs no variable
+    monkeypatch.delenv("UAVWIND_RESULTS")
     monkeypatch.delenv("XDG_CACHE_HOME")
     monkeypatch.setenv("HOME", str(tmp_path))
     assert cache.results_dir() == tmp_path / ".cache" / "uavwind" / "results"
@@ -327,7 +335,7 @@ def _episode_rows():
                                      "predicted the less probable", "negative episode"])
 def test_a_forged_closed_loop_chunk_is_moved_aside_and_recomputed(tmp_path, forgery):
     good = _episode_rows()
-    expect = cache.Expected("k", 0, "none", len(good), kind="episodes")
+    expect = cache.Expected("k", 0, "none", len(good), kind="episodes", key="chunk k")
     assert cache._problem(good, expect) == ""
     bad = good.copy()
     if forgery == "p_true 0, log_loss 0":
@@ -346,7 +354,7 @@ def test_a_forged_closed_loop_chunk_is_moved_aside_and_recomputed(tmp_path, forg
         bad["p_true"] = np.where(bad["test_group"] == 1, bad["p_group_b"], 1 - bad["p_group_b"])
         bad["correct"] = bad["predicted"] == bad["test_group"]
     path = tmp_path / "chunk.parquet"
-    store.atomic_write(path, bad)  # a forgery with its checksum recomputed
+    store.atomic_write(path, bad, key=expect.key)  # a forgery: its key and checksum right
     with pytest.warns(cache.CorruptChunkWarning):
         assert cache.read_verified(path, expect) is None
     assert not path.exists() and (tmp_path / "chunk.parquet.corrupt").exists()

@@ -297,3 +297,43 @@ def test_signals_again_while_a_serial_run_stops_end_it_at_once_with_the_record(t
     assert rec["complete"] is False and rec["error"] == "interrupted"
     stored = {p.name for p in (tmp_path / "r").rglob("*.parquet")}
     assert len(rec["entries"]) >= 1 and len(stored) >= len(rec["entries"])
+
+
+def test_a_times_record_that_cannot_be_written_is_an_error_not_exit_0(tmp_path, monkeypatch,
+                                                                     capsys):
+    """Issue 68: `--times` to a full disk lost the record with exit 0 (the folder was checked
+    with os.access, not a test write)."""
+    import errno
+
+    import uavwind.cli as cli
+
+    def fill(ids, *args, times=None, **kwargs):
+        times.append({"experiment": "exp5", "reading": "inferred", "rows": 2,
+                      "cpu_seconds": 1.5})
+        return {"entries": 1, "cached": 0, "computed": 1, "rows_computed": 2, "times": times}
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(cli, "fill_cache", fill)
+    monkeypatch.setattr(cli, "atomic_write", full)
+    out = tmp_path / "times.json"
+    assert main(["run", "exp5", "--no-progress", "--no-tables", "--times", str(out)]) == 1
+    assert "--times" in capsys.readouterr().err and not out.exists()
+    monkeypatch.setattr(cli, "check_writable", lambda folder: (_ for _ in ()).throw(
+        ValueError("results folder cannot be written (No space left on device)")))
+    with pytest.raises(SystemExit) as stop:  # refused before any work
+        main(["run", "exp5", "--no-progress", "--times", str(out)])
+    assert stop.value.code == 2 and "test write" in capsys.readouterr().err
+
+
+def test_run_with_a_missing_flight_folder_refuses_before_computing_anything(
+        tmp_path, monkeypatch, capsys):
+    """Issue 68: `run example exp13` with $UAVWIND_NEURALFLY naming a missing folder computed
+    `example` first."""
+    import uavwind.cli as cli
+
+    monkeypatch.setattr(cli, "fill_cache", lambda *a, **k: pytest.fail("computed first"))
+    monkeypatch.setenv("UAVWIND_NEURALFLY", str(tmp_path / "missing"))
+    assert main(["run", "example", "exp13", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert "UAVWIND_NEURALFLY" in err and "not an existing folder" in err

@@ -320,7 +320,7 @@ def test_experiment_12_end_to_end_and_its_cache(tmp_path, monkeypatch):
     pd.testing.assert_frame_equal(df, again)
     # the cache's rules for closed-loop rows
     expect = Expected(df["setting_key"].iloc[0], int(df["seed"].iloc[0]), "none", len(df),
-                      kind="episodes")
+                      kind="episodes", key="the chunk")
     assert _problem(df, expect) == ""
     bad = df.copy()
     bad.loc[0, "p_true"] = 1.0 - bad.loc[0, "p_true"] + 0.25

@@ -107,3 +107,59 @@ def test_the_grid_scores_its_loops_side_by_side_as_each_loop_alone():
         cell = grid["loops"][f"0|3|{j}|halves"]
         assert (cell["score"], cell["correct"]) == (round(alone.score, 2), alone.correct)
         assert cell["x"] == np.round(traj[:, ::3, 0], 2).tolist()
+
+
+def _one_loop_grid(calls):
+    def explore_grid(pairs=(), n_per_group=(), layouts=(), every=3, engine=None, seed=0):
+        calls.append(every)
+        return {"controls": {"pair": ["a vs b"], "n": [3], "thrust": ["t"],
+                             "layout": ["inferred"]},
+                "loops": {"0|3|0|inferred": {"x": [[0.0, 1.0], [0.0, 2.0]],
+                                             "y": [[0.0, 0.0], [0.0, 0.0]],
+                                             "z": [[10.0, 10.0], [10.0, 10.0]],
+                                             "groups": [0, 1], "score": 2.69 * every,
+                                             "correct": True}}}
+    return explore_grid
+
+
+@pytest.mark.parametrize("forgery, why", [
+    ("swapped", "another entry"), ("score 999", "score outside"),
+    ("misgrouped with a score", "misgrouped"), ("a loop missing", "one for each choice"),
+    ("groups of 2", "groups"), ("a path too short", "paths")])
+def test_a_swapped_or_out_of_range_grid_is_refused_and_recomputed(tmp_path, monkeypatch,
+                                                                   forgery, why):
+    """Issue 68: two explorer grids swapped were trusted, and a grid with score 999 (its
+    checksum recomputed) passed its own rules."""
+    import json
+    import os
+
+    from uavwind.core import store
+    from uavwind.report import explore
+
+    calls = []
+    monkeypatch.setattr(explore, "explore_grid", _one_loop_grid(calls))
+    grid = explore.cached_grid(tmp_path, every=1)
+    (path,) = (tmp_path / "explore").glob("grid-*.json")
+    if forgery == "swapped":
+        explore.cached_grid(tmp_path, every=2)
+        (other,) = set((tmp_path / "explore").glob("grid-*.json")) - {path}
+        os.replace(other, path)
+    else:
+        doc = json.loads(path.read_text())
+        loops = doc["content"]["loops"]
+        loop = loops["0|3|0|inferred"]
+        if forgery == "score 999":
+            loop["score"] = 999
+        elif forgery == "misgrouped with a score":
+            loop["correct"] = False
+        elif forgery == "a loop missing":
+            loops["0|3|1|inferred"] = loops.pop("0|3|0|inferred")
+        elif forgery == "groups of 2":
+            loop["groups"] = [0, 2]
+        else:
+            loop["x"][1] = [0.0]
+        store.atomic_write(path, doc["content"], key=doc["uavwind.key"])  # checksum right
+    n = len(calls)
+    with pytest.warns(store.CorruptEntryWarning, match=f"{path.name}.*{why}"):
+        again = explore.cached_grid(tmp_path, every=1)
+    assert again == grid and calls[n:] == [1]

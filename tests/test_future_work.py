@@ -2,6 +2,8 @@
 and IMU observation channels, against closed forms and RotorPy's own IMU."""
 import math
 
+import os
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -290,9 +292,8 @@ def test_run_filter_names_what_it_cannot_use(short_flight, change, error, word):
         run_filter(**kw)
 
 
-def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
+def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path, forge_parquet):
     from uavwind.analysis.filters import filter_comparison
-    from uavwind.core.store import atomic_write
     from uavwind.study.cache import CorruptChunkWarning
 
     s = uw.make_setting("light constant", "strong constant", 2, duration=6.0,
@@ -300,7 +301,7 @@ def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path):
     kw = dict(n_flights=2, probe=True, kinds="ekf", n_jobs=1, results=tmp_path)  # the cheaper one
     df = filter_comparison(s, **kw)
     (path,) = (tmp_path / "filters").glob("*.parquet")
-    atomic_write(path, df.iloc[::-1].reset_index(drop=True))  # forged: checksum recomputed
+    forge_parquet(path, lambda d: d.iloc[::-1].reset_index(drop=True))  # key and checksum right
     with pytest.warns(CorruptChunkWarning, match="out of order"):
         again = filter_comparison(s, **kw)
     assert again.equals(df)
@@ -343,6 +344,43 @@ def test_a_tampered_filter_table_is_moved_aside_recomputed_and_named(
         again = filter_comparison(s, results=tmp_path, **kw)
     assert again.equals(df) and again["rmse"].iloc[0] != 0.001
     assert path.with_name(path.name + ".corrupt").exists()  # kept, not deleted
+
+
+@pytest.mark.parametrize("forgery", ["rmse 0.001, checksum of before", "rmse 250, key right",
+                                     "swapped"])
+def test_a_forged_or_swapped_filter_table_is_refused_and_recomputed(
+        tmp_path, forgery, hover_filter_table, forge_parquet):
+    """Issue 68: two filter tables swapped were trusted (rmse 5.22 returned where 2.69 was
+    computed), and a table with rmse 0.001 and its checksum recomputed passed."""
+    import shutil
+
+    from uavwind.analysis.filters import filter_comparison
+
+    s, kw, folder, df = hover_filter_table
+    shutil.copytree(folder, tmp_path, dirs_exist_ok=True)
+    (path,) = (tmp_path / "filters").glob("*.parquet")
+    if forgery == "swapped":  # another seed's table (rmse 5.22), sound, moved over this one
+        import json
+
+        import pyarrow.parquet as pq
+
+        from uavwind.core import store
+        key = json.loads(pq.read_table(path).schema.metadata[store.KEY_KEY])
+        assert key["params"]["seed"] == 0
+        key["params"]["seed"] = 1
+        theirs = store.atomic_write(tmp_path / "theirs.parquet", df.assign(rmse=5.22),
+                                    key=store.entry_key(**key))
+        os.replace(theirs, path)
+        why = "another entry"
+    elif forgery == "rmse 250, key right":
+        forge_parquet(path, lambda d: d.assign(rmse=250.0))
+        why = "rmse outside"
+    else:
+        forge_parquet(path, lambda d: d.assign(rmse=0.001), with_key=False)
+        why = "no key"
+    with pytest.warns(UserWarning, match=f"{path.name}.*{why}"):
+        again = filter_comparison(s, results=tmp_path, **kw)
+    assert again.equals(df)
 
 
 def test_the_filter_table_flies_one_scenario_quick_and_all_four_at_the_paper_profile(

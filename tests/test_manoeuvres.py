@@ -373,3 +373,12 @@ def test_a_setting_ramps_its_wind_in_and_keeps_its_key_without():
         replace(s, wind_ramp=13.0)
     with pytest.raises(TypeError, match="flyable"):
         replace(s, flyable={"max_tilt": 30})
+
+
+def test_sample_waypoints_bounds_its_duration_before_allocating():
+    """Issue 68: duration=1e6, inside the documented range then, asked for 7.45 GiB."""
+    from uavwind.sim.manoeuvres import MAX_WAYPOINT_DURATION, sample_waypoints
+
+    for duration in (1e6, MAX_WAYPOINT_DURATION * 1.001):
+        with pytest.raises(ValueError, match=r"duration must be .*600"):
+            sample_waypoints(np.random.default_rng(0), duration=duration)

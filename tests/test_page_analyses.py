@@ -178,3 +178,28 @@ def test_a_derived_table_is_recomputed_when_its_code_changes(tmp_path, monkeypat
     assert len(calls) == 2
     with pytest.raises(TypeError, match="code must hold modules"):
         derived("rule_table", compute, inputs, results=tmp_path / "r", code=("claims",))
+
+
+def test_two_analyses_swapped_with_mv_are_refused_and_recomputed(tmp_path):
+    """Issue 68: two `analyses/` entries swapped with `mv` returned each other's tables:
+    each holds the analysis and its inputs it was computed for."""
+    import os
+
+    from uavwind.core.store import CorruptEntryWarning
+
+    tables = {n: pd.DataFrame({"rmse": [float(n)]}) for n in (1, 2)}
+    for n in (1, 2):
+        memo.memo("toy", {"n": n}, lambda n=n: tables[n], tmp_path)
+    keys = [make_key("analyses", {"name": "toy", "params": {"n": n}}, memo.MEMO_VERSION)
+            for n in (1, 2)]
+    p1, p2 = (tmp_path / "analyses" / f"toy-{k}.parquet" for k in keys)
+    os.replace(p1, tmp_path / "swap")
+    os.replace(p2, p1)
+    os.replace(tmp_path / "swap", p2)
+    for n in (1, 2):
+        with pytest.warns(CorruptEntryWarning, match="analysis toy.*another entry"):
+            assert memo.memo("toy", {"n": n}, lambda n=n: tables[n], tmp_path).equals(tables[n])
+    def rules(df):
+        return "" if df["rmse"].between(0, 100).all() else "rmse outside [0, 100]"
+    with pytest.raises(RuntimeError, match="rmse outside"):  # a caller's range rules
+        memo.memo("toy", {"n": 3}, lambda: pd.DataFrame({"rmse": [-1.0]}), tmp_path, rules)

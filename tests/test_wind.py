@@ -170,3 +170,43 @@ def test_ramp_fades_the_wind_in():
 # --------------------------------------------------------------------------- #
 
 
+
+
+def test_a_deeply_nested_sum_is_flat_and_evaluated_in_one_loop():
+    """Issue 68: 3,000 nested sums raised RecursionError, and `w = w + w` forty times made
+    2^40 calls (a hang)."""
+    w = uw.ConstantWind([[0.5, 0.0, 0.0]])
+    for _ in range(3000):
+        w = w + uw.ConstantWind([[0.5, 0.0, 0.0]])
+    assert len(w.terms) == 3001 and all(k == 1 for _, k in w.terms)
+    assert w.velocity(0.0, [[0, 0, 10]])[0].tolist() == [1500.5, 0.0, 0.0]
+    v = uw.ConstantWind([[1.0, -2.0, 0.0]])
+    for _ in range(40):
+        v = v + v
+    assert v.terms[0][1] == 2 ** 40 and len(v.terms) == 1
+    assert v.velocity(0.0, [[0, 0, 10]])[0].tolist() == [2.0 ** 40, -2.0 ** 41, 0.0]
+    a, b = uw.ConstantWind([[1.0, 0, 0]]), uw.ConstantWind([[0, 1.0, 0]])
+    assert [k for _, k in (a + (b + a)).terms] == [2, 1]  # one model added twice: one term
+
+
+@pytest.mark.parametrize("wrap", ["sum", "ramp", "groups", "sum of a ramp"])
+def test_with_seed_reseeds_the_gusts_inside_sums_ramps_and_groups(wrap):
+    """Issue 68: with_seed on a sum or a RampedWind left its gusts' seed unchanged."""
+    gusts = uw.DrydenWind([12.0], seed=0)
+    calm = uw.ConstantWind([[1.0, 0.0, 0.0]])
+    model = {"sum": calm + gusts, "ramp": uw.RampedWind(gusts, 1.0),
+             "groups": uw.WindGroups(calm, gusts),
+             "sum of a ramp": calm + uw.RampedWind(gusts, 1.0)}[wrap]
+    pos = np.tile([[0.0, 0.0, 10.0]], (model.n_env, 1))
+
+    def at(m):
+        return m.velocity(3.0, pos)
+    one, again, two = model.with_seed(1), model.with_seed(1), model.with_seed(2)
+    assert np.array_equal(at(one), at(again))  # same seed, same gusts
+    assert not np.array_equal(at(one), at(model)) and not np.array_equal(at(one), at(two))
+    assert np.array_equal(at(model), at(model.with_seed(0))) == (wrap == "ramp")
+    if wrap == "ramp":  # a ramp passes the seed on: its model's gusts, faded in
+        assert np.array_equal(at(one), at(gusts.with_seed(1)))
+    assert calm.with_seed(1) is calm and (calm + calm).with_seed(3).terms[0][0] is calm
+    with pytest.raises(TypeError, match="seed"):
+        model.with_seed("one")

@@ -40,6 +40,7 @@ from .core.store import atomic_write
 from .data.neuralfly import ENV_VAR as NEURALFLY_ENV, neuralfly_folder
 from .method.clustering import ENGINES
 from .report.explore import fill_grid
+from .study.cache import check_writable
 from .study.fill import Analysis, fill_cache, time_by_experiment
 from .study.profiles import PROFILES
 from .study.readings import READINGS
@@ -158,9 +159,14 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
             times = check_target(args.times, "--times")
         except ValueError as exc:
             parser.error(str(exc))
-        if not times.parent.is_dir() or not os.access(times.parent, os.W_OK):
+        if not times.parent.is_dir():
             parser.error(f"--times must name a file in an existing, writable folder, got "
                          f"{args.times!r}")
+        try:  # a test write, not os.access: a full disk or a read-only mount fails it
+            check_writable(times.parent)
+        except ValueError:
+            parser.error(f"--times must name a file in an existing, writable folder, got "
+                         f"{args.times!r} (a test write there failed)")
     record = _TimesRecord(times, args)
     stop = threading.Event()
 
@@ -183,6 +189,8 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
     code = 1
     try:
         code = _run(args, ids, measured, everything, record, stop)
+        if record.failed and code == 0:  # the run's record was asked for and is lost
+            code = 1
         return code
     finally:
         # a program exiting ignores them: CPython resets a Python handler to the default
@@ -429,24 +437,29 @@ class _TimesRecord:
         self.t0 = time.perf_counter()
         self.records = []
         self.written = False
+        self.failed = False
 
     def write(self, complete: bool, error: str | None = None) -> None:
         if self.path is not None:
-            _write_times(self.path, self.args, self.t0, self.records, complete, error)
+            self.failed = not _write_times(self.path, self.args, self.t0, self.records,
+                                           complete, error)
         self.written = True
 
 
 def _write_times(path, args, t0, records, complete, error=None):
     """The ``--times`` file, written atomically: the run's wall seconds and one record per
-    computed entry (``complete`` is false after an interrupt)."""
+    computed entry (``complete`` is false after an interrupt). Returns whether it was
+    written (else an error line on stderr; the run then does not exit 0)."""
     text = json.dumps({"profile": args.profile, "jobs": args.jobs, "complete": complete,
                        "wall_seconds": time.perf_counter() - t0, "entries": records,
                        **({"error": error} if error else {})}, indent=1)
     try:
         atomic_write(path, text, name="--times")
     except (OSError, ValueError) as exc:
-        print(f"python -m uavwind run: warning: --times {path} not written ({exc})",
+        print(f"python -m uavwind run: error: --times {path} not written ({exc})",
               file=sys.stderr)
+        return False
+    return True
 
 
 def _in_main_thread():

@@ -3,9 +3,12 @@
 This module owns :func:`memo`: a table computed by an analysis function (not an
 experiment's loops: a measurement such as Exp 10's saturation split), filed by the one
 verified cache (:func:`uavwind.core.store.get_or_compute`) in the result folder's
-``analyses/`` under a key of the function's name, its arguments and :data:`MEMO_VERSION`,
-with the digest of its own content (index included); a missing, damaged or altered copy is
-recomputed (the latter two moved aside, with a warning naming the file), and under
+``analyses/`` under a key of the function's name, its arguments and :data:`MEMO_VERSION`;
+the entry holds that key (the analysis and its inputs) under the digest of it and of its own
+content (index included), so a missing, damaged, altered or swapped copy (two entries
+exchanged with ``mv`` hold each other's keys) is recomputed (all but the first moved aside,
+with a warning naming the file); tables of before the store, without a key, are recomputed
+too; a caller may add its table's range rules (``verify``); and under
 ``UAVWIND_PAGES_READ_ONLY`` a page that would compute it fails naming it
 (:func:`uavwind.core.io.refuse_to_compute`). :func:`derived` and :func:`derived_many` key a
 table computed from result tables alone by those tables' content digests and by the source
@@ -35,25 +38,18 @@ MEMO_VERSION = "1"
 
 
 def memo(name: str, params: Mapping, compute: Callable[[], pd.DataFrame],
-         results=None) -> pd.DataFrame:
+         results=None, verify: Callable[[pd.DataFrame], str] | None = None) -> pd.DataFrame:
     """``compute()``'s table, cached under ``name`` and ``params`` (JSON-serialisable: the
     arguments that determine it) as ``analyses/<name>-<key>.parquet``; see the module text.
-    An entry written before the store (its digest in ``attrs``, not in the file's metadata)
-    is trusted if that digest still matches, and given the store's."""
+    ``verify(table)``, if given, is the table's own rules (a reason not to trust it, or
+    ``""``), applied to what is read and to what is computed."""
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"name must be an identifier, got {name!r}")
     if not isinstance(params, Mapping):
         raise TypeError(f"params must be a mapping, got {type(params).__name__}")
     return get_or_compute("analyses", {"name": name, "params": params}, compute,
-                          folder=results, version=MEMO_VERSION, name=name,
-                          legacy=_legacy_memo, what=f"analysis {name}")
-
-
-def _legacy_memo(df) -> bool:
-    """True for a table :func:`memo` wrote before the store whose own digest (of its columns,
-    in ``attrs``) still matches."""
-    stored = df.attrs.get("content") if isinstance(df, pd.DataFrame) else None
-    return isinstance(stored, str) and stored == content_digest(df.reset_index(drop=True))
+                          verify=verify, folder=results, version=MEMO_VERSION, name=name,
+                          what=f"analysis {name}")
 
 
 def derived(name: str, compute: Callable[[], pd.DataFrame], inputs: Mapping[str, pd.DataFrame],

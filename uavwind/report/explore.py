@@ -181,7 +181,10 @@ _LOOP_FIELDS = {"x", "y", "z", "groups", "score", "correct"}
 
 
 def _grid_problem(grid) -> str:
-    """Why ``grid`` is not an explorer grid :func:`explorer_html` can draw ("" if it is)."""
+    """Why ``grid`` is not an explorer grid :func:`explorer_html` can draw ("" if it is): its
+    loops are named by its controls, each a set of finite paths of one length per
+    environment, groups 0 and 1, a score in [-100, 100] that is 0 unless the loop is
+    correct."""
     if not isinstance(grid, dict) or set(grid) != {"controls", "loops"}:
         return "not an object of controls and loops"
     controls, loops = grid["controls"], grid["loops"]
@@ -189,9 +192,47 @@ def _grid_problem(grid) -> str:
         return "controls or loops is not an object"
     if any(not isinstance(v, list) for v in controls.values()):
         return "a control whose options are not a list"
+    names = ("pair", "n", "thrust", "layout")
+    if controls and set(controls) != set(names):
+        return f"controls other than {list(names)}"
+    if controls:
+        want = {f"{i}|{n}|{j}|{layout}" for i in range(len(controls["pair"]))
+                for n in controls["n"] for j in range(len(controls["thrust"]))
+                for layout in controls["layout"]}
+        if set(loops) != want:
+            return "loops that are not one for each choice of the controls"
     for key, loop in loops.items():
         if not isinstance(loop, dict) or set(loop) != _LOOP_FIELDS:
             return f"loop {key!r} lacks {sorted(_LOOP_FIELDS)}"
+        why = _loop_problem(loop)
+        if why:
+            return f"loop {key!r} has {why}"
+    return ""
+
+
+def _loop_problem(loop) -> str:
+    """Why one loop of a grid cannot be drawn or believed ("" if it can)."""
+    score, correct, groups = loop["score"], loop["correct"], loop["groups"]
+    if not isinstance(correct, bool):
+        return "a correct flag that is not true or false"
+    if (isinstance(score, bool) or not isinstance(score, (int, float))
+            or not -100 <= score <= 100):
+        return f"a score outside [-100, 100] ({score!r})"
+    if not correct and score != 0:
+        return "a non-zero score for a misgrouped loop"
+    if (not isinstance(groups, list) or not groups
+            or any(g not in (0, 1) or isinstance(g, bool) for g in groups)
+            or set(groups) != {0, 1}):
+        return "groups that are not both of 0 and 1"
+    try:
+        paths = [np.asarray(loop[c], dtype=float) for c in "xyz"]
+    except (TypeError, ValueError):
+        return "paths that are not numbers"
+    if (any(p.ndim != 2 for p in paths)
+            or any(p.shape != (len(groups), paths[0].shape[1]) for p in paths)):
+        return "paths that are not one per environment, all of one length"
+    if not all(np.all(np.isfinite(p)) for p in paths):
+        return "paths that are not finite"
     return ""
 
 

@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 
 __all__ = ["FlyableLimits", "FLYABLE", "FLYABLE_IN_WIND", "required_tilt", "check_flyable", "sample_waypoints",
            "waypoints_to_vector", "waypoints_from_vector", "WAYPOINT_CEM_STD", "MAX_REDRAWS",
-           "GRAVITY"]
+           "GRAVITY", "MAX_WAYPOINT_DURATION"]
 
 #: Gravity of the tilt bound [m/s^2] (RotorPy's).
 GRAVITY = 9.81
@@ -284,9 +284,16 @@ def check_flyable(reference: WaypointSpline, limits: FlyableLimits = FLYABLE,
     return reference
 
 
+#: Longest flight [s] :func:`sample_waypoints` draws: its flyability check samples the
+#: reference every millisecond (:func:`check_flyable`), about 0.3 GB of arrays at this
+#: length (a million seconds asked for 7.45 GiB).
+MAX_WAYPOINT_DURATION = 600.0
+
+
 def _times(n_changes, duration):
     n = check_scalar(n_changes, "n_changes", low=0, high=1000, integer=True)
-    duration = check_scalar(duration, "duration", low=0.0, low_inclusive=False, high=1e6)
+    duration = check_scalar(duration, "duration", low=0.0, low_inclusive=False,
+                            high=MAX_WAYPOINT_DURATION)
     return np.linspace(0.0, duration, n + 2)
 
 
@@ -307,7 +314,7 @@ def sample_waypoints(rng: np.random.Generator, n_changes: int = 6, duration: flo
     n_changes : int
         Waypoints after the start, less one, in [0, 1000]. Default 6.
     duration : float
-        Flight time [s], in (0, 1e6]. Default 12.
+        Flight time [s], in (0, :data:`MAX_WAYPOINT_DURATION`] = (0, 600]. Default 12.
     start_altitude : float
         Height of the hover start [m], at or above ``limits.floor``. Default 10.
     limits : FlyableLimits

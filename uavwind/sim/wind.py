@@ -14,9 +14,13 @@ This module owns every wind field the UAV can fly through (paper section
   It never adds winds: ``WindGroups(mean, gusts)`` is two groups of environments, the mean
   wind in one and the gusts alone in the other;
 * :class:`SumWind` (also ``a + b``) -- the superposition of models over the *same*
-  environments, e.g. gusts on a mean wind;
+  environments, e.g. gusts on a mean wind; a sum of sums is one flat sum (each distinct
+  model once, with how many times it is added), so any nesting is evaluated in one loop;
 * :class:`RampedWind` -- a model faded in from still air over a ramp (a flight that starts
   hovering in still air, then meets the wind).
+
+``with_seed(seed)`` redraws the gusts of every model inside a sum, a ramp or groups (each
+distinct model from its own child of ``seed``; a ramp passes ``seed`` on as it is).
 
 A wind model describes ``n_env`` *environments* at once. ``velocity(t,
 positions)`` takes the time ``t`` [s] and the UAV positions ``(n_env, 3)`` [m]
@@ -104,8 +108,9 @@ class WindModel(ABC):
 
     def with_seed(self, seed: int | np.random.SeedSequence | None) -> WindModel:
         """This model with its gusts drawn from ``seed``: the model itself when it draws
-        none (every model here but :class:`~uavwind.sim.dryden.DrydenWind`). A setting
-        builds and checks each group's model once and reseeds it for every loop."""
+        none (a constant or shear wind); :class:`~uavwind.sim.dryden.DrydenWind` redraws its
+        gusts, and a sum, a ramp or groups reseed the models inside them. A setting builds
+        and checks each group's model once and reseeds it for every loop."""
         return self
 
     def __add__(self, other):
@@ -255,6 +260,23 @@ def _check_models(models, name):
     return tuple(models)
 
 
+def _child_seeds(seed, n):
+    """``n`` independent children of ``seed`` (an int >= 0, a SeedSequence or None), the
+    ones ``SeedSequence(seed).spawn(n)`` gives, without changing a SeedSequence passed in:
+    reseeding twice with one seed gives the same gusts."""
+    if isinstance(seed, bool) or (seed is not None and not isinstance(
+            seed, (int, np.integer, np.random.SeedSequence))):
+        raise TypeError(f"seed must be an int, a numpy.random.SeedSequence or None, got "
+                        f"{type(seed).__name__}")
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return [np.random.SeedSequence(ss.entropy, spawn_key=(*ss.spawn_key, i),
+                                   pool_size=ss.pool_size) for i in range(n)]
+
+
+#: Most times one model may be added into a sum (counts are exact in float64 up to 2^53).
+MAX_TERM_COUNT = 2 ** 53
+
+
 class SumWind(WindModel):
     """The superposition of wind models over the same environments: ``v_wind(t, r) =
     sum_i models[i].velocity(t, r)`` [m/s] (``a + b`` builds one).
@@ -262,10 +284,23 @@ class SumWind(WindModel):
     Every model describes the same ``n_env`` environments (a mean wind and its gusts, say);
     to put models side by side as groups of environments, use :class:`WindGroups`.
 
+    A sum is flat: a :class:`SumWind` among ``models`` gives its terms, and one model added
+    more than once is one term with a count (:attr:`terms`), so ``w = w + w`` forty times is
+    one term of count 2^40 (at most :data:`MAX_TERM_COUNT`) and a sum of thousands of terms,
+    however nested, is evaluated in one loop.
+
     Parameters
     ----------
     *models : WindModel
         At least one, each with the same ``n_env``.
+
+    Attributes
+    ----------
+    terms : tuple of (WindModel, int)
+        Each distinct model (none a sum), in the order first met, and how many times it is
+        added.
+    models : tuple of WindModel
+        The distinct models of :attr:`terms`.
 
     Examples
     --------
@@ -275,22 +310,69 @@ class SumWind(WindModel):
     """
 
     def __init__(self, *models):
-        self.models = _check_models(models, "models")
-        sizes = {m.n_env for m in self.models}
+        models = _check_models(models, "models")
+        sizes = {m.n_env for m in models}
         if len(sizes) != 1:
             raise ValueError(f"models must describe the same environments (one n_env), got "
-                             f"n_env {[m.n_env for m in self.models]}; WindGroups puts models "
+                             f"n_env {[m.n_env for m in models]}; WindGroups puts models "
                              f"side by side")
-        self.n_env = self.models[0].n_env
+        leaves, counts = {}, {}  # id(model) -> model, count: flat, built without recursion
+        for m in models:
+            if isinstance(m, SumWind):
+                if not counts:  # the common w = w + x: copy the left sum's terms at C speed
+                    leaves, counts = dict(m._leaves), dict(m._counts)
+                    continue
+                pairs = m.terms
+            else:
+                pairs = ((m, 1),)
+            for leaf, k in pairs:
+                leaves[id(leaf)] = leaf
+                counts[id(leaf)] = counts.get(id(leaf), 0) + k
+        self._set_terms(leaves, counts)
+
+    def _set_terms(self, leaves, counts):
+        worst = max(counts.values())
+        if worst > MAX_TERM_COUNT:
+            raise ValueError(f"models must add one model at most 2^53 times, got {worst}")
+        self._leaves, self._counts = leaves, counts
+        self.n_env = next(iter(leaves.values())).n_env
+
+    @property
+    def terms(self) -> tuple:
+        """``(model, count)`` of each distinct model, in the order first met."""
+        terms = self.__dict__.get("_terms")
+        if terms is None:
+            terms = self._terms = tuple((m, self._counts[i]) for i, m in self._leaves.items())
+        return terms
+
+    @property
+    def models(self) -> tuple:
+        """The distinct models of :attr:`terms`."""
+        return tuple(self._leaves.values())
 
     def _velocity(self, t, positions):
-        out = np.array(self.models[0]._velocity(t, positions), dtype=float)
-        for m in self.models[1:]:
-            out = out + m._velocity(t, positions)
+        out = np.zeros((self.n_env, 3))
+        for m, k in self.terms:
+            v = m._velocity(t, positions)
+            out += v if k == 1 else float(k) * v
+        return out
+
+    def with_seed(self, seed: int | np.random.SeedSequence | None) -> SumWind:
+        """This sum with each distinct model reseeded from its own child of ``seed``."""
+        kids = _child_seeds(seed, len(self.terms))
+        new = [(m.with_seed(c), k) for (m, k), c in zip(self.terms, kids)]
+        if all(a is m for (a, _), (m, _) in zip(new, self.terms)):
+            return self
+        out = object.__new__(SumWind)
+        counts = {}
+        for m, k in new:  # two models reseeded into one object stay one term
+            counts[id(m)] = counts.get(id(m), 0) + k
+        out._set_terms({id(m): m for m, _ in new}, counts)
         return out
 
     def __repr__(self):
-        return "SumWind(" + ", ".join(map(repr, self.models)) + ")"
+        return "SumWind(" + ", ".join(repr(m) if k == 1 else f"{k} * {m!r}"
+                                      for m, k in self.terms) + ")"
 
 
 class RampedWind(WindModel):
@@ -321,6 +403,12 @@ class RampedWind(WindModel):
     def _velocity(self, t, positions):
         u = min(t / self.ramp, 1.0)
         return self.model._velocity(t, positions) * (u * u * (3.0 - 2.0 * u))
+
+    def with_seed(self, seed: int | np.random.SeedSequence | None) -> RampedWind:
+        """This ramp over its model reseeded with ``seed`` (the same gusts as
+        ``model.with_seed(seed)``, faded in)."""
+        model = self.model.with_seed(seed)
+        return self if model is self.model else RampedWind(model, self.ramp)
 
     def __repr__(self):
         return f"RampedWind({self.model!r}, ramp={self.ramp:g})"
@@ -363,6 +451,12 @@ class WindGroups(WindModel):
         for i, m in enumerate(self.models):
             out[b[i]:b[i + 1]] = m._velocity(t, positions[b[i]:b[i + 1]])
         return out
+
+    def with_seed(self, seed: int | np.random.SeedSequence | None) -> WindGroups:
+        """These groups, group ``i`` reseeded from child ``i`` of ``seed`` (as
+        :meth:`uavwind.sim.setting.Setting.wind` seeds its two groups)."""
+        new = [m.with_seed(c) for m, c in zip(self.models, _child_seeds(seed, len(self.models)))]
+        return self if all(a is m for a, m in zip(new, self.models)) else WindGroups(*new)
 
     def __repr__(self):
         return "WindGroups(" + ", ".join(map(repr, self.models)) + ")"

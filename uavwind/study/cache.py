@@ -4,16 +4,18 @@ This module owns what is particular to a chunk of loops (or CEM samples, or clos
 episodes); everything else of its storage is :mod:`uavwind.core.store`'s, the one verified
 cache of the project:
 
-* :func:`cache_key` -- a chunk's key by the store's one recipe (:func:`~uavwind.core.store.make_key`)
-  from everything that determines it (setting, seed, loop range, engine, clustering
-  parameters) and :data:`RESULTS_VERSION`;
+* :func:`cache_key` and :func:`chunk_key` -- a chunk's file name and what it was computed for,
+  by the store's recipes (:func:`~uavwind.core.store.make_key`,
+  :func:`~uavwind.core.store.entry_key`), from everything that determines it (setting, seed,
+  loop range, engine, clustering parameters) and :data:`RESULTS_VERSION`;
 * :func:`check_writable` -- before any work starts, so a run never computes what it
   cannot keep;
-* :class:`Expected` and its rules -- a chunk is trusted only if, beyond the store's checks
-  (a regular file that parses, its content matching its stored digest), it has every
-  column, its stamps (setting key, seed, engine, row count) are what the caller expects and
-  its rows are consistent; a chunk written by uavwind 0.1, before digests, is checked by
-  these rules alone and given its digest;
+* :class:`Expected` and its rules -- a chunk is trusted only if, beyond the store's one rule
+  (a regular file that parses, holding the key it was asked for under a digest that matches
+  it and its content: a chunk copied over another's name is not), it has every column, its
+  stamps (setting key, seed, engine, row count) are what the caller expects and its rows are
+  consistent and in range; there is no rule of its own for chunks of before (uavwind 0.1's,
+  without a digest, are recomputed);
 * :func:`read_verified` and :func:`cached` -- the store's one damaged-entry rule
   (:func:`~uavwind.core.store.read_entry`: moved aside as ``*.corrupt``, never deleted, one
   warning naming the file, recomputed) and its locked read-compute-write
@@ -29,7 +31,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -39,7 +41,8 @@ import pandas as pd
 from ..core import store
 from ..core.store import DIGEST_KEY as CHECKSUM_KEY
 from ..core.store import CorruptEntryWarning as CorruptChunkWarning
-from ..core.store import TransientReadError, content_digest, make_key, plain, results_dir
+from ..core.store import (TransientReadError, content_digest, entry_key, make_key, plain,
+                          results_dir)
 from ..core.store import entry_lock as chunk_lock
 from ..method.baseline import BASELINE_VERSION
 from ..method.clustering import DEFAULT_PARAMS
@@ -47,7 +50,8 @@ from ..method.clustering import DEFAULT_PARAMS
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "CHECKSUM_KEY", "cache_key", "results_dir",
+__all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "CHECKSUM_KEY", "cache_key", "chunk_key",
+           "results_dir",
            "check_writable", "Expected", "read_verified", "chunk_lock", "cached",
            "CorruptChunkWarning", "TransientReadError", "content_digest"]
 
@@ -56,16 +60,30 @@ __all__ = ["RESULTS_VERSION", "EPISODE_REQUIRED", "CHECKSUM_KEY", "cache_key", "
 RESULTS_VERSION = "2"
 
 
-def cache_key(setting: Setting, seed: int, start: int, stop: int, engine: str, params: dict,
-              extra: dict | None = None) -> str:
-    """Digest of everything that determines a chunk of results."""
+def _fields(setting, seed, start, stop, engine, params, extra):
     fields = {"setting": setting.key(), "seed": seed, "loops": [start, stop], "engine": engine,
               "params": {**DEFAULT_PARAMS, **params}, "extra": extra}
     if getattr(setting, "baseline", False):  # loops that also run the physics baseline
         fields["baseline"] = BASELINE_VERSION
+    return fields
+
+
+def cache_key(setting: Setting, seed: int, start: int, stop: int, engine: str, params: dict,
+              extra: dict | None = None) -> str:
+    """Digest of everything that determines a chunk of results (its file name)."""
     # the runner files the chunk (loops/ or the experiment's folder): the kind names a folder
     # and does not enter the digest, so the chunks cached before the store keep their names
-    return make_key("loops", fields, RESULTS_VERSION)
+    return make_key("loops", _fields(setting, seed, start, stop, engine, params, extra),
+                    RESULTS_VERSION)
+
+
+def chunk_key(setting: Setting, seed: int, start: int, stop: int, engine: str, params: dict,
+              extra: dict | None = None) -> str:
+    """What a chunk was computed for (:func:`~uavwind.core.store.entry_key`, of the fields
+    :func:`cache_key` digests): stored in the chunk and checked on every read, so a chunk of
+    loops 0-49 copied over loops 50-99 (or another setting's, seed's) is refused."""
+    return entry_key("loops", _fields(setting, seed, start, stop, engine, params, extra),
+                     RESULTS_VERSION)
 
 
 def check_writable(folder) -> Path:
@@ -109,6 +127,9 @@ class Expected:
     kind : {"loops", "episodes"}
         What a row is: a loop (or CEM sample) of the clustering, or a reported belief of a
         closed-loop episode (:data:`EPISODE_REQUIRED`, and its own consistency rules).
+    key : str
+        What the chunk was computed for (:func:`chunk_key`), keyword only: the chunk must hold
+        exactly this key.
     """
 
     setting_key: str
@@ -117,6 +138,12 @@ class Expected:
     n_rows: int
     groups: tuple = ()
     kind: str = "loops"
+    key: str = field(kw_only=True)
+
+    def __post_init__(self):
+        if not isinstance(self.key, str) or not self.key:
+            raise TypeError(f"key must be what the chunk was computed for (chunk_key), a "
+                            f"non-empty str, got {self.key!r}")
 
 
 #: Columns every chunk holds, with the kinds of their dtypes (numpy ``dtype.kind``).
@@ -205,29 +232,23 @@ def _problem(df, expect):
     return ""
 
 
-def _legacy(df):
-    """True for a chunk written by uavwind 0.1, before chunks carried a checksum."""
-    v = df["uavwind_version"].iloc[0] if "uavwind_version" in df.columns and len(df) else ""
-    return isinstance(v, str) and v.startswith("0.1.")
-
-
 def read_verified(path, expect: Expected) -> pd.DataFrame | None:
     """The chunk at ``path`` if it exists and can be trusted, else ``None``
     (:func:`uavwind.core.store.read_entry` with the rules of :class:`Expected`).
 
-    Trusted means: it is a regular file, it parses, its content matches the SHA-256 stored in
-    its metadata (a chunk stamped by uavwind 0.1, before checksums were stored, is checked by
-    the rules alone and given its checksum in place; any later chunk without one is
-    untrusted), it has every column with its dtype, its stamps are what :class:`Expected`
-    says, and its rows are consistent (scores, silhouettes, labels against the correct
-    flag). A damaged or untrusted chunk is renamed ``<name>.corrupt`` (never deleted, never
+    Trusted means: it is a regular file, it parses, it holds ``expect.key`` and a digest that
+    matches that key and its content (a chunk without either, whatever version it claims, or
+    one copied from another chunk's name, is untrusted), it has every column with its dtype,
+    its stamps are what :class:`Expected` says, and its rows are consistent (scores,
+    silhouettes, labels against the correct flag). A damaged or untrusted chunk is renamed ``<name>.corrupt`` (never deleted, never
     overwriting an earlier one: it may be evidence) with one :class:`CorruptChunkWarning`,
     so the caller recomputes it. A chunk that cannot be *read* (permissions, file
     descriptors, I/O) raises :class:`TransientReadError` and is left where it is.
     """
     if not isinstance(expect, Expected):
         raise TypeError(f"expect must be an Expected, got {type(expect).__name__}")
-    return store.read_entry(path, lambda df: _problem(df, expect), _legacy, what="cache entry")
+    return store.read_entry(path, expect.key, lambda df: _problem(df, expect),
+                            what="cache entry")
 
 
 def cached(path, compute: Callable[[], pd.DataFrame], meta: dict,
@@ -249,5 +270,5 @@ def cached(path, compute: Callable[[], pd.DataFrame], meta: dict,
         for k, v in meta.items():
             df[k] = v
         return df
-    return store.fill_entry(path, stamped, lambda df: _problem(df, expect), _legacy,
+    return store.fill_entry(path, expect.key, stamped, lambda df: _problem(df, expect),
                             what="cache entry")

@@ -292,10 +292,16 @@ class MeasuredExperiment:
     data: str
 
     def check_data(self) -> None:
-        """``ValueError`` naming :attr:`data` if that variable is not set."""
-        if not os.environ.get(self.data):
+        """``ValueError`` naming :attr:`data` if that variable is not set, or does not name an
+        existing folder (before any work: a run asked for it computes nothing first)."""
+        folder = os.environ.get(self.data)
+        if not folder:
             raise ValueError(f"experiment {self.id!r}, {self.title}, reads {self.source}, and "
                              f"${self.data} is not set: set it to the folder of the flights")
+        if not os.path.isdir(os.path.expanduser(folder)):
+            raise ValueError(f"experiment {self.id!r}, {self.title}, reads {self.source}, and "
+                             f"${self.data} = {folder!r} is not an existing folder: set it to "
+                             f"the folder of the flights")
 
     def run(self, profile: str, results: os.PathLike | str | None = None,
             n_jobs: int | None = None) -> pd.DataFrame:

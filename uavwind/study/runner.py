@@ -33,8 +33,8 @@ from ..method.closed_loop import ClosedLoop, run_episodes
 from ..method.search import CEMRun, random_search
 from ..sim.multirotor import Multirotor
 from ..sim.setting import Setting
-from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, read_verified,
-                    results_dir)
+from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable, chunk_key,
+                    read_verified, results_dir)
 from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, CEMSize, get_profile
 from .readings import DEFAULT_READING, get_reading
 from .registry import EXPERIMENTS, MEASURED, get_experiment
@@ -197,6 +197,9 @@ class Entry:
     # CEM: n_samples, n_elite, max_iter, rank_by; closed loop: policies and the problem's grid
     options: dict = field(default_factory=dict)
     labels: dict = field(default_factory=dict)
+    #: What the entry is computed for (:func:`~uavwind.study.cache.chunk_key`): stored in it and
+    #: checked on every read
+    key: str = ""
 
     @property
     def n_rows(self) -> int:
@@ -280,9 +283,9 @@ class Entry:
         """What a cached copy must hold to be trusted."""
         if self.search == "closed_loop":
             return Expected(self.setting.key(), self.seed, self.engine, self.n_rows,
-                            kind="episodes")
+                            kind="episodes", key=self.key)
         return Expected(self.setting.key(), self.seed, self.engine, self.n_rows,
-                        tuple(int(g) for g in self.setting.groups))
+                        tuple(int(g) for g in self.setting.groups), key=self.key)
 
 
 def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, engine: str,
@@ -304,19 +307,23 @@ def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, e
             key = cache_key(s, seed, 0, cfg.max_iter, engine, params, extra=extra)
             out.append(Entry(path=folder / exp.id / f"cem-{key}.parquet", search="cem",
                              setting=s, seed=seed, engine=engine, params=params,
-                             options={**cfg.to_dict(), **opts}, labels=labels))
+                             options={**cfg.to_dict(), **opts}, labels=labels,
+                             key=chunk_key(s, seed, 0, cfg.max_iter, engine, params,
+                                           extra=extra)))
             continue
         if exp.search == "closed_loop":
             opts = dict(exp.search_options)
             for start in range(0, prof.episodes, EPISODE_CHUNK):
                 stop = min(start + EPISODE_CHUNK, prof.episodes)
-                key = cache_key(s, seed, start, stop, CLOSED_LOOP_ENGINE, {},
-                                extra={**opts, "closed_loop": CLOSED_LOOP_VERSION})
+                extra = {**opts, "closed_loop": CLOSED_LOOP_VERSION}
+                key = cache_key(s, seed, start, stop, CLOSED_LOOP_ENGINE, {}, extra=extra)
                 path = (folder / exp.id /
                         f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet")
                 out.append(Entry(path=path, search="closed_loop", setting=s, seed=seed,
                                  engine=CLOSED_LOOP_ENGINE, params={}, start=start, stop=stop,
-                                 options=opts, labels=labels))
+                                 options=opts, labels=labels,
+                                 key=chunk_key(s, seed, start, stop, CLOSED_LOOP_ENGINE, {},
+                                               extra=extra)))
             continue
         n_loops = case_loops(prof, case, exp.id)
         for start in range(0, n_loops, CHUNK):
@@ -326,7 +333,8 @@ def experiment_entries(exp: Experiment, prof: Profile, rd: Reading, seed: int, e
             # (e.g. Exp 2, 3 and 4 at 20 environments) is computed once
             path = folder / "loops" / f"{s.key()}-{start:04d}-{stop:04d}-{key}.parquet"
             out.append(Entry(path=path, search="random", setting=s, seed=seed, engine=engine,
-                             params=params, start=start, stop=stop, labels=labels))
+                             params=params, start=start, stop=stop, labels=labels,
+                             key=chunk_key(s, seed, start, stop, engine, params)))
     return out
 
 
