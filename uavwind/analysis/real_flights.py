@@ -291,7 +291,7 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
             "tilt_deg", "pitch_deg", "aero_force_x", "aero_force_z", "aero_force_norm",
             "tracking_rms", "thrust_sp", "fa_x_spread", "n_laps", *noise_columns(),
-            "method", "protocol", "estimate", "sample_rmse", "coverage", "std", "amplitude",
+            "method", "variant", "protocol", "estimate", "sample_rmse", "coverage", "std", "amplitude",
             "phase", "phase_ref", "lag", "t", "truth"]
     for c in cols:
         if c not in df.columns:

@@ -35,7 +35,7 @@ from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
 __all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
-           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP"]
+           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP", "VARIANTS"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
 SINUSOID = ("70p20sint", 2.4, 1.0)
@@ -50,6 +50,9 @@ PROTOCOLS = ("controller", "wind")
 SETTLE = 10.0
 #: The series rows keep every this many samples (50 Hz: one per 0.2 s).
 SERIES_STEP = 10
+#: The drag model's variants scored beside the default (``"drag"`` only): why the model is
+#: what it is, on the page.
+VARIANTS = {"no jet": {"jet": False}, "parasitic": {"parasitic": True}}
 
 
 def _harmonic(t, y, omega):
@@ -118,7 +121,8 @@ def _accuracy(est, f):
 
 def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
                     direction=(-1.0, 0.0, 0.0), protocols=PROTOCOLS,
-                    series_controller: str | None = None) -> list[dict]:
+                    series_controller: str | None = None, variants: bool = True
+                    ) -> list[dict]:
     """Every prediction of the protocol (module text): one row per held-out flight, method
     and protocol (kind ``"estimate"``): the flight's mean estimated speed along ``direction``
     after the start-up lap (``estimate``), the per-sample vector RMSE (``sample_rmse``), the
@@ -142,8 +146,11 @@ def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
     ref = {c: (force_phase(by[(c, SINUSOID[0])], by[(c, "70wind")])
                if (c, SINUSOID[0]) in by and (c, "70wind") in by else np.nan)
            for c in controllers}
+    specs = [(m, "default", {}) for m in methods]
+    if variants and "drag" in methods:
+        specs += [("drag", name, kw) for name, kw in VARIANTS.items()]
     rows = []
-    for method in methods:
+    for method, variant, kw in specs:
         for protocol in protocols:
             if method == "clusters" and protocol == "wind":
                 continue  # a classifier cannot name a wind it was not trained on
@@ -160,17 +167,18 @@ def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
                 for train, test in cases:
                     if not test or len({f.wind_speed for f in train}) < 2:
                         continue
-                    est = WindEstimator(method, direction=d).fit(train)
+                    est = WindEstimator(method, direction=d, **kw).fit(train)
                     for f in test:
-                        base = {"kind": "estimate", "method": method, "protocol": protocol,
-                                "controller": held, "condition": f.condition,
-                                "wind_speed": f.wind_speed}
+                        base = {"kind": "estimate", "method": method, "variant": variant,
+                                "protocol": protocol, "controller": held,
+                                "condition": f.condition, "wind_speed": f.wind_speed}
                         if method == "clusters":
                             rows.append({**base, "accuracy": _accuracy(est, f)})
                             continue
                         row, (t, speed, sd, truth) = _score(est, f, d, ref[held], base)
                         rows.append(row)
-                        if protocol == "controller" and held == series_controller:
+                        if (protocol == "controller" and held == series_controller
+                                and variant == "default"):
                             s = slice(None, None, SERIES_STEP)
                             rows += [{**base, "kind": "series", "t": float(a), "estimate": float(b),
                                       "std": float(c), "truth": float(e)}
@@ -201,13 +209,11 @@ def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
     and the flights it names (:func:`_named`, a Wilson interval). ``meets``: the mean-speed RMSE, the
     per-sample RMSE and the coverage within :data:`TARGETS` (and the amplitude, for the
     sinusoid); for ``"clusters"`` empty."""
-    est = rows[rows["kind"] == "estimate"]
-    if "protocol" not in est.columns:
-        est = est.assign(protocol="controller")
+    est = _estimates(rows)
     out = []
-    for (method, protocol, cond), g in est.groupby(["method", "protocol", "condition"],
-                                                   sort=False):
-        row = {"method": method, "protocol": protocol, "condition": cond,
+    for (method, variant, protocol, cond), g in est.groupby(
+            ["method", "variant", "protocol", "condition"], sort=False):
+        row = {"method": method, "variant": variant, "protocol": protocol, "condition": cond,
                "wind_speed": CONDITIONS.get(cond, np.nan), "n_controllers": len(g)}
         if method == "clusters":
             out.append({**row, **_named(g), "meets": None})
@@ -231,10 +237,25 @@ def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
     df = pd.DataFrame(out)
     if not len(df):
         return df
-    rank = {**{m: i for i, m in enumerate(ESTIMATORS)}, **{p: i for i, p in enumerate(PROTOCOLS)},
-            **{c: i for i, c in enumerate(CONDITIONS)}}
-    return df.sort_values(["method", "protocol", "condition"], key=lambda s: s.map(rank),
+    return df.sort_values(["method", "variant", "protocol", "condition"], key=_rank,
                           ignore_index=True)
+
+
+def _estimates(rows):
+    """The rows of kind ``"estimate"``, with ``protocol`` and ``variant`` filled in for rows
+    of an earlier version (leave one controller out, the default model)."""
+    est = rows[rows["kind"] == "estimate"]
+    for col, value in (("protocol", "controller"), ("variant", "default")):
+        est = est.assign(**{col: est[col].fillna(value) if col in est else value})
+    return est
+
+
+def _rank(col):
+    """Sort key: methods, variants, protocols and conditions in their defined order."""
+    order = {**{m: i for i, m in enumerate(ESTIMATORS)},
+             **{v: i for i, v in enumerate(["default", *VARIANTS])},
+             **{p: i for i, p in enumerate(PROTOCOLS)}, **{c: i for i, c in enumerate(CONDITIONS)}}
+    return col.map(order)
 
 
 def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -243,11 +264,13 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     over the held-out controllers (each controller's flights resampled together); for
     ``"clusters"`` the accuracy and the flights named (:func:`_named`). ``n_flights``,
     ``n_controllers``."""
-    est = rows[(rows["kind"] == "estimate") & ~rows["condition"].isin(UNRECORDED)]
+    est = _estimates(rows)
+    est = est[~est["condition"].isin(UNRECORDED)]
     out = []
-    for (method, protocol), g in est.groupby(["method", "protocol"], sort=False):
+    for (method, variant, protocol), g in est.groupby(["method", "variant", "protocol"],
+                                                      sort=False):
         per = g.groupby("controller")
-        row = {"method": method, "protocol": protocol, "n_flights": len(g),
+        row = {"method": method, "variant": variant, "protocol": protocol, "n_flights": len(g),
                "n_controllers": per.ngroups}
         if method == "clusters":
             out.append({**row, **_named(g)})
@@ -269,7 +292,10 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
             lo, hi = _controller_ci(sq, stat)
             row[name], row[f"{name}_low"], row[f"{name}_high"] = v, lo, hi
         out.append(row)
-    return pd.DataFrame(out)
+    df = pd.DataFrame(out)
+    if not len(df):
+        return df
+    return df.sort_values(["method", "variant", "protocol"], key=_rank, ignore_index=True)
 
 
 def _controller_ci(per, stat, n_boot: int = N_BOOT, seed: int = SEED):
