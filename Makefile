@@ -100,6 +100,19 @@ $(GEN)/.profile: FORCE
 	@mkdir -p $(GEN)
 	@echo "$(PROFILE)" | cmp -s - $@ || echo "$(PROFILE)" > $@
 
+# a page that reads Neural-Fly's flights also reads what the cache cannot say: whether they are
+# there ($$UAVWIND_NEURALFLY), and which files. The stamp is rewritten only when that changes,
+# so the page reruns when the data arrive, go or change (Make tracks files, not variables)
+DATA_PAGES := $(basename $(notdir $(shell grep -l -e UAVWIND_NEURALFLY -e neuralfly $(NB_DIR)/*.md 2>/dev/null)))
+$(GEN)/.neuralfly: FORCE
+	@mkdir -p $(GEN)
+	@{ echo "folder: $${UAVWIND_NEURALFLY:-}"; \
+	   if [ -n "$${UAVWIND_NEURALFLY:-}" ] && [ -d "$$UAVWIND_NEURALFLY" ]; then \
+	     ls -lL --time-style=+%s "$$UAVWIND_NEURALFLY" 2>&1; fi; } > $@.new
+	@if cmp -s $@.new $@; then rm -f $@.new; else mv $@.new $@; fi
+
+$(addprefix $(GEN)/,$(addsuffix .ipynb,$(DATA_PAGES))): $(GEN)/.neuralfly
+
 $(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	@echo "page $*"

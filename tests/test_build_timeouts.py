@@ -193,3 +193,39 @@ def test_only_an_exercise_computes_cell_may_compute_on_a_read_only_page(tmp_path
     shown = [c for c in nb.cells if c.cell_type == "code"
              and "remove-cell" not in c.metadata.get("tags", [])]
     assert [c.outputs[0]["text"] for c in shown] == ["'1'\n", "None\n", "'1'\n"]
+
+
+def test_a_page_that_reads_the_flights_reruns_when_they_arrive(tmp_path):
+    """Make tracks files, not variables: the pages that read Neural-Fly's flights depend on a
+    stamp of ``$UAVWIND_NEURALFLY`` (the folder and its listing), rewritten only when that
+    changes, so a page built without the data is out of date once they are there; a page that
+    does not read them does not depend on it."""
+    book = tmp_path / "book"
+    gen = book / "generated"
+    gen.mkdir(parents=True)
+    data = tmp_path / "flights"
+    data.mkdir()
+    (data / "custom_figure8_A_nowind.csv").write_text("t\n0\n")
+    env = {k: v for k, v in os.environ.items() if k != "UAVWIND_NEURALFLY"}
+    stamp = gen / ".neuralfly"
+
+    def make(*targets, **extra):
+        return subprocess.run(["make", "-C", str(ROOT),
+                               "--no-print-directory", "-o", "results", "-o", ".venv/.installed",
+                               f"BOOK={book}", "PROFILE=quick", *targets],
+                              env={**env, **extra}, capture_output=True, text=True, check=True)
+
+    make(str(stamp), str(gen / ".profile"))
+    assert stamp.read_text().startswith("folder: \n")
+    before = stamp.stat().st_mtime_ns
+    make(str(stamp))
+    assert stamp.stat().st_mtime_ns == before  # unchanged: not rewritten
+    time.sleep(1.1)  # a rewritten stamp gets a new time on any file system's clock
+    make(str(stamp), UAVWIND_NEURALFLY=str(data))
+    assert stamp.stat().st_mtime_ns != before and "custom_figure8_A_nowind.csv" in stamp.read_text()
+    # Make's own database: which pages have the stamp among what they are made from
+    db = subprocess.run(["make", "-pq", "-C", str(ROOT), "--no-print-directory", f"BOOK={book}",
+                         "help"], env=env, capture_output=True, text=True).stdout
+    needs = {line.split(":")[0].rsplit("/", 1)[-1] for line in db.splitlines()
+             if line.startswith(str(gen)) and ".ipynb:" in line and ".neuralfly" in line}
+    assert needs == {"exp13_real_flights.ipynb", "exp14_flyable.ipynb"}

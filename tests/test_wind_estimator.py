@@ -177,7 +177,9 @@ def test_the_std_grows_with_the_wind_and_covers_the_twins_wind(twin_flights):
 
 # -- the protocol's tables ------------------------------------------------------------- #
 def test_the_protocol_table(twin_flights):
-    rows = pd.DataFrame(wind_estimates.estimation_rows(twin_flights, methods=("drag",)))
+    rows = pd.DataFrame(wind_estimates.estimation_rows(twin_flights, methods=("drag",),
+                                                       variants=False))
+    assert set(rows["variant"].dropna()) == {"default"}
     est = rows[rows["kind"] == "estimate"]
     by = est.groupby("protocol").size()
     assert by["controller"] == len(twin_flights)  # every flight, its controller held out

@@ -391,10 +391,13 @@ def twin_validation(table) -> Figure:
 
 def wind_estimates(rows) -> Figure:
     """Exp 13: each held-out flight's mean estimated wind speed against the tunnel's, one
-    panel per drag-model method and protocol (``rows``: the real rows' kind ``"estimate"``;
-    the sinusoidal wind's flights drawn beside the steady 8.5 m/s), the identity dashed."""
+    panel per drag-model method and protocol, the model as fitted (``rows``: the real rows'
+    kind ``"estimate"``; the sinusoidal wind's flights drawn beside the steady 8.5 m/s), the
+    identity dashed."""
     plt = _plt()
     est = rows[(rows["kind"] == "estimate") & (rows["method"] != "clusters")]
+    if "variant" in est.columns:  # the model as fitted, not its variants
+        est = est[est["variant"].fillna("default") == "default"]
     if "protocol" not in est.columns or est["protocol"].isna().all():
         est = est.assign(protocol="controller")
     panels = list(dict.fromkeys(zip(est["method"], est["protocol"])))
