@@ -22,6 +22,7 @@ FILL_TIMEOUT ?= $(if $(filter quick,$(PROFILE)),1800,10800)
 BENCH_TIMEOUT ?= 14400  # [s] a whole `make bench` (FULL=1 builds the paper book; ONLY=builds four builds)
 HTML_TIMEOUT ?= 1200
 PIP_TIMEOUT  ?= 1800
+WARMUP_TIMEOUT ?= 900
 TIMEOUT := timeout --kill-after=20
 # pages read what the fill computed: a page that would compute a result fails, naming it
 READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
@@ -70,6 +71,13 @@ $(STAMP): environment.txt
 	$(TIMEOUT) $(PIP_TIMEOUT) sh -c '$(PIP_INSTALL) -r $(VENV)/pins.0 & a=$$!; \
 	  $(PIP_INSTALL) -r $(VENV)/pins.1 || { wait $$a; exit 1; }; wait $$a'
 	$(BIN)/python -m pip check --disable-pip-version-check
+	# the package itself, editable: a script outside the checkout imports this checkout
+	PIP_NO_INDEX=1 $(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps \
+	  --no-build-isolation --no-compile -e .
+	# every numba kernel compiled once into numba's cache, the engine beside the multirotor:
+	# later processes (pages, tests, a newcomer's first loop) load them instead
+	$(TIMEOUT) $(WARMUP_TIMEOUT) sh -c '$(BIN)/python -m uavwind.warmup engine & a=$$!; \
+	  $(BIN)/python -m uavwind.warmup sim || { wait $$a; exit 1; }; wait $$a'
 	touch $@
 
 venv: $(STAMP)  ## build .venv from environment.txt (only when missing or outdated)

@@ -4,6 +4,8 @@ import shutil
 import subprocess
 import sys
 import tomllib
+
+import pytest
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,3 +95,24 @@ def test_the_page_runner_does_not_build_jsonschemas_iri_grammar():
             "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('rfc3987_syntax', 'lark'))\n"
             "assert not bad, bad\n")
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+def test_the_venv_holds_the_checkout_editable_and_warmup_names_its_parts(tmp_path):
+    """``make venv`` installs the package editable: a script outside the checkout, without
+    PYTHONPATH, imports this checkout's sources; ``python -m uavwind.warmup`` refuses a part
+    it does not know."""
+    import importlib.metadata
+
+    try:
+        importlib.metadata.version("uavwind")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("this venv was built before make venv installed the package: "
+                    "rm .venv/.installed && make venv")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    out = subprocess.run([sys.executable, "-c", "import uavwind; print(uavwind.__file__)"],
+                         cwd=tmp_path, env=env, capture_output=True, text=True, check=True)
+    assert Path(out.stdout.strip()) == ROOT / "uavwind" / "__init__.py"
+    from uavwind import warmup
+    assert warmup.main(["bogus"]) == 2
+    with pytest.raises(ValueError, match="part must be one of"):
+        warmup.warm("bogus")
