@@ -63,6 +63,10 @@ PIP_INSTALL := $(BIN)/python -m pip install --disable-pip-version-check --quiet 
 help:  ## list the targets
 	@grep -hE '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | sed -E 's/:.*## /\t/' | expand -t 16
 
+# the venv: the pins, then the package itself, editable (a script outside the checkout imports
+# this checkout), then every numba kernel compiled once into numba's cache, the engine beside
+# the multirotor (python -m uavwind.warmup): later processes (pages, tests, a newcomer's first
+# loop) load them instead of compiling
 $(STAMP): environment.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "uavwind pins need Python 3.11, got " + sys.version'
 	$(PYTHON) -m venv $(VENV)
@@ -71,16 +75,13 @@ $(STAMP): environment.txt
 	$(TIMEOUT) $(PIP_TIMEOUT) sh -c '$(PIP_INSTALL) -r $(VENV)/pins.0 & a=$$!; \
 	  $(PIP_INSTALL) -r $(VENV)/pins.1 || { wait $$a; exit 1; }; wait $$a'
 	$(BIN)/python -m pip check --disable-pip-version-check
-	# the package itself, editable: a script outside the checkout imports this checkout
 	PIP_NO_INDEX=1 $(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps \
 	  --no-build-isolation --no-compile -e .
-	# every numba kernel compiled once into numba's cache, the engine beside the multirotor:
-	# later processes (pages, tests, a newcomer's first loop) load them instead
 	$(TIMEOUT) $(WARMUP_TIMEOUT) sh -c '$(BIN)/python -m uavwind.warmup engine & a=$$!; \
 	  $(BIN)/python -m uavwind.warmup sim || { wait $$a; exit 1; }; wait $$a'
 	touch $@
 
-venv: $(STAMP)  ## build .venv from environment.txt (only when missing or outdated)
+venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
 
 test: $(STAMP)  ## run the test suite
 	$(BIN)/python -m pytest -q
