@@ -235,10 +235,7 @@ def _open_regular(path):
     except IsADirectoryError:
         return "a folder" + (" behind a symlink" if os.path.islink(path) else ""), seen
     except OSError as exc:
-        raise TransientReadError(exc.errno, f"cached entry {path.name} could not be opened "
-                                 f"({exc.strerror or exc}); it is left in place: fix the cause "
-                                 f"(permissions, open files, the disk) and rerun",
-                                 str(path)) from exc
+        raise _transient(exc, path, "opened") from exc
     try:
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
@@ -248,12 +245,16 @@ def _open_regular(path):
         with os.fdopen(fd, "rb", closefd=False) as fh:
             return fh.read(), seen
     except OSError as exc:
-        raise TransientReadError(exc.errno, f"cached entry {path.name} could not be read "
-                                 f"({exc.strerror or exc}); it is left in place: fix the cause "
-                                 f"(permissions, open files, the disk) and rerun",
-                                 str(path)) from exc
+        raise _transient(exc, path, "read") from exc
     finally:
         os.close(fd)
+
+
+def _transient(exc: OSError, path: Path, verb: str) -> TransientReadError:
+    """The error for an entry that could not be ``verb`` (opened, read): left in place."""
+    return TransientReadError(exc.errno, f"cached entry {path.name} could not be {verb} "
+                              f"({exc.strerror or exc}); it is left in place: fix the cause "
+                              f"(permissions, open files, the disk) and rerun", str(path))
 
 
 def _parse(blob, fmt):
