@@ -214,7 +214,8 @@ def test_drag_scale_multiplies_the_drag_and_nothing_else():
 
 
 def test_a_simulated_flight_reads_as_a_real_one():
-    f = figure8.simulated_flight(Multirotor.neural_fly(), "100wind", seed=1, duration=20.0)
+    f = figure8.simulated_flight(Multirotor.neural_fly(), "100wind", seed=1, duration=20.0,
+                                 calibration=figure8.BARE)
     assert f.controller == "seed 1" and f.wind_speed == 12.1
     assert f.p.shape == (1000, 3) and f.R.shape == (1000, 3, 3)
     assert f.p[:, 2].min() > 0.5  # flown above the floor
@@ -223,9 +224,34 @@ def test_a_simulated_flight_reads_as_a_real_one():
     assert w["aero_force"][..., 0].mean() < -10  # the drag points downwind, along -x
     assert np.all(np.abs(np.linalg.det(f.R) - 1) < 1e-9)
     with pytest.raises(ValueError, match="condition"):
-        figure8.simulated_flight(Multirotor.neural_fly(), "gale")
+        figure8.simulated_flight(Multirotor.neural_fly(), "gale", calibration=figure8.BARE)
     with pytest.raises(TypeError, match="vehicle"):
-        figure8.simulated_flight(uw.UAV(), "nowind")
+        figure8.simulated_flight(uw.UAV(), "nowind", calibration=figure8.BARE)
+    with pytest.raises(TypeError, match="requires calibration"):
+        figure8.simulated_flight(Multirotor.neural_fly(), "nowind")
+
+
+def test_every_seed_of_the_twin_changes_its_flight(monkeypatch):
+    """The twin's seeds: a flight's ``seed`` (its gusts and noise), the number of seeds, and
+    the root ``SIM_SEED`` each change what is flown; only the bare twin, asked for by name,
+    flies the same flight whatever its seed."""
+    cal = figure8.TwinCalibration(gust_scale=0.08, noise=(("100wind", "noise_aero_force_x",
+                                                           0.3),))
+    v = cal.vehicle()
+
+    def fly(seed, c=cal):
+        return figure8.simulated_flight(v, "100wind", seed, 13.0, c)
+    a, b = fly(0), fly(1)
+    for col in ("p", "fa", "R"):
+        assert not np.array_equal(a.arrays[col], b.arrays[col]), col
+    assert np.array_equal(fly(0).arrays["fa"], a.arrays["fa"])  # and the same seed, the same
+    monkeypatch.setattr(figure8, "SIM_SEED", figure8.SIM_SEED + 1)
+    assert not np.array_equal(fly(0).arrays["fa"], a.arrays["fa"])
+    monkeypatch.undo()
+    assert len(figure8.simulated_flights(cal, n_seeds=2, conditions=("nowind",),
+                                         duration=13.0)) == 2
+    bare0, bare1 = fly(0, figure8.BARE), fly(1, figure8.BARE)
+    assert np.array_equal(bare0.arrays["fa"], bare1.arrays["fa"])
 
 
 def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
@@ -236,9 +262,11 @@ def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
     assert figure8.flight_duration(quick) == 27.0
     assert figure8.flight_duration(rf.RealFlightStudy(max_laps=100)) == 50.0  # never longer
     chans, keep = quick.channels + ("aero_force",), slice(0, quick.max_laps)
-    full = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0), chans, quick.n_samples,
-                          quick.drop_first)
-    cut = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0, duration=27.0), chans,
+    bare = figure8.BARE
+    full = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0, calibration=bare), chans,
+                          quick.n_samples, quick.drop_first)
+    cut = rf.flight_laps(figure8.simulated_flight(v, "100wind", 0, duration=27.0,
+                                                  calibration=bare), chans,
                          quick.n_samples, quick.drop_first)
     assert len(full["starts"]) > len(cut["starts"]) >= quick.max_laps
     for ch in chans + ("starts", "tilt"):

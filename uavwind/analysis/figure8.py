@@ -60,7 +60,7 @@ from .memo import memo
 from .real_flights import (STUDIES, compute_rows, decided_orders, flight_summaries,
                            noise_columns)
 
-__all__ = ["FIGURE8", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREAD_CONDITION",
+__all__ = ["FIGURE8", "BARE", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREAD_CONDITION",
            "TwinCalibration", "calibrate_twin", "held_out_controller",
            "simulated_flight", "simulated_flights", "flight_duration", "sim_rows",
            "validation_table", "ranking_verdict", "real_force_targets", "calibration_of",
@@ -157,6 +157,11 @@ class TwinCalibration:
         return asdict(self)
 
 
+#: The bare twin: the preset's drag and lift, no gusts, offset or noise. What
+#: :func:`simulated_flight` flies only when given it by name (its ``seed`` changes nothing).
+BARE = TwinCalibration()
+
+
 def held_out_controller(controllers) -> str:
     """The controller the twin is checked on: the last in name order (``"indi"`` among
     Neural-Fly's five); the others are the training controllers."""
@@ -195,7 +200,10 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
                      calibration: TwinCalibration | None = None) -> RealFlight:
     """The figure-8 flown by ``vehicle`` in ``condition``'s wind with gust and noise seed
     ``seed``, as a :class:`~uavwind.data.RealFlight` (``controller`` ``"seed k"``), recorded
-    as ``calibration`` says (default: the bare twin, no gusts, offset or noise): ``T_sp`` is
+    as ``calibration`` says. ``calibration`` is required (a ``TypeError`` without it): the
+    fitted twin (:func:`calibrate_twin`, :func:`calibration_of`), or :data:`BARE` to fly the
+    bare twin on purpose (no gusts, offset or noise: its ``seed`` then changes nothing, which
+    a default made easy to miss). ``T_sp`` is
     the commanded thrust over the full-speed thrust (the real set-point is normalised the
     same way), ``hover_throttle`` the weight over it, ``fa`` the aerodynamic force as the
     authors compute it from the recorded attitude, ``pwm`` the rotor speeds [rad/s]."""
@@ -206,7 +214,12 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
         raise ValueError(f"condition must be one of {list(CONDITIONS)}, got {condition!r}")
     seed = check_scalar(seed, "seed", low=0, high=2 ** 32 - 1, integer=True)
     duration = check_scalar(duration, "duration", low=4 * np.pi, high=3600.0)
-    cal = TwinCalibration() if calibration is None else calibration
+    if calibration is None:
+        raise TypeError("simulated_flight() requires calibration: the fitted twin "
+                        "(figure8.calibrate_twin or calibration_of(sim_rows(...))), or "
+                        "figure8.BARE for the bare twin on purpose (no gusts or noise: its "
+                        "seed then changes nothing)")
+    cal = calibration
     check_instance(cal, "calibration", TwinCalibration)
     k = list(CONDITIONS).index(condition)
     wind = _wind(condition, child_seed(root_seed(SIM_SEED), seed, k), cal.gust_scale)
