@@ -52,13 +52,16 @@ def test_every_pair_channel_and_controller_has_its_row(rows):
     ctl = rows[rows.kind == "control"]  # each controller against the next, at each wind
     assert len(ctl) == 3 * 6 * 3 and (ctl["condition_a"] == ctl["condition_b"]).all()
     assert set(zip(ctl["controller"], ctl["other"])) == {("A", "B"), ("B", "C"), ("C", "A")}
-    est = rows[(rows.kind == "estimate") & (rows.variant == "default")]
+    est = rows[(rows.kind == "estimate") & (rows.variant == "default")
+               & (rows.method != "training mean")]
     # every flight under leave one controller out by each method; under leave one wind out
     # by the two drag-model methods (a classifier cannot name a held-out wind)
     assert (est.protocol == "controller").sum() == 3 * 9
     assert (est.protocol == "wind").sum() == 2 * 9
     variants = rows[(rows.kind == "estimate") & (rows.variant != "default")]
     assert len(variants) == 2 * 2 * 9  # two variants of the drag model, both protocols
+    base = rows[(rows.kind == "estimate") & (rows.method == "training mean")]
+    assert len(base) == 2 * 9  # the trivial baseline under both protocols
     assert len(rows[rows.kind == "series"]) > 0
 
 

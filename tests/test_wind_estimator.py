@@ -178,7 +178,7 @@ def test_the_std_grows_with_the_wind_and_covers_the_twins_wind(twin_flights):
 # -- the protocol's tables ------------------------------------------------------------- #
 def test_the_protocol_table(twin_flights):
     rows = pd.DataFrame(wind_estimates.estimation_rows(twin_flights, methods=("drag",),
-                                                       variants=False))
+                                                       variants=False, baseline=False))
     assert set(rows["variant"].dropna()) == {"default"}
     est = rows[rows["kind"] == "estimate"]
     by = est.groupby("protocol").size()
@@ -201,9 +201,24 @@ def test_the_protocol_table(twin_flights):
     assert one == []  # one controller: nothing to leave out
 
 
+def test_the_trivial_baseline_is_scored_beside_and_loses(twin_flights):
+    """Every sample named the training flights' mean wind: the same protocol, the same scores,
+    and far worse than the model on the twin's flights."""
+    rows = pd.DataFrame(wind_estimates.estimation_rows(twin_flights, methods=("drag",),
+                                                       variants=False))
+    summary = wind_estimates.summary_table(rows).set_index(["method", "protocol"])
+    for p in wind_estimates.PROTOCOLS:
+        base, drag = summary.loc[(wind_estimates.BASELINE, p)], summary.loc[("drag", p)]
+        assert base.n_flights == drag.n_flights
+        assert base.rmse > 3 * drag.rmse and base.sample_rmse > 2 * drag.sample_rmse
+    est = rows[(rows.kind == "estimate") & (rows.method == wind_estimates.BASELINE)
+               & (rows.protocol == "controller")]
+    assert np.allclose(est.estimate, np.mean([0.0, 4.2, 8.5, 12.1]))  # three seeds x 4 winds
+
+
 def test_clusters_are_scored_as_a_classifier(twin_flights):
     rows = pd.DataFrame(wind_estimates.estimation_rows(
-        twin_flights, methods=("clusters",)))
+        twin_flights, methods=("clusters",), baseline=False))
     assert set(rows["protocol"]) == {"controller"}  # a classifier cannot name a held-out wind
     assert rows["estimate"].isna().all() if "estimate" in rows else True
     table = wind_estimates.estimation_table(rows)

@@ -35,7 +35,7 @@ from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
 __all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
-           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP", "VARIANTS"]
+           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
 SINUSOID = ("70p20sint", 2.4, 1.0)
@@ -53,6 +53,8 @@ SERIES_STEP = 10
 #: The drag model's variants scored beside the default (``"drag"`` only): why the model is
 #: what it is, on the page.
 VARIANTS = {"no jet": {"jet": False}, "parasitic": {"parasitic": True}}
+#: The trivial baseline's method name: the training flights' mean wind, whatever the flight.
+BASELINE = "training mean"
 
 
 def _harmonic(t, y, omega):
@@ -110,6 +112,29 @@ def _score(est, f, d, ref, base):
             "lag": lag}, (t, speed, sd, truth)
 
 
+def _cases(flights, held, protocol, winds):
+    """``[(train, test), ...]`` of one held-out controller under ``protocol`` (module text)."""
+    if protocol == "controller":
+        return [([f for f in flights if f.controller != held],
+                 [f for f in flights if f.controller == held])]
+    return [([f for f in flights if f.controller != held and f.wind_speed != w],
+             [f for f in flights if f.controller == held and f.wind_speed == w
+              and f.condition not in UNRECORDED]) for w in winds]
+
+
+def _baseline_row(train, f, ref, base):
+    """The trivial baseline's row: every sample of ``f`` named the mean wind of the training
+    flights, with their spread as its std (the same scores as :func:`_score`)."""
+    speeds = np.array([g.wind_speed for g in train], dtype=float)
+    guess, sd = float(speeds.mean()), float(speeds.std(ddof=1))
+    t = f.arrays["t"]
+    late = t >= SETTLE
+    truth = _truth(f, ref, t)[late]
+    return {**base, "estimate": guess, "sample_rmse": float(np.sqrt(np.mean((truth - guess) ** 2))),
+            "coverage": float(np.mean(np.abs(truth - guess) <= 1.96 * sd)), "std": sd,
+            "amplitude": 0.0, "phase": np.nan, "phase_ref": np.nan, "lag": np.nan}
+
+
 def _accuracy(est, f):
     """The share of ``f``'s laps (after the first) whose named wind is its own."""
     starts = flight_laps(f, ("position",), 8, 1)["starts"]
@@ -121,8 +146,8 @@ def _accuracy(est, f):
 
 def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
                     direction=(-1.0, 0.0, 0.0), protocols=PROTOCOLS,
-                    series_controller: str | None = None, variants: bool = True
-                    ) -> list[dict]:
+                    series_controller: str | None = None, variants: bool = True,
+                    baseline: bool = True) -> list[dict]:
     """Every prediction of the protocol (module text): one row per held-out flight, method
     and protocol (kind ``"estimate"``): the flight's mean estimated speed along ``direction``
     after the start-up lap (``estimate``), the per-sample vector RMSE (``sample_rmse``), the
@@ -149,31 +174,28 @@ def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
     specs = [(m, "default", {}) for m in methods]
     if variants and "drag" in methods:
         specs += [("drag", name, kw) for name, kw in VARIANTS.items()]
+    if baseline:
+        specs.append((BASELINE, "default", {}))
     rows = []
     for method, variant, kw in specs:
         for protocol in protocols:
             if method == "clusters" and protocol == "wind":
                 continue  # a classifier cannot name a wind it was not trained on
             for held in controllers:
-                if protocol == "controller":
-                    cases = [([f for f in flights if f.controller != held],
-                              [f for f in flights if f.controller == held])]
-                else:
-                    cases = [([f for f in flights if f.controller != held
-                               and f.wind_speed != w],
-                              [f for f in flights if f.controller == held
-                               and f.wind_speed == w and f.condition not in UNRECORDED])
-                             for w in winds]
-                for train, test in cases:
+                for train, test in _cases(flights, held, protocol, winds):
                     if not test or len({f.wind_speed for f in train}) < 2:
                         continue
-                    est = WindEstimator(method, direction=d, **kw).fit(train)
+                    est = (None if method == BASELINE else
+                           WindEstimator(method, direction=d, **kw).fit(train))
                     for f in test:
                         base = {"kind": "estimate", "method": method, "variant": variant,
                                 "protocol": protocol, "controller": held,
                                 "condition": f.condition, "wind_speed": f.wind_speed}
                         if method == "clusters":
                             rows.append({**base, "accuracy": _accuracy(est, f)})
+                            continue
+                        if method == BASELINE:
+                            rows.append(_baseline_row(train, f, ref[held], base))
                             continue
                         row, (t, speed, sd, truth) = _score(est, f, d, ref[held], base)
                         rows.append(row)
@@ -252,7 +274,7 @@ def _estimates(rows):
 
 def _rank(col):
     """Sort key: methods, variants, protocols and conditions in their defined order."""
-    order = {**{m: i for i, m in enumerate(ESTIMATORS)},
+    order = {**{m: i for i, m in enumerate((*ESTIMATORS, BASELINE))},
              **{v: i for i, v in enumerate(["default", *VARIANTS])},
              **{p: i for i, p in enumerate(PROTOCOLS)}, **{c: i for i, c in enumerate(CONDITIONS)}}
     return col.map(order)

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..analysis.closed_loop import POLICY_NAMES
+from ..analysis.wind_estimates import BASELINE
 from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
 from .display import channel_name
 
@@ -395,7 +396,8 @@ def wind_estimates(rows) -> Figure:
     kind ``"estimate"``; the sinusoidal wind's flights drawn beside the steady 8.5 m/s), the
     identity dashed."""
     plt = _plt()
-    est = rows[(rows["kind"] == "estimate") & (rows["method"] != "clusters")]
+    est = rows[(rows["kind"] == "estimate")
+               & ~rows["method"].isin(["clusters", BASELINE])]  # the drag models only
     if "variant" in est.columns:  # the model as fitted, not its variants
         est = est[est["variant"].fillna("default") == "default"]
     if "protocol" not in est.columns or est["protocol"].isna().all():
