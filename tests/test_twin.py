@@ -297,3 +297,24 @@ def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
     drag, lift = figure8._fit_forces(quiet, target, study, start)
     assert drag == pytest.approx(NEURAL_FLY_FITTED["drag_scale"], abs=0.02)
     assert lift == pytest.approx(NEURAL_FLY_FITTED["lift_scale"], abs=0.03)
+
+
+def test_the_validation_table_scores_the_twin_beside_the_training_mean():
+    """Scaled errors in closed form: three training controllers at 1, 2, 3 (mean 2, SD 1) and
+    a held-out one at 2.5; a twin at 2.4 is 0.1 spreads off, the training mean 0.5."""
+    def rows(values):
+        same = {col: 1.0 for col, _, _ in figure8.VALIDATION.values()}  # no spread: unscored
+        return pd.DataFrame([{"kind": "flight", "controller": c, "condition": cond, **same,
+                              "pitch_deg": v + (0.0 if cond == "35wind" else 10.0)}
+                             for c, v in values.items() for cond in ("nowind", "35wind")])
+    real = rows({"a": 1.0, "b": 2.0, "c": 3.0, "held": 2.5})
+    sim = rows({"seed 0": 2.3, "seed 1": 2.5})
+    sim.attrs["held_out"] = "held"
+    val = figure8.validation_table(real, sim)
+    lean = val[(val.quantity == "lean") & (val.condition == "35wind")].iloc[0]
+    assert lean.train_mean == 2.0 and lean.train_sd == 1.0
+    assert lean.twin_error == pytest.approx(-0.1) and lean.trivial_error == pytest.approx(-0.5)
+    assert bool(lean.twin_closer)
+    score = figure8.validation_score(val)
+    assert score["n"] == 2 and score["wins"] == 2  # both winds of the lean
+    assert score["twin"] == pytest.approx(0.1) and score["trivial"] == pytest.approx(0.5)

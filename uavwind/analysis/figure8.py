@@ -63,8 +63,8 @@ from .real_flights import (STUDIES, compute_rows, decided_orders, flight_summari
 __all__ = ["FIGURE8", "BARE", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREAD_CONDITION",
            "TwinCalibration", "calibrate_twin", "held_out_controller",
            "simulated_flight", "simulated_flights", "flight_duration", "sim_rows",
-           "validation_table", "ranking_verdict", "real_force_targets", "calibration_of",
-           "VALIDATION"]
+           "validation_table", "validation_score", "ranking_verdict", "real_force_targets",
+           "calibration_of", "VALIDATION", "PHYSICAL"]
 
 #: Neural-Fly's reference: (1.25 sin t, 0, 0.75 sin 2t) about the real flights' centre [m].
 FIGURE8 = Lemniscate(center=(0.25, 0.0, 2.15), amplitude=(1.25, 0.0, 0.75), period=2 * np.pi)
@@ -479,9 +479,12 @@ VALIDATION = {"force along x": ("aero_force_x", True, "N"),
 def validation_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame:
     """The twin against the real flights, per wind and quantity (:data:`VALIDATION`): the
     twin's mean over its seeds (``sim``) with their range, the held-out controller's value
-    (``held_out``), the training controllers' range, ``within`` (the twin inside the range of
-    all the real controllers) and ``fitted`` (the twin was fitted on this quantity at this
-    wind, or on its training mean, so only the held-out column checks it)."""
+    (``held_out``), the training controllers' range, mean and spread (``train_sd``, SD),
+    ``within`` (the twin inside the range of all the real controllers), ``fitted`` (the twin
+    was fitted on this quantity at this wind, or on its training mean, so only the held-out
+    column checks it), and against the trivial model: ``twin_error`` and ``trivial_error``
+    (the twin's and the training mean's error on the held-out controller, scaled by
+    ``train_sd``) and ``twin_closer``."""
     held = sim.attrs.get("held_out")
     fitted = {("force along x", FIT_CONDITION), ("force along z", FIT_CONDITION),
               ("lean", "nowind"), ("lap-to-lap spread of force x", SPREAD_CONDITION)}
@@ -508,15 +511,45 @@ def validation_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame
             r = rv.xs(cond, level="condition")
             s = sv.xs(cond, level="condition")
             train = r.drop(held, errors="ignore")
+            h = float(r.get(held, np.nan))
+            sd = float(train.std(ddof=1)) if len(train) > 1 else np.nan
+            scale = sd if sd > 0 else np.nan
             out.append({"condition": cond, "wind_speed": CONDITIONS[cond], "quantity": name,
                         "unit": unit, "sim": float(s.mean()), "sim_min": float(s.min()),
                         "sim_max": float(s.max()),
-                        "held_out": float(r.get(held, np.nan)),
+                        "held_out": h,
                         "train_min": float(train.min()), "train_max": float(train.max()),
+                        "train_mean": float(train.mean()), "train_sd": sd,
+                        "twin_error": (float(s.mean()) - h) / scale,
+                        "trivial_error": (float(train.mean()) - h) / scale,
                         "real_min": float(r.min()), "real_max": float(r.max()),
                         "within": bool(r.min() <= s.mean() <= r.max()),
                         "fitted": (name, cond) in fitted})
-    return pd.DataFrame(out)
+    df = pd.DataFrame(out)
+    if len(df):
+        df["twin_closer"] = df["twin_error"].abs() < df["trivial_error"].abs()
+    return df
+
+
+#: The quantities of :data:`VALIDATION` that are the vehicle's physics (tracking error is the
+#: controller's own): what :func:`validation_score` averages.
+PHYSICAL = ("force along x", "force along z", "lean", "lap-to-lap spread of force x",
+            "noise of force x", "noise of the attitude x")
+
+
+def validation_score(table: pd.DataFrame, predicted_only: bool = False) -> dict:
+    """The twin against the trivial model (the training controllers' mean) on the held-out
+    controller, over the :data:`PHYSICAL` rows of :func:`validation_table` (with
+    ``predicted_only``, only those the twin was not fitted on): ``twin`` and ``trivial``, the
+    mean absolute error scaled by the training controllers' spread (SD); ``wins``, the rows
+    where the twin is the closer; ``n``, the rows scored."""
+    t = table[table["quantity"].isin(PHYSICAL) & table["twin_error"].notna()
+              & table["trivial_error"].notna()]
+    if predicted_only:
+        t = t[~t["fitted"]]
+    return {"twin": float(t["twin_error"].abs().mean()) if len(t) else np.nan,
+            "trivial": float(t["trivial_error"].abs().mean()) if len(t) else np.nan,
+            "wins": int(t["twin_closer"].sum()), "n": len(t)}
 
 
 def ranking_verdict(real_channels: pd.DataFrame, sim_channels: pd.DataFrame,
