@@ -29,8 +29,8 @@ from uavwind.analysis.tables import source_commit
 
 def fast_threads():
     """Threads the fast engine's kernels use as ``score_loop`` runs them in this process:
-    numba's thread count where the kernels' threads are on (``UAVWIND_SOFTDTW_PARALLEL``,
-    default on), else 1 (a pool's worker is pinned to 1)."""
+    numba's thread count where the kernels' threads are on (``UAVWIND_SOFTDTW_PARALLEL=1``;
+    off by default since 2026-12-07), else 1 (a pool's worker is pinned to 1)."""
     from uavwind.method.softdtw import _consts
     from uavwind.method.softdtw._kernels import _n_workers
     return _n_workers(_consts.PARALLEL, 1 << 30)
@@ -400,7 +400,8 @@ def bench_heldout(report, n_loops=12, rounds=3):
     """The held-out check of the engine against tslearn: 12 loops of 5 or 10 environments a
     group, 120 steps, gamma 0.5, the default k-means and barycentre iterations, each engine
     as ``score_loop`` runs it (each with its default threads: tslearn numba's, the fast
-    engine a call's lane groups shared with helper threads, :func:`fast_threads` of them),
+    engine serially unless UAVWIND_SOFTDTW_PARALLEL=1 asks for helper threads,
+    :func:`fast_threads` of them),
     side by side, ``rounds`` times (this host's speed drifts: the
     same 12 loops took tslearn 26-45 s in one day, so one round's ratio is not the host's);
     the figures are the rounds' medians, with the range. Then the fast engine alone with AVX2

@@ -138,3 +138,19 @@ def test_kernels_give_the_same_doubles_with_helpers():
     _lockstep._dtw_upper_lockstep(X, d1, nw=1)
     _lockstep._dtw_upper_lockstep(X, d2, nw=2)
     assert (d1 == d2).all()
+
+
+def test_the_kernels_run_serially_unless_threads_are_asked_for():
+    """Threads on request only: beside a busy core the helpers cost (`ONLY=threads make
+    bench`), so a process without UAVWIND_SOFTDTW_PARALLEL runs serially; =1 asks for them."""
+    import os
+    import subprocess
+    import sys
+
+    code = "from uavwind.method.softdtw import _consts; print(_consts.PARALLEL)"
+    env = {k: v for k, v in os.environ.items() if k != "UAVWIND_SOFTDTW_PARALLEL"}
+    for value, expected in ((None, "False"), ("1", "True"), ("0", "False")):
+        e = env if value is None else {**env, "UAVWIND_SOFTDTW_PARALLEL": value}
+        out = subprocess.run([sys.executable, "-c", code], env=e, capture_output=True,
+                             text=True, check=True)
+        assert out.stdout.strip() == expected, value

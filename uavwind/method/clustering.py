@@ -218,9 +218,9 @@ def _fast_engine(p):
     engine = softdtw_engine()
     SoftDTWKMeans, silhouette_score = engine.SoftDTWKMeans, engine.silhouette_score
 
-    # the kernels' default threads: a call's lane groups are shared with a helper thread
-    # where numba has more than one (numba.get_num_threads()); a worker process of a pool is
-    # pinned to one (core.parallel.pin_threads), so its loops run serially. Either way the
+    # the kernels' default threads: serial unless UAVWIND_SOFTDTW_PARALLEL=1 asks for helper
+    # threads (then a call's lane groups are shared with them where numba has more than one;
+    # a worker process of a pool is pinned to one, core.parallel.pin_threads). Either way the
     # same doubles: a lane group's arithmetic does not depend on the thread that runs it
     km = SoftDTWKMeans(n_clusters=2, gamma=p["gamma"], max_iter=p["max_iter"],
                        max_iter_barycenter=p["max_iter_barycenter"], tol=p["tol"],

@@ -1,7 +1,7 @@
 """Constants shared by the soft-DTW kernels, and the engine's environment switches.
 
-Switches (environment variables, read once at import): ``UAVWIND_SOFTDTW_PARALLEL=0`` runs the
-batched kernels serially, ``UAVWIND_SOFTDTW_GLIBC_REPLICA=0`` calls libm instead of the inlined
+Switches (environment variables, read once at import): ``UAVWIND_SOFTDTW_PARALLEL=1`` runs the
+batched kernels on helper threads (serial by default), ``UAVWIND_SOFTDTW_GLIBC_REPLICA=0`` calls libm instead of the inlined
 exp/log replicas, ``UAVWIND_SOFTDTW_LIMIT_BLAS=0`` leaves scipy's BLAS threads alone,
 ``UAVWIND_SOFTDTW_LOCKSTEP=0`` computes soft-DTW values one pair at a time (the scalar
 reference) instead of N pairs per vector (the lockstep kernel; same doubles). The names
@@ -27,12 +27,14 @@ def env_flag(name, default=True):
     return value not in ("0", "false", "False", "")
 
 
-# Run the batched kernels on the process's threads: the lockstep kernels share a call's
-# lane groups with helper threads (._share), the scalar ones use numba's prange. Turn off
-# with UAVWIND_SOFTDTW_PARALLEL=0 (e.g. when fit() is itself called from several Python
-# threads: numba's default "workqueue" threading layer is not thread-safe; a second
-# caller of ._share while another holds the helpers runs alone).
-PARALLEL = env_flag("PARALLEL")
+# Run the batched kernels on the process's threads (UAVWIND_SOFTDTW_PARALLEL=1, or
+# parallel=True): the lockstep kernels share a call's lane groups with helper threads
+# (._share), the scalar ones use numba's prange. Off by default: on an idle AMD EPYC the
+# helpers took 6 held-out loops from 0.65 to 0.56 s at 1.6 times the CPU, beside one busy
+# core from 0.76 to 0.85 s (`ONLY=threads make bench`), and a user's machine is rarely
+# idle. (Leave it off, too, when fit() is itself called from several Python threads:
+# numba's default "workqueue" threading layer is not thread-safe.)
+PARALLEL = env_flag("PARALLEL", default=False)
 
 # Soft-DTW values (the assignment step) N pairs per SIMD vector; the scalar kernel with
 # UAVWIND_SOFTDTW_LOCKSTEP=0.  Both give the same doubles (tests/test_lockstep.py).

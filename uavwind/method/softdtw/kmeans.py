@@ -365,7 +365,7 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
         series drawn at random, or the given centres (any length ``sz_c``).
     parallel : bool, optional
         Run the batched kernels on the process's threads, as many as numba has (default:
-        ``UAVWIND_SOFTDTW_PARALLEL``, on unless set to 0); the result does not depend on it.
+        ``UAVWIND_SOFTDTW_PARALLEL``, off unless set to 1); the result does not depend on it.
 
     Attributes
     ----------
