@@ -186,6 +186,24 @@ def test_ranking_verdict_checks_only_what_the_real_flights_can_order():
     assert figure8.ranking_verdict(real, sim([50.0, 70.0, 80.0]))["verdict"] == "no"
     v = figure8.ranking_verdict(real, sim([100.0, 99.9, 99.5]))
     assert v["verdict"] == "cannot decide" and v["sim_tied"] == [("a", "b"), ("a", "c")]
+    assert np.isnan(v["spearman_low"])  # three channels: no interval
+
+
+def test_the_ranking_agreement_comes_with_its_interval():
+    """Six channels, one swap of neighbours twice (rho = 1 - 6*4/210): Fisher's z with the
+    standard error sqrt(1.06 / 3), in closed form."""
+    ch = list("abcdef")
+    real = pd.DataFrame({"channel": ch, "mean": [90.0, 80, 70, 60, 50, 40],
+                         "ci_low": [88.0, 78, 68, 58, 48, 38], "ci_high": [92.0, 82, 72, 62, 52, 42]})
+    sim = pd.DataFrame({"channel": ch, "mean": [80.0, 90, 60, 70, 50, 40],
+                        "ci_low": 0.0, "ci_high": 100.0})
+    v = figure8.ranking_verdict(real, sim)
+    rho = 1 - 6 * 4 / (6 * 35)
+    z, se = np.arctanh(rho), np.sqrt(1.06 / 3)
+    assert v["spearman"] == pytest.approx(rho)
+    assert (v["spearman_low"], v["spearman_high"]) == pytest.approx(
+        (np.tanh(z - 1.96 * se), np.tanh(z + 1.96 * se)))
+    assert v["spearman_low"] < rho < v["spearman_high"] <= 1
 
 
 def test_sinusoidal_wind_is_its_closed_form():

@@ -560,13 +560,20 @@ def ranking_verdict(real_channels: pd.DataFrame, sim_channels: pd.DataFrame,
     overlap) is checked in the simulation: ``agree`` (same order, means more than ``tie``
     points apart), ``disagree`` (the other order) or ``sim_tied`` (within ``tie`` points).
     ``verdict`` is ``"yes"`` if every orderable pair agrees, ``"no"`` if any disagrees, else
-    ``"cannot decide"``. Spearman's rho of the two rankings and the best channels are given
-    beside it."""
+    ``"cannot decide"``. Spearman's rho of the two rankings, with its 95% interval
+    (``spearman_low``, ``spearman_high``: Fisher's z with Fieller, Hartley and Pearson's
+    standard error ``sqrt(1.06 / (n - 3))``, NaN below 4 channels), and the best channels
+    are given beside it."""
     r = real_channels.set_index("channel")
     s = sim_channels.set_index("channel").reindex(r.index)
     rr, sr = r["mean"].rank(ascending=False), s["mean"].rank(ascending=False)
     n = len(rr)
     rho = float(1 - 6 * ((rr - sr) ** 2).sum() / (n * (n * n - 1))) if n > 2 else float("nan")
+    if n > 3 and abs(rho) < 1:
+        z, se = np.arctanh(rho), np.sqrt(1.06 / (n - 3))
+        rho_ci = (float(np.tanh(z - 1.96 * se)), float(np.tanh(z + 1.96 * se)))
+    else:  # too few channels, or a perfect (anti)correlation: no interval from Fisher's z
+        rho_ci = (np.nan, np.nan)
     order = list(r.sort_values("mean", ascending=False).index)
     decided = set(decided_orders(real_channels))
     agree, disagree, tied, unordered = [], [], [], []
@@ -579,6 +586,7 @@ def ranking_verdict(real_channels: pd.DataFrame, sim_channels: pd.DataFrame,
             (agree if d > tie else disagree if d < -tie else tied).append((a, b))
     verdict = "no" if disagree else "yes" if agree and not tied else "cannot decide"
     return {"verdict": verdict, "agree": agree, "disagree": disagree, "sim_tied": tied,
-            "real_unordered": unordered, "spearman": rho, "top_real": order[0],
+            "real_unordered": unordered, "spearman": rho, "spearman_low": rho_ci[0],
+            "spearman_high": rho_ci[1], "top_real": order[0],
             "top_sim": s["mean"].idxmax(), "real_order": order,
             "sim_order": list(s["mean"].sort_values(ascending=False).index)}
