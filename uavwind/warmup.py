@@ -17,6 +17,10 @@ from __future__ import annotations
 import sys
 import time
 
+from . import PAPER_EXAMPLE, ConstantWind, Multirotor, simulate
+from .analysis import figure8
+from .method.softdtw import warmup as engine_warmup
+
 __all__ = ["warm", "PARTS"]
 
 #: What :func:`warm` compiles, by part.
@@ -30,17 +34,12 @@ def warm(part: str) -> float:
         raise ValueError(f"part must be one of {list(PARTS)}, got {part!r}")
     t0 = time.perf_counter()
     if part == "engine":
-        from .method.softdtw import warmup
-
-        warmup(parallel=True, every=True)
+        engine_warmup(parallel=True, every=True)
     else:
-        import uavwind as uw
-        from .analysis import figure8
-
-        mr = uw.Multirotor(preset="rotorpy", start="hover")
-        uw.simulate(uw.PAPER_EXAMPLE, uw.ConstantWind([[1.0, 1.0, 0.0]]), uav=mr)
-        cal = figure8.TwinCalibration()
-        figure8.simulated_flight(cal.vehicle(), "35wind", 0, 13.0, cal)  # > 4 pi, a whole 0.02 s
+        simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]),
+                 uav=Multirotor(preset="rotorpy", start="hover"))
+        bare = figure8.BARE  # the position controller's kernels; > 4 pi, whole 0.02 s steps
+        figure8.simulated_flight(bare.vehicle(), "35wind", 0, 13.0, bare)
     return time.perf_counter() - t0
 
 
