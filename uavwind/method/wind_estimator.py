@@ -213,20 +213,14 @@ class DragModel:
     def _scale(self, sig):
         return np.clip(1.0 + sig["dp"] @ np.asarray(self.jet), *_JET_RANGE)
 
-    def measurement(self, sig, W=None):
+    def measurement(self, sig, W):
         """``(z, H)``: the equation as ``z = H W_xy`` per sample, z (n, 2), H (n, 2, 2); with
-        a parasitic term the gain is taken at the airspeed of ``W`` (n, 2) or (2,) (the
-        filter's prior; default: the force's own reading, :meth:`airspeed`)."""
+        a parasitic term the gain is taken at the airspeed of ``W`` (2,), the filter's prior."""
         s = self._scale(sig)
         gain = np.full(len(s), self.gain)
         if self.parasitic:
-            if W is None:
-                rho = np.linalg.norm(self.airspeed(sig), axis=1)
-            else:
-                u = s[:, None] * np.einsum("nij,nj->ni", sig["RT"][:, :2, :2],
-                                           np.broadcast_to(W, (len(s), 2))) - sig["vb"][:, :2]
-                rho = np.linalg.norm(u, axis=1)
-            gain = gain + self.parasitic * rho / sig["tau"]
+            u = s[:, None] * (sig["RT"][:, :2, :2] @ W) - sig["vb"][:, :2]
+            gain = gain + self.parasitic * np.linalg.norm(u, axis=1) / sig["tau"]
         z = sig["f"] - np.asarray(self.offset) + gain[:, None] * sig["vb"][:, :2]
         return z, (gain * s)[:, None, None] * sig["RT"][:, :2, :2]
 
@@ -478,11 +472,8 @@ class WindEstimator:
                 blocks.append(np.mean((b - b.mean(axis=0)) ** 2, axis=0))
             sp.append(f.wind_speed)
             fast.append(np.mean((err - err.mean(axis=0)) ** 2, axis=0))
-            try:
-                e_held = held[f.controller].invert(sig)[keep] - W
-            except np.linalg.LinAlgError:
-                e_held = err
-            mean.append(e_held.mean(axis=0) ** 2)
+            # (invertible: check_flight keeps the tilt below 90 deg, the jet's scale >= 0.5)
+            mean.append((held[f.controller].invert(sig)[keep] - W).mean(axis=0) ** 2)
         fast, mean = np.array(fast), np.array(mean)
         state = {"model_": model,
                  "noise_": tuple(_variance_curve(sp, fast[:, ax]) for ax in (0, 1)),
