@@ -30,12 +30,12 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import check_instance
-from ..core.stats import N_BOOT, SEED, t_ci, wilson_ci
+from ..core.stats import bootstrap_ci, t_ci, wilson_ci
 from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
 __all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
-           "TARGETS", "PROTOCOLS", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE"]
+           "TARGETS", "PROTOCOLS", "PROTOCOL_NAMES", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE", "estimates"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
 SINUSOID = ("70p20sint", 2.4, 1.0)
@@ -44,8 +44,10 @@ SINUSOID = ("70p20sint", 2.4, 1.0)
 #: 95% interval's coverage, and the sinusoid's amplitude error [m/s].
 TARGETS = {"mean_speed_rmse": 0.6, "sample_rmse": 0.4, "coverage": (0.85, 0.99),
            "amplitude_error": 0.5}
-#: The two ways a flight is held out: its controller, or its controller and its wind.
-PROTOCOLS = ("controller", "wind")
+#: The two ways a flight is held out -- its controller, or its controller and its wind --
+#: and their names on a page.
+PROTOCOL_NAMES = {"controller": "controller held out", "wind": "controller and wind held out"}
+PROTOCOLS = tuple(PROTOCOL_NAMES)
 #: Per-sample scores count from this time [s].
 SETTLE = 10.0
 #: The series rows keep every this many samples (50 Hz: one per 0.2 s).
@@ -105,11 +107,19 @@ def _score(est, f, d, ref, base):
     lag = (float(_wrap(ref - phi) / SINUSOID[2])
            if f.condition == name and a >= 0.1 * SINUSOID[1] and np.isfinite(ref) else np.nan)
     return {**base, "estimate": float(speed[keep].mean()),
-            "sample_rmse": float(np.sqrt(np.mean(np.sum((mean[late] - W[late]) ** 2, axis=1)))),
-            "coverage": float(np.mean(np.abs(speed[late] - truth[late]) <= 1.96 * sd[late])),
-            "std": float(np.sqrt(np.mean(sd[late] ** 2))),
+            **_late_scores(np.sum((mean[late] - W[late]) ** 2, axis=1),
+                           np.abs(speed[late] - truth[late]), sd[late]),
             "amplitude": a, "phase": phi, "phase_ref": ref if f.condition == name else np.nan,
             "lag": lag}, (t, speed, sd, truth)
+
+
+def _late_scores(sq_err, abs_err, sd):
+    """The per-sample scores after :data:`SETTLE`: ``sample_rmse`` of the squared vector
+    errors ``sq_err``, ``coverage`` (the along-wind errors ``abs_err`` within 1.96 ``sd``)
+    and the RMS ``std``."""
+    return {"sample_rmse": float(np.sqrt(np.mean(sq_err))),
+            "coverage": float(np.mean(abs_err <= 1.96 * sd)),
+            "std": float(np.sqrt(np.mean(np.square(sd))))}
 
 
 def _cases(flights, held, protocol, winds):
@@ -128,11 +138,9 @@ def _baseline_row(train, f, ref, base):
     speeds = np.array([g.wind_speed for g in train], dtype=float)
     guess, sd = float(speeds.mean()), float(speeds.std(ddof=1))
     t = f.arrays["t"]
-    late = t >= SETTLE
-    truth = _truth(f, ref, t)[late]
-    return {**base, "estimate": guess, "sample_rmse": float(np.sqrt(np.mean((truth - guess) ** 2))),
-            "coverage": float(np.mean(np.abs(truth - guess) <= 1.96 * sd)), "std": sd,
-            "amplitude": 0.0, "phase": np.nan, "phase_ref": np.nan, "lag": np.nan}
+    err = np.abs(_truth(f, ref, t)[t >= SETTLE] - guess)  # along the wind: the whole error
+    return {**base, "estimate": guess,
+            **_late_scores(err ** 2, err, np.full_like(err, sd)), "amplitude": 0.0, "phase": np.nan, "phase_ref": np.nan, "lag": np.nan}
 
 
 def _accuracy(est, f):
@@ -231,7 +239,7 @@ def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
     and the flights it names (:func:`_named`, a Wilson interval). ``meets``: the mean-speed RMSE, the
     per-sample RMSE and the coverage within :data:`TARGETS` (and the amplitude, for the
     sinusoid); for ``"clusters"`` empty."""
-    est = _estimates(rows)
+    est = estimates(rows)
     out = []
     for (method, variant, protocol, cond), g in est.groupby(
             ["method", "variant", "protocol", "condition"], sort=False):
@@ -263,7 +271,7 @@ def estimation_table(rows: pd.DataFrame) -> pd.DataFrame:
                           ignore_index=True)
 
 
-def _estimates(rows):
+def estimates(rows: pd.DataFrame) -> pd.DataFrame:
     """The rows of kind ``"estimate"``, with ``protocol`` and ``variant`` filled in for rows
     of an earlier version (leave one controller out, the default model)."""
     est = rows[rows["kind"] == "estimate"]
@@ -286,7 +294,7 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     over the held-out controllers (each controller's flights resampled together); for
     ``"clusters"`` the accuracy and the flights named (:func:`_named`). ``n_flights``,
     ``n_controllers``."""
-    est = _estimates(rows)
+    est = estimates(rows)
     est = est[~est["condition"].isin(UNRECORDED)]
     out = []
     for (method, variant, protocol), g in est.groupby(["method", "variant", "protocol"],
@@ -310,23 +318,14 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
                 x = np.asarray(x)
                 r = np.sum(x[..., col], axis=-1) / np.sum(x[..., 3], axis=-1)
                 return np.sqrt(r) if root else r
-            v = float(stat(sq))
-            lo, hi = _controller_ci(sq, stat)
+            # resample the controllers: bootstrap over their row numbers
+            v, lo, hi = bootstrap_ci(np.arange(len(sq)),
+                                     lambda ix, axis=None, stat=stat: stat(sq[ix.astype(int)]))
+            if len(sq) < 3:  # no interval from fewer controllers
+                lo = hi = np.nan
             row[name], row[f"{name}_low"], row[f"{name}_high"] = v, lo, hi
         out.append(row)
     df = pd.DataFrame(out)
     if not len(df):
         return df
     return df.sort_values(["method", "variant", "protocol"], key=_rank, ignore_index=True)
-
-
-def _controller_ci(per, stat, n_boot: int = N_BOOT, seed: int = SEED):
-    """95% percentile interval of ``stat`` over controllers resampled with replacement
-    (``per``: one row per controller); NaN below 3 controllers."""
-    if len(per) < 3:
-        return np.nan, np.nan
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, len(per), size=(n_boot, len(per)))
-    vals = stat(per[idx])  # (n_boot, n_controllers, k) -> (n_boot,)
-    lo, hi = np.percentile(vals, [2.5, 97.5])
-    return float(lo), float(hi)

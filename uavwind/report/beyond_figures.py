@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..analysis.closed_loop import POLICY_NAMES
-from ..analysis.wind_estimates import BASELINE
+from ..analysis.wind_estimates import BASELINE, PROTOCOL_NAMES, estimates
 from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
 from .display import channel_name
 
@@ -396,14 +396,10 @@ def wind_estimates(rows) -> Figure:
     kind ``"estimate"``; the sinusoidal wind's flights drawn beside the steady 8.5 m/s), the
     identity dashed."""
     plt = _plt()
-    est = rows[(rows["kind"] == "estimate")
-               & ~rows["method"].isin(["clusters", BASELINE])]  # the drag models only
-    if "variant" in est.columns:  # the model as fitted, not its variants
-        est = est[est["variant"].fillna("default") == "default"]
-    if "protocol" not in est.columns or est["protocol"].isna().all():
-        est = est.assign(protocol="controller")
+    est = estimates(rows)
+    est = est[~est["method"].isin(["clusters", BASELINE])  # the drag models as fitted
+              & (est["variant"] == "default")]
     panels = list(dict.fromkeys(zip(est["method"], est["protocol"])))
-    names = {"controller": "controller held out", "wind": "controller and wind held out"}
     fig, axes = plt.subplots(1, len(panels), figsize=(3.3 * len(panels), 3.6),
                              constrained_layout=True, sharey=True, squeeze=False)
     for ax, (m, p) in zip(axes[0], panels):
@@ -413,7 +409,7 @@ def wind_estimates(rows) -> Figure:
                                                            0.35, 0.0)
             ax.plot(x, d["estimate"], "o", ms=5, alpha=0.8, label=ctl)
         ax.plot([0, 13], [0, 13], "--", color="0.5", lw=1)
-        ax.set(title=f"{m}: {names.get(p, p)}", xlabel="tunnel wind [m/s]",
+        ax.set(title=f"{m}: {PROTOCOL_NAMES.get(p, p)}", xlabel="tunnel wind [m/s]",
                xticks=[0, 4.2, 8.5, 12.1])
         ax.title.set_fontsize(10)
         ax.grid(alpha=0.3)
