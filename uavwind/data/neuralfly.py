@@ -23,6 +23,7 @@ the first column is the row index. Files are ``<vehicle>_<trajectory>_<controlle
 
 from __future__ import annotations
 
+import errno
 import hashlib
 import os
 import re
@@ -146,10 +147,9 @@ def _check_readable(f: Path) -> None:
     flight is refused, never skipped in silence."""
     try:
         st = f.stat()
-    except (FileNotFoundError, RuntimeError, OSError) as exc:
-        kind = ("a symlink loop" if isinstance(exc, RuntimeError)
-                or getattr(exc, "errno", None) == 40 else
-                "a dangling symlink" if f.is_symlink() else type(exc).__name__)
+    except OSError as exc:
+        kind = ("a symlink loop" if exc.errno == errno.ELOOP else
+                "a dangling symlink" if f.is_symlink() else exc.strerror or type(exc).__name__)
         raise ValueError(f"{f.name}: named like a Neural-Fly flight but cannot be read "
                          f"({kind})") from None
     if not stat.S_ISREG(st.st_mode):
