@@ -13,7 +13,7 @@ from uavwind.method.closed_loop import (ClosedLoop, Evidence, Greedy, OpenLoopBe
                                         RecedingCEM, categorical_cem, fly_episode, held_out,
                                         run_episodes, segment_actions, separation_bound)
 from uavwind.method.closed_loop.policies import Situation
-from uavwind.sim.dryden import CitedDryden
+from uavwind.sim.cited_dryden import CitedDryden
 from uavwind.sim.observation import CONSUMER_NOISE, Noise
 from uavwind.sim.rollout import Rollout
 from uavwind.sim.setting import EnvironmentGroup, Setting

@@ -15,8 +15,8 @@ from uavwind.method.softdtw import _consts, _dispatch, _kernels
 from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
                                              _sdtw_forward)
 from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
-from uavwind.method.softdtw._lockstep import N, _objgrad_lockstep, _sdtw_cross_lockstep
-from uavwind.method.softdtw._simd import vload, vlt, vstore
+from uavwind.method.softdtw._lockstep import _objgrad_lockstep, _sdtw_cross_lockstep
+from uavwind.method.softdtw._simd import N, vload, vlt, vstore
 from uavwind.method.softdtw._vlibm import vexp, vexp_care, vlog, vlog_care
 from uavwind.study.conditions import PAPER_SCENARIOS
 

@@ -37,12 +37,13 @@ from .method.search import CEMResult, cem, random_search  # noqa: E402
 from .report.display import pretty  # noqa: E402
 from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, AttitudeSequence,  # noqa: E402
                           ThrustSequence, sample_attitude, sample_continuous, sample_paper)
-from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # noqa: E402
-                         cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .sim.cited_dryden import CitedDryden, cited_dryden_parameters, cited_gusts  # noqa: E402
+from .sim.dryden import DrydenWind  # noqa: E402
 from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
 from .sim.manoeuvres import (FLYABLE, FLYABLE_IN_WIND, FlyableLimits, check_flyable,  # noqa: E402
                              sample_waypoints)
+from .sim.mil_dryden import dryden_parameters, dryden_psd, dryden_transfer_functions  # noqa: E402
 from .sim.multirotor import Multirotor  # noqa: E402
 from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
 from .sim.rotor_params import PositionControl  # noqa: E402
