@@ -26,7 +26,7 @@ The package is layered, data flowing one way (a layer imports only the layers be
 from . import _compat
 from ._version import __version__
 
-_compat.install()  # the flat module paths of 0.1 keep working for one release
+_compat.install()  # the module paths 0.1's users import keep working for one release
 
 from .data.neuralfly import RealFlight, load_neuralfly  # noqa: E402
 from .method.baseline import estimate_wind  # noqa: E402
@@ -106,8 +106,9 @@ register_measured("exp13", _run_exp13)
 
 def __getattr__(name):
     """Names of 0.1 that moved or went: ``uavwind.<old module>`` as an attribute
-    (``uw.observation.Noise``) and ``uw.SimulationSettings``, through
-    :mod:`uavwind._compat` (one ``DeprecationWarning``)."""
+    (``from uavwind import experiments as ex``, as 0.1's README showed) and
+    ``uw.SimulationSettings``, through :mod:`uavwind._compat` (a ``DeprecationWarning``
+    naming the new import path)."""
     found = _compat.old_attribute(name)
     if found is _compat.MISSING:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
