@@ -4,21 +4,26 @@ This module owns the small validators behind the project's promise: a bad argume
 ``ValueError`` or ``TypeError`` that names the parameter and the allowed range, before any
 work starts. :func:`check_scalar` and :func:`check_array` check numbers and arrays;
 :func:`check_choice` a name among allowed ones; :func:`check_instance` a type;
-:func:`check_kwargs` that a function taking ``**kwargs`` was given only keywords it knows.
+:func:`check_kwargs` that a function taking ``**kwargs`` was given only keywords it knows;
+:class:`Range` the allowed values of one number as a value, and :func:`check_fields` the
+number fields of a frozen dataclass against a table of them, in its ``__post_init__`` (the
+class's public boundary: what it holds afterwards is trusted).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, TypeVar
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike, DTypeLike
 
-__all__ = ["check_scalar", "check_array", "check_choice", "check_instance", "check_kwargs"]
+__all__ = ["check_scalar", "check_array", "check_choice", "check_instance", "check_kwargs",
+           "Range", "check_fields"]
 
 _T = TypeVar("_T")
 
@@ -118,3 +123,38 @@ def check_kwargs(kwargs: Mapping, allowed: Iterable, where: str) -> None:
     if unknown:
         raise TypeError(f"{where} got unexpected keyword argument(s) {unknown}; "
                         f"allowed: {sorted(allowed)}")
+
+
+@dataclass(frozen=True)
+class Range:
+    """The allowed values of one number, :func:`check_scalar`'s bounds as a value: ``[low,
+    high]`` (``None``: unbounded), each end inclusive unless said otherwise, an integer if
+    ``integer``.
+
+    >>> Range(0.0, 1.0, low_inclusive=False).check(0.5, "smoothing")
+    0.5
+    """
+
+    low: float | None = None
+    high: float | None = None
+    low_inclusive: bool = True
+    high_inclusive: bool = True
+    integer: bool = False
+
+    def check(self, value: Any, name: str) -> float:
+        """``value`` checked and coerced (:func:`check_scalar`)."""
+        return check_scalar(value, name, low=self.low, high=self.high,
+                            low_inclusive=self.low_inclusive,
+                            high_inclusive=self.high_inclusive, integer=self.integer)
+
+
+def check_fields(obj: Any, ranges: Mapping[str, Range | Callable[[Any], Range]],
+                 prefix: str = "") -> None:
+    """Check the number fields of the frozen dataclass ``obj`` named in ``ranges`` and store
+    each coerced (a float, or an int where the range says ``integer``), in the table's order;
+    a range may be a function of ``obj`` (``lambda s: Range(1, s.n_samples)``), which then
+    sees the fields checked before it. A message names the field as ``prefix + name``."""
+    for name, rng in ranges.items():
+        if not isinstance(rng, Range):
+            rng = rng(obj)
+        object.__setattr__(obj, name, rng.check(getattr(obj, name), prefix + name))

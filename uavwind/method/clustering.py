@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..core.checks import check_array, check_choice, check_kwargs, check_scalar
+from ..core.checks import Range, check_array, check_choice, check_fields, check_kwargs
 from ..core.io import refuse_to_compute
 
 if TYPE_CHECKING:
@@ -79,13 +79,12 @@ class ClusteringParams:
     silhouette_metric: str = "dtw"
 
     def __post_init__(self):
-        for name, kw in (("gamma", dict(low=0, low_inclusive=False, high=1e300)),
-                         ("max_iter", dict(low=1, high=10 ** 6, integer=True)),
-                         ("max_iter_barycenter", dict(low=1, high=10 ** 6, integer=True)),
-                         ("tol", dict(low=0)),
-                         ("n_init", dict(low=1, high=10 ** 4, integer=True)),
-                         ("random_state", dict(low=0, high=2 ** 32 - 1, integer=True))):
-            object.__setattr__(self, name, check_scalar(getattr(self, name), name, **kw))
+        check_fields(self, {"gamma": Range(0, 1e300, low_inclusive=False),
+                            "max_iter": Range(1, 10 ** 6, integer=True),
+                            "max_iter_barycenter": Range(1, 10 ** 6, integer=True),
+                            "tol": Range(0),
+                            "n_init": Range(1, 10 ** 4, integer=True),
+                            "random_state": Range(0, 2 ** 32 - 1, integer=True)})
         check_choice(self.silhouette_metric, "silhouette_metric", ("dtw", "softdtw"))
 
     def to_dict(self) -> dict:

@@ -62,7 +62,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.checks import check_array, check_choice, check_instance, check_scalar
+from ..core.checks import (Range, check_array, check_choice, check_fields, check_instance,
+                           check_scalar)
 from ._rotor_layout import (_body_z, _body_z_batch, _clipped_commands, _clipped_se3, _kernels,
                             _packed, _recorded)
 from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA, N_FLAT,
@@ -142,6 +143,16 @@ def force_command(force, tilt_limit: float = 90.0) -> tuple[float, np.ndarray, b
     return max(0.0, float(F @ b3)), _tilt_quaternion(b3), True
 
 
+#: The multirotor's number fields: mass [kg], tilt limit [deg], control rate [Hz], RK4
+#: substeps per control step, drag and translational-lift factors [-].
+_RANGES = {"mass": Range(0.0, 1e3, low_inclusive=False),
+           "tilt_limit": Range(0.0, 90.0, low_inclusive=False),
+           "control_rate": Range(10.0, 1e4),
+           "substeps": Range(1, 100, integer=True),
+           "drag_scale": Range(0.0, 100.0, low_inclusive=False),
+           "lift_scale": Range(0.0, 100.0)}
+
+
 @dataclass(frozen=True, kw_only=True)
 class Multirotor:
     """RotorPy's quadrotor, scaled to ``mass``, as a vehicle of uavwind (see the module text).
@@ -198,18 +209,8 @@ class Multirotor:
         check_choice(self.preset, "preset", PRESETS)
         check_choice(self.start, "start", STARTS)
         mass = default_mass(self.preset) if self.mass is None else self.mass
-        object.__setattr__(self, "mass", check_scalar(mass, "mass", low=0.0,
-                                                      low_inclusive=False, high=1e3))
-        object.__setattr__(self, "tilt_limit", check_scalar(
-            self.tilt_limit, "tilt_limit", low=0.0, low_inclusive=False, high=90.0))
-        object.__setattr__(self, "control_rate", check_scalar(
-            self.control_rate, "control_rate", low=10.0, high=1e4))
-        object.__setattr__(self, "substeps", check_scalar(self.substeps, "substeps", low=1,
-                                                          high=100, integer=True))
-        object.__setattr__(self, "drag_scale", float(check_scalar(
-            self.drag_scale, "drag_scale", low=0.0, low_inclusive=False, high=100.0)))
-        object.__setattr__(self, "lift_scale", float(check_scalar(
-            self.lift_scale, "lift_scale", low=0.0, high=100.0)))
+        object.__setattr__(self, "mass", mass)
+        check_fields(self, _RANGES)
         if self.position_control is not None:
             check_instance(self.position_control, "position_control", PositionControl)
         self.packed  # needs RotorPy: fail here, with the extra named, not mid-flight
@@ -376,6 +377,11 @@ class Multirotor:
                              f"control steps (1/{self.control_rate:g} s)")
         return k
 
+    def steps_per_sample(self, dt: float) -> int:
+        """Control steps per recorded sample ``dt`` [s], unchecked: ``dt`` already passed
+        :meth:`check_grid` (the private paths below a public entry use this)."""
+        return int(round(dt * self.control_rate))
+
     def segment_commands(self, action) -> list[tuple[float, np.ndarray, bool]]:
         """``(collective thrust [N], attitude quaternion, limited)`` of each segment of
         ``action``: a :class:`~uavwind.sim.actions.ThrustSequence` through
@@ -413,11 +419,11 @@ class Multirotor:
         rotor speeds, specific forces and the limit shares. ``clip_log``, a boolean array
         (n_env, n * control steps per sample), if given, is filled with whether a motor command
         was clipped in each control step (it changes nothing of the flight). (Checked inputs:
-        call it through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`.)"""
+        call it through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`, which
+        check the thrust and the grid once; this trusts them.)"""
         control_step = _kernels().control_step
 
-        self.check_thrust(thrust)
-        per = self.check_grid(dt)
+        per = self.steps_per_sample(dt)
         P = self.packed
         n_env = wind.n_env
         h_ctrl = 1.0 / self.control_rate
@@ -498,7 +504,7 @@ class Multirotor:
         if self.start != "hover":
             raise ValueError(f"start = {self.start!r}: a reference flight starts hovering at "
                              f"the reference's position at t = 0; use start='hover'")
-        per = self.check_grid(dt)
+        per = self.steps_per_sample(dt)  # checked by the caller (check_grid)
         P = self.packed
         n_env = wind.n_env
         h_ctrl = 1.0 / self.control_rate

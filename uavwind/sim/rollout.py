@@ -163,7 +163,8 @@ def state_size(uav: UAV | Multirotor) -> int:
 class Rollout:
     """Rows of one vehicle, each in one environment of a :class:`WindTable`, flown forward
     a segment at a time from their states. Use :meth:`for_flight` to build one for a
-    flight of ``duration`` seconds.
+    flight of ``duration`` seconds: it checks the vehicle, the grid and the duration once, and
+    the constructor and the methods below trust what it made.
 
     Parameters
     ----------
@@ -210,7 +211,8 @@ class Rollout:
     @property
     def steps_per_sample(self) -> int:
         """Integration steps per recorded sample (1, or the multirotor's control steps)."""
-        return self.uav.check_grid(self.dt) if isinstance(self.uav, Multirotor) else 1
+        # the grid was checked when the rollout was made (for_flight)
+        return self.uav.steps_per_sample(self.dt) if isinstance(self.uav, Multirotor) else 1
 
     def start(self, env: ArrayLike, start_position: ArrayLike) -> np.ndarray:
         """States (n_rows, :func:`state_size`) at t = 0 of rows in environments ``env``,

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.checks import check_array, check_choice, check_scalar
+from ..core.checks import Range, check_array, check_choice, check_fields, check_scalar
 from .vehicle import PAPER_UAV
 
 __all__ = ["PRESETS", "EXTRA", "BASE_MASS", "GRAVITY", "NEURAL_FLY", "SE3_KP_POS", "SE3_KD_POS",
@@ -87,16 +87,11 @@ class PositionControl:
         if np.any(ki < 0) or np.any(ki > 100):
             raise ValueError(f"ki must have every gain in [0, 100] [1/s^3], got {ki.tolist()}")
         object.__setattr__(self, "ki", tuple(float(k) for k in ki))
-        object.__setattr__(self, "max_tilt", check_scalar(self.max_tilt, "max_tilt", low=0.0,
-                                                          low_inclusive=False, high=89.0))
-        object.__setattr__(self, "min_thrust", check_scalar(self.min_thrust, "min_thrust",
-                                                            low=0.0, high=1.0))
-        object.__setattr__(self, "max_thrust", check_scalar(self.max_thrust, "max_thrust",
-                                                            low=self.min_thrust, high=1.0,
-                                                            low_inclusive=False))
-        object.__setattr__(self, "max_integral_acceleration", check_scalar(
-            self.max_integral_acceleration, "max_integral_acceleration", low=0.0,
-            low_inclusive=False, high=100.0))
+        check_fields(self, {
+            "max_tilt": Range(0.0, 89.0, low_inclusive=False),
+            "min_thrust": Range(0.0, 1.0),
+            "max_thrust": lambda s: Range(s.min_thrust, 1.0, low_inclusive=False),
+            "max_integral_acceleration": Range(0.0, 100.0, low_inclusive=False)})
 
 
 #: PX4's defaults on RotorPy's SE3 gains.

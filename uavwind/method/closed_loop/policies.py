@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from ...core.checks import check_array, check_instance, check_scalar
+from ...core.checks import Range, check_array, check_fields, check_instance, check_scalar
 from ...core.seeding import child_rng
 from .problem import SEED_PLAN
 
@@ -318,17 +318,16 @@ class OpenLoopRandom(Policy):
         return sit.memory["sequence"].thrust(t)
 
 
+#: The CEM policies' sizes (a policy's ``__post_init__`` checks them once).
+_CEM_RANGES = {"n_samples": Range(1, 10 ** 4, integer=True),
+               "n_elite": lambda s: Range(1, s.n_samples, integer=True),
+               "n_iter": Range(1, 1000, integer=True),
+               "smoothing": Range(0, 1, low_inclusive=False),
+               "planning_substeps": Range(1, 100, integer=True)}
+
+
 def _check_cem(self):
-    n = check_scalar(self.n_samples, "n_samples", low=1, high=10 ** 4, integer=True)
-    object.__setattr__(self, "n_samples", n)
-    object.__setattr__(self, "n_elite", check_scalar(self.n_elite, "n_elite", low=1, high=n,
-                                                     integer=True))
-    object.__setattr__(self, "n_iter", check_scalar(self.n_iter, "n_iter", low=1, high=1000,
-                                                    integer=True))
-    object.__setattr__(self, "smoothing", check_scalar(self.smoothing, "smoothing", low=0,
-                                                       low_inclusive=False, high=1))
-    object.__setattr__(self, "planning_substeps", check_scalar(
-        self.planning_substeps, "planning_substeps", low=1, high=100, integer=True))
+    check_fields(self, _CEM_RANGES)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -381,8 +380,7 @@ class Greedy(Policy):
     planning_substeps: int = 1
 
     def __post_init__(self):
-        object.__setattr__(self, "planning_substeps", check_scalar(
-            self.planning_substeps, "planning_substeps", low=1, high=100, integer=True))
+        check_fields(self, {"planning_substeps": _CEM_RANGES["planning_substeps"]})
 
     def choose(self, sit: Situation) -> np.ndarray:
         plans = np.arange(len(sit.problem.actions))[:, None]
@@ -424,15 +422,13 @@ class RecedingCEM(Policy):
 
     def __post_init__(self):
         _check_cem(self)
-        for name in ("replan_samples", "replan_iter"):
-            object.__setattr__(self, name, check_scalar(getattr(self, name), name, low=1,
-                                                        high=10 ** 4, integer=True))
+        check_fields(self, {"replan_samples": Range(1, 10 ** 4, integer=True),
+                            "replan_iter": Range(1, 10 ** 4, integer=True)})
         if self.replan_samples < self.n_elite:
             raise ValueError(f"replan_samples must be >= n_elite ({self.n_elite}), got "
                              f"{self.replan_samples}")
         if self.horizon is not None:
-            object.__setattr__(self, "horizon", check_scalar(self.horizon, "horizon", low=1,
-                                                             high=10 ** 4, integer=True))
+            check_fields(self, {"horizon": Range(1, 10 ** 4, integer=True)})
 
     def choose(self, sit: Situation) -> np.ndarray:
         prob = sit.problem

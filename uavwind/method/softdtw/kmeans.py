@@ -150,9 +150,9 @@ def fit(X: ArrayLike, n_clusters: int = 2, gamma: float = 0.5, max_iter: int = 1
     est = SoftDTWKMeans(n_clusters=n_clusters, gamma=gamma, max_iter=max_iter,
                         max_iter_barycenter=max_iter_barycenter, tol=tol, n_init=n_init,
                         random_state=random_state, parallel=parallel, init=init)
-    X, init = est._validate(X)
+    X, init, gamma = est._validate(X)
     with _blas_single_thread():
-        return _fit(X, est.n_clusters, _check_gamma(est.gamma), est.max_iter,
+        return _fit(X, est.n_clusters, gamma, est.max_iter,
                     est.max_iter_barycenter, est.tol, est.n_init, est.random_state,
                     parallel, init)
 
@@ -183,9 +183,9 @@ def fit_many(Xs: Sequence[ArrayLike], n_clusters: int = 2, gamma: float = 0.5,
                         max_iter_barycenter=max_iter_barycenter, tol=tol, n_init=n_init,
                         random_state=random_state, parallel=parallel, init=init)
     checked = [est._validate(X) for X in Xs]
-    g = _check_gamma(est.gamma)
+    g = checked[0][2] if checked else _check_gamma(est.gamma)  # no dataset: still checked
     by_shape = {}
-    for i, (X, _) in enumerate(checked):
+    for i, (X, _, _) in enumerate(checked):
         by_shape.setdefault(X.shape[1:], []).append(i)
     out = [None] * len(checked)
     with _blas_single_thread():
@@ -408,15 +408,17 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
 
     # -- checks -------------------------------------------------------------- #
     def _validate(self, X):
-        """``(X, init)`` checked: the dataset and the parameters (a ValueError or TypeError
-        names the parameter); ``init`` as a string or a float array."""
+        """``(X, init, gamma)`` checked: the dataset and the parameters (a ValueError or
+        TypeError names the parameter); ``init`` as a string or a float array, ``gamma`` a
+        float. The public entries (``fit``, :func:`fit`, :func:`fit_many`) call it once;
+        the kernels below them trust what it returns."""
         for name, low in _INT_PARAMS.items():
             v = getattr(self, name)
             if isinstance(v, (bool, np.bool_)) or not isinstance(v, numbers.Integral):
                 raise TypeError(f"{name} must be an integer >= {low}, got {v!r}")
             if v < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {v!r}")
-        _check_gamma(self.gamma)
+        gamma = _check_gamma(self.gamma)
         if (isinstance(self.tol, (bool, np.bool_)) or not isinstance(self.tol, numbers.Real)
                 or not (math.isfinite(self.tol) and self.tol >= 0)):
             raise ValueError(f"tol must be a finite real number >= 0, got {self.tol!r}")
@@ -444,7 +446,7 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
                              f"got n_samples = {X.shape[0]}")
         _same_features(X, X if isinstance(init, str) else init, "X", "X" if isinstance(
             init, str) else "init")
-        return X, init
+        return X, init, gamma
 
     def _check_new(self, X):
         check_is_fitted(self, "cluster_centers_")
@@ -455,9 +457,9 @@ class SoftDTWKMeans(TransformerMixin, ClusterMixin, BaseEstimator):
     # -- scikit-learn's interface -------------------------------------------- #
     def fit(self, X: ArrayLike, y: None = None) -> SoftDTWKMeans:
         """Cluster ``X`` (n_ts, sz, d); returns ``self`` with the fitted attributes."""
-        X, init = self._validate(X)
+        X, init, gamma = self._validate(X)
         with _blas_single_thread():
-            res = _fit(X, self.n_clusters, _check_gamma(self.gamma), self.max_iter,
+            res = _fit(X, self.n_clusters, gamma, self.max_iter,
                        self.max_iter_barycenter, self.tol, self.n_init, self.random_state,
                        self.parallel, init)
         self.labels_ = np.asarray(res.labels, dtype=np.int64)
