@@ -332,12 +332,12 @@ def decide(estimate: float, low: float, high: float, n: int, *, threshold: float
 
 
 def interval_label(estimate: float, low: float, high: float, n: int, digits: int = 2,
-                   scale: float = 1.0, unit: str = "loops") -> str:
+                   scale: float = 1.0, unit: str = "loops", suffix: str = "") -> str:
     """An estimate with its 95% interval as the book writes it: ``"85.00 [80.10, 89.90]"``;
     with fewer than :data:`MIN_INTERVAL` values no interval is called one
     (``"85.00 (2 loops, no interval)"``), and a zero-width interval is not shown as an
     interval (``"85.00 (the same on all 5 loops)"``). ``scale`` multiplies every number
-    (100 for a share in percent).
+    (100 for a share in percent) and ``suffix`` follows the estimate (``"%"``).
 
     >>> interval_label(0.5, 0.0, 1.0, 2, digits=0, scale=100)
     '50 (2 loops, no interval)'
@@ -348,7 +348,7 @@ def interval_label(estimate: float, low: float, high: float, n: int, digits: int
     e, lo_r, hi_r = (round(v, digits) + 0.0 for v in (est, lo, hi))
     if n < MIN_INTERVAL or isnan(lo) or isnan(hi):
         one = unit[:-1] if unit.endswith("s") else unit
-        return f"{e:.{digits}f} ({n} {one if n == 1 else unit}, no interval)"
+        return f"{e:.{digits}f}{suffix} ({n} {one if n == 1 else unit}, no interval)"
     if lo_r == hi_r:
-        return f"{e:.{digits}f} (the same on all {n} {unit})"
-    return f"{e:.{digits}f} [{lo_r:.{digits}f}, {hi_r:.{digits}f}]"
+        return f"{e:.{digits}f}{suffix} (the same on all {n} {unit})"
+    return f"{e:.{digits}f}{suffix} [{lo_r:.{digits}f}, {hi_r:.{digits}f}]"
