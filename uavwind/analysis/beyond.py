@@ -29,12 +29,12 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import check_instance
-from ..core.stats import (MIN_DECIDE, UNDECIDED, bootstrap_ci, decide, interval_label,
+from ..core.stats import (MIN_DECIDE, UNDECIDED, Decision, bootstrap_ci, decide,
                           paired_difference, summarise)
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
            "observation_table", "best_observation", "baseline_table", "vehicle_table",
-           "future_table", "best_future", "loop_differences"]
+           "future_table", "best_future", "loop_differences", "baseline_advantage"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -114,7 +114,10 @@ def breaking_sentences(levels: pd.DataFrame) -> dict:
                          f"{100 * row['correct_rate_at_first_broken']:.0f}% at "
                          f"{row['first_broken']:g} m")
         if not decided:
-            out[scen] += (f" on {n} loops a level: **cannot decide** where it breaks ("
+            where = ("whether it still holds there" if np.isnan(row["first_broken"])
+                     else "where it breaks")
+            out[scen] += (f"{',' if np.isnan(row['first_broken']) else ''} on {n} loops a "
+                          f"level: **cannot decide** {where} ("
                           + (f"a verdict needs {MIN_DECIDE} loops a level; the paper profile's "
                              "build, `make book`, runs enough to place it)" if n < MIN_DECIDE
                              else "the shares' 95% intervals reach across one half)"))
@@ -294,3 +297,21 @@ def baseline_table(df: pd.DataFrame) -> pd.DataFrame:
                     "n_loops": len(sub)})
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def baseline_advantage(df: pd.DataFrame, scenario: str, sigma: float = 0.0,
+                       bias: float = 0.0) -> Decision:
+    """Exp 9: does the model-based baseline group more loops correctly than causal curiosity
+    on ``scenario`` at white noise ``sigma`` [m] and bias ``bias`` [m]? Both read the same
+    loops, so the per-loop difference ``baseline_correct - correct`` (in percentage points)
+    is decided by the one rule (:func:`~uavwind.core.stats.decide`): ``"more"``, ``"fewer"``,
+    ``"as many"`` (every loop alike) or ``"cannot decide"``."""
+    df = _check_rows(df, ("scenario", "noise_sigma", "noise_bias", "loop", "correct",
+                          "baseline_correct"))
+    sub = df[(df["scenario"] == scenario) & (df["noise_sigma"] == sigma)
+             & (df["noise_bias"] == bias)].sort_values("loop")
+    if not len(sub):
+        raise ValueError(f"no loops of {scenario!r} at noise_sigma = {sigma:g} m, "
+                         f"noise_bias = {bias:g} m")
+    d = 100 * (sub["baseline_correct"].to_numpy(float) - sub["correct"].to_numpy(float))
+    return decide(*bootstrap_ci(d), d.size, above="more", below="fewer", within="as many")
