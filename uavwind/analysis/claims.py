@@ -137,7 +137,7 @@ def claim_c2(r: Mapping[str, pd.DataFrame]) -> Verdict:
     wrong = [dec[k].decided and dec[k].word != w for k, w in want.items()]
     verdict = ("reproduced" if all(right) else "not reproduced" if any(wrong)
                else "partly" if any(right) else UNDECIDED)
-    ev = ("S7 minus each scenario, paired mean and 95% CI: "
+    ev = ("S7 minus each scenario, paired mean [95% CI]: "
           + ", ".join(f"S{k} {_fmt(cis[k], n[k])}" for k in want) + _too_few(dec.values()))
     return Verdict("C2", "Light constant vs strong turbulence scores below the strong "
                    "constant/shear cases but above light-vs-light.",
@@ -267,8 +267,8 @@ def claim_c7(r: Mapping[str, pd.DataFrame]) -> Verdict:
                "partly" if dec.word == "higher" else
                "not reproduced" if dec.decided else UNDECIDED)
     ev = (f"correctly grouped loops: similar {100 * rs:.0f}%, opposite {100 * ro:.0f}% "
-          f"(difference {_fmt([100 * v for v in (dec.estimate, dec.low, dec.high)], n)} "
-          f"points); mean score similar {_fmt(bootstrap_ci(same), same.size)}, opposite "
+          f"(difference {interval_label(dec.estimate, dec.low, dec.high, n, 2, 100, suffix=' points')}); "
+          f"mean score similar {_fmt(bootstrap_ci(same), same.size)}, opposite "
           f"{_fmt(bootstrap_ci(opp), opp.size)}" + _too_few([dec]))
     return Verdict("C7", "Opposite wind directions remove the misclassifications (Exp 5).",
                    "reproduced: every opposite-direction loop is grouped correctly while some "
@@ -335,8 +335,8 @@ def claim_c9(r: Mapping[str, pd.DataFrame]) -> Verdict:
     else:
         verdict = "cannot decide"
     worst = sub.loc[sub.groupby("scenario", sort=False)["correct_rate"].idxmin()]
-    ev = ("lowest share of correctly grouped loops below 1 m of noise (white noise or bias), "
-          "95% CI: "
+    ev = ("lowest share of correctly grouped loops below 1 m of noise (white noise or bias) "
+          "[95% CI]: "
           + ", ".join(f"{row.scenario} "
                       f"{interval_label(row.correct_rate, row.correct_low, row.correct_high, int(row.n_loops), 0, 100, suffix='%')} "
                       f"(sigma {row.noise_sigma:g} m, bias {row.noise_bias:g} m)"
