@@ -124,7 +124,7 @@ INTEGER_EXCEPTIONS = {
                         r"[Ss]essions?|[Ss]cenarios?|[Cc]laims?)\.?\s*$"),
     "year": re.compile(r"^(?:19|20)\d\d$"),
     "confidence level": re.compile(r"^\s*(?:bootstrap\s+|Student\s+|two-sided\s+|one-sided\s+)?"
-                                   r"(?:t\s+)?(?:CIs?|confidence|intervals?|level|bound)\b"),
+                                   r"(?:t\s+)?(?:lower\s+|upper\s+)?(?:CIs?|confidence|intervals?|level|bound)\b"),
 }
 
 #: An integer result: a percentage, a count out of a total, or a count of outcomes.
@@ -242,6 +242,7 @@ def test_the_checker_flags_an_integer_result(text):
     "Exercises 23 of 24 name none",   # a label, not a count
     "in 2024 the authors wrote",
     "bootstrap 95% confidence intervals; a 95% CI; the 95% level; its 95% t interval",
+    "the exact one-sided 95% lower bound of the share",
     "50 loops per case over 12 s with 10 environments per group",
     "a UAV {abbr}`20% (input)` heavier, {glue:text}`share:.0f`% of the loops",
     "claim C3 and scenario S1 (scenarios 1 and 4)",
