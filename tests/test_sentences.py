@@ -67,6 +67,16 @@ def test_first_to_lose_names_the_largest_drop_or_none():
     assert first_to_lose({"a": 50.0, "b": 50.0}, {"a": 0.0, "b": 0.0}) == \
         "a and b lose most (50.0 points)"
     assert first_to_lose({"a": 50.0}, {"a": 60.0}) == "no channel loses score to the noise"
+    # with the loops' losses the ranking is the one rule's (issue 67)
+    two = first_to_lose(clean, {"position": 10.0, "attitude": 0.0, "IMU": 70.0},
+                        losses={"position": [80.0, 79.0], "attitude": [5.0, 5.0],
+                                "IMU": [10.0, 11.0]})
+    assert two.startswith("position loses most (80.0 points), not told apart from IMU")
+    assert "cannot decide" in two and "fewer than the 5" in two
+    many = first_to_lose(clean, {"position": 10.0, "attitude": 0.0, "IMU": 70.0},
+                         losses={"position": [80.0 + i for i in range(-3, 4)],
+                                 "attitude": [5.0] * 7, "IMU": [10.0 + i for i in range(-3, 4)]})
+    assert many == "position loses most (80.0 points)"
     with pytest.raises(ValueError, match="^clean and noisy must name"):
         first_to_lose({"a": 1.0}, {"b": 1.0})
     with pytest.raises(ValueError, match="^clean and noisy must be numbers"):

@@ -16,7 +16,9 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ..core.stats import MIN_INTERVAL, decide
+import numpy as np
+
+from ..core.stats import MIN_INTERVAL, UNDECIDED, decide, paired_difference
 
 __all__ = ["interval_order", "compare_phrase", "interval_text", "grouping_phrase",
            "first_to_lose"]
@@ -91,11 +93,17 @@ def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
             f"case by case")
 
 
-def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str:
+def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float],
+                  losses: Mapping[str, Sequence[float]] | None = None) -> str:
     """Which channel loses most of its score when noise is added, from each channel's score
     without (``clean``) and with noise (``noisy``), keyed alike: ``"<name> loses most (<points>
     points)"`` (ties named together), or ``"no channel loses score to the noise"`` when none
-    scores lower with it."""
+    scores lower with it.
+
+    With ``losses`` (channel -> its loss on each loop, the same loops for every channel) the
+    ranking is the one rule's (:func:`~uavwind.core.stats.decide` on the paired difference
+    between the largest loss and the runner-up's): where it cannot decide, the sentence names
+    the runner-up and says so."""
     if set(clean) != set(noisy) or not clean:
         raise ValueError(f"clean and noisy must name the same channels, got {sorted(clean)} "
                          f"and {sorted(noisy)}")
@@ -106,5 +114,16 @@ def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str
     losers = sorted(k for k, v in loss.items() if v == top)
     if top <= 0:
         return "no channel loses score to the noise"
-    return f"{' and '.join(losers)} {'loses' if len(losers) == 1 else 'lose'} most ({top:.1f} points)"
+    text = f"{' and '.join(losers)} {'loses' if len(losers) == 1 else 'lose'} most ({top:.1f} points)"
+    rest = sorted((k for k in loss if k not in losers), key=loss.get, reverse=True)
+    if losses is None or len(losers) > 1 or not rest:
+        return text
+    second = rest[0]
+    a, b = (np.asarray(losses[k], dtype=float) for k in (losers[0], second))
+    n = min(a.size, b.size)
+    d = decide(*paired_difference(a[:n], b[:n]), n) if n else decide(0.0, 0.0, 0.0, 0)
+    if d.word == "higher":
+        return text
+    return (f"{text}, not told apart from {second} ({loss[second]:.1f} points): "
+            f"{UNDECIDED} on these loops ({d.reason})")
 
