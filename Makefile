@@ -8,6 +8,9 @@ STAMP   := $(VENV)/.installed
 PROFILE ?= paper
 JOBS    ?= -1
 BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
+# the suite's processes (pytest-xdist; 0: one process): a test module, the dask tests and the
+# book's tests are each one unit of work (tests/conftest.py), the book's last
+TEST_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
 RUN_FLAGS ?=# extra flags for `make results`, e.g. RUN_FLAGS="--times times.json"
 SCHEDULER ?=# a dask.distributed scheduler address: `make book SCHEDULER=tcp://host:8786` fills the cache on that cluster
 BOOK    ?= book
@@ -84,7 +87,7 @@ $(STAMP): environment.txt
 venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
 
 test: $(STAMP)  ## run the test suite
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder
 
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
 	$(TIMEOUT) $(BENCH_TIMEOUT) $(BIN)/python benchmarks/bench.py

@@ -55,7 +55,7 @@ def host_cpu():
     same machine kind differ by half)."""
     from llvmlite import binding
 
-    from uavwind.method.softdtw._simd import N
+    from uavwind.method.softdtw import LANES
     model = platform.processor() or "unknown"
     try:
         for line in Path("/proc/cpuinfo").read_text().splitlines():
@@ -64,4 +64,4 @@ def host_cpu():
                 break
     except OSError:
         pass
-    return {"model": model, "llvm_cpu": binding.get_host_cpu_name(), "lanes": int(N)}
+    return {"model": model, "llvm_cpu": binding.get_host_cpu_name(), "lanes": int(LANES)}

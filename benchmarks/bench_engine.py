@@ -31,9 +31,8 @@ def fast_threads():
     """Threads the fast engine's kernels use as ``score_loop`` runs them in this process:
     numba's thread count where the kernels' threads are on (``UAVWIND_SOFTDTW_PARALLEL=1``;
     off by default since 2026-12-07), else 1 (a pool's worker is pinned to 1)."""
-    from uavwind.method.softdtw import _consts
-    from uavwind.method.softdtw._kernels import _n_workers
-    return _n_workers(_consts.PARALLEL, 1 << 30)
+    from uavwind.method.softdtw import n_threads
+    return n_threads()
 
 
 def bench_loops(report):
@@ -195,49 +194,35 @@ def bench_where_time_goes(report, n_loops=20):
     # the cost per cell of the two kernels, on one loop's series against a centre-like series,
     # lockstep (the default) and scalar (the reference) interleaved in one run
     from uavwind.method import softdtw as fk
-    from uavwind.method.softdtw import _consts
-    from uavwind.method.softdtw._dispatch import _objgrad_many
-    from uavwind.method.softdtw._lockstep import N
 
     X = np.ascontiguousarray(inputs[3])
     centres = np.ascontiguousarray(np.stack([X[:10].mean(0), X[10:].mean(0)]))
     cells = X.shape[1] * centres.shape[1]
     per_cell = {}
     for kernel, on in (("lockstep", True), ("scalar", False)):
-        _consts.LOCKSTEP = on
-        value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False), repeat=20)
-        grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False),
-                      repeat=20)
-        # a k-means round: both clusters' objectives and gradients (one call in lockstep)
-        both = timeit(lambda: _objgrad_many([centres[0], centres[1]], [X[:10], X[10:]], 0.5,
-                                            False, True), repeat=20)
+        with fk.use_lockstep(on):
+            value = timeit(lambda: fk.soft_dtw_cross(X, centres, 0.5, parallel=False),
+                           repeat=20)
+            grad = timeit(lambda: fk.soft_dtw_objgrad(centres[0], X[:10], 0.5, parallel=False),
+                          repeat=20)
+            # a k-means round: both clusters' objectives and gradients (one call in lockstep)
+            both = timeit(lambda: fk.soft_dtw_objgrad_many([centres[0], centres[1]],
+                                                           [X[:10], X[10:]], 0.5,
+                                                           parallel=False), repeat=20)
         per_cell[kernel] = (value / (len(X) * 2 * cells) * 1e9, grad / (10 * cells) * 1e9,
                             both / (len(X) * cells) * 1e9)
-    _consts.LOCKSTEP = True
     ns_value, ns_grad, ns_both = per_cell["lockstep"]
     # where the gradient's extra goes: the costs alone, as the value needs them (squared
     # distances) and as tslearn's barycentre objective has them (sqrt(.) ** 2, one vector
     # square root a cell), every row of the same matrix
-    from numba import njit
-
-    from uavwind.method.softdtw._lockstep import R, _cost_rows, _pack_series
-
-    @njit
-    def all_costs(x, y, m, n, d, sqrtsq, D):
-        for i0 in range(0, m, R):
-            _cost_rows(x, y, i0, min(R, m - i0), n, d, sqrtsq, D)
-
-    m, n, d = centres.shape[1], X.shape[1], X.shape[2]
-    xs, ys, D = np.empty(m * d * N), np.empty(n * d * N), np.empty(R * n * N)
-    _pack_series(np.ascontiguousarray(np.repeat(centres[:1], N, axis=0)), 0, xs)
-    _pack_series(X, 0, ys)
     costs = {}
     for label, sq in (("squared distance", False), ("sqrt(.) ** 2", True)):
-        costs[label] = timeit(lambda: all_costs(xs, ys, m, n, d, sq, D), repeat=50) / (
-            N * m * n) * 1e9
+        fill, n_cells = fk.lockstep_costs(centres[0], X, sqrtsq=sq)
+        costs[label] = timeit(fill, repeat=50) / n_cells * 1e9
     for kernel, (v, g, b) in per_cell.items():
+        lanes = f" ({fk.LANES} lanes)" if kernel == "lockstep" else ""
         print(f"  per cell of a {X.shape[1]} x {centres.shape[1]} matrix, {kernel}"
-              f"{f' ({N} lanes)' if kernel == 'lockstep' else ''}: soft-DTW value {v:.2f} ns, "
+              f"{lanes}: soft-DTW value {v:.2f} ns, "
               f"value + gradient {g:.2f} ns (one cluster of 10), {b:.2f} ns (both clusters' "
               f"round, 10 + 10 series) (median of 20)")
     print(f"  the costs alone, lockstep, per cell: squared distance {costs['squared distance']:.2f} "
@@ -247,7 +232,7 @@ def bench_where_time_goes(report, n_loops=20):
                              "shares": shares, "ns_per_cell_value": ns_value,
                              "ns_per_cell_value_and_gradient": ns_grad,
                              "ns_per_cell_value_and_gradient_both_clusters": ns_both,
-                             "lanes": N, "ns_per_cell_costs": costs, "cluster_series": 10,
+                             "lanes": fk.LANES, "ns_per_cell_costs": costs, "cluster_series": 10,
                              "ns_per_cell_scalar": {"value": per_cell["scalar"][0],
                                                     "value_and_gradient": per_cell["scalar"][1],
                                                     "value_and_gradient_both_clusters":
@@ -280,16 +265,13 @@ def _varied_loop(i):
 def _time_loop(i, engine, lockstep=True):
     """Seconds, labels and score of varied loop ``i`` on ``engine``; ``lockstep=False`` runs
     the fast engine's scalar kernels (its reference) instead of the lockstep ones."""
-    from uavwind.method.softdtw import _consts
+    from uavwind.method.softdtw import use_lockstep
 
     X, g, _ = _varied_loop(i)
-    _consts.LOCKSTEP = lockstep
-    try:
+    with use_lockstep(lockstep):
         t0 = time.perf_counter()
         res = uw.score_loop(X, g, engine=engine)
         return time.perf_counter() - t0, res.labels.tolist(), res.score
-    finally:
-        _consts.LOCKSTEP = True
 
 
 def bench_spread(report, n_loops=None):
@@ -440,9 +422,9 @@ def bench_heldout(report, n_loops=12, rounds=3):
     print(f"  median {med['speedup']:.1f}x (rounds {min(ratios):.1f}x-{max(ratios):.1f}x); "
           f"side by side {med['side_by_side_speedup']:.1f}x ({min(sbs):.1f}x-{max(sbs):.1f}x)")
     code = ("import json, sys; sys.path.insert(0, 'benchmarks'); import bench_engine; "
-            "from uavwind.method.softdtw._simd import N; "
+            "from uavwind.method.softdtw import LANES; "
             f"t = bench_engine.heldout_times(('fast',), {n_loops}); "
-            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2], N]))")
+            "print(json.dumps([t['fast'][0], t['fast'][1], t['fast'][2], LANES]))")
 
     def alone(**env):
         """The fast engine alone on the loops, in a child process (no tslearn between its

@@ -242,8 +242,7 @@ def bench_closed_loop(report, per_scenario=4):
     """Experiment 12: seconds per closed-loop flight by vehicle and policy, over flights of
     the three scenarios (median, 10th and 90th percentile), the paper profile's CPU time
     estimated from them, and with FULL=1 the paper profile's fill measured."""
-    from uavwind.method.closed_loop import ClosedLoop, fly_episode
-    from uavwind.method.closed_loop.episode import _test_environment
+    from uavwind.method.closed_loop import ClosedLoop, episode_environment, fly_episode
     from uavwind.core.seeding import root_seed
     from uavwind.study import EXPERIMENTS, PROFILES
 
@@ -259,10 +258,10 @@ def bench_closed_loop(report, per_scenario=4):
         for pol in policies:  # the shared open-loop plan once, outside the timings
             fly_episode(prob, pol, 0, root)
         for ep in range(1, 1 + per_scenario):
-            test = _test_environment(prob, ep, root)
+            test = episode_environment(prob, ep, root)
             for pol in policies:
                 t0 = time.perf_counter()
-                fly_episode(prob, pol, ep, root, _test=test)
+                fly_episode(prob, pol, ep, root, environment=test)
                 per.setdefault((vehicle, pol), []).append(time.perf_counter() - t0)
     rows, total = {}, 0.0
     prof = PROFILES["paper"]

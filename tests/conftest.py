@@ -185,7 +185,7 @@ def _stop_dask():
 
 def pytest_runtest_teardown(item, nextitem):
     """The dask cluster stops after the last test that uses it, not at the session's end."""
-    if item.nodeid == _dask.get("last"):
+    if _plain(item.nodeid) == _dask.get("last"):
         _stop_dask()
 
 
@@ -194,13 +194,30 @@ def pytest_runtest_teardown(item, nextitem):
 # the background from the start of the session (or the end of collection), and its tests are
 # moved to the end, so the rest of the suite runs while the fill, the pages and the HTML are
 # made instead of after them.
+#
+# Under pytest-xdist (`make test` runs `-n <cores> --dist loadgroup`) the controller, which
+# collects nothing, starts the one build before its workers start; they inherit its folder
+# and process group (BOOK_ENV, BOOK_PID_ENV) and wait for the exit status the build writes
+# beside it (`rc`). One group per test module (its module fixtures built once), the shared
+# dask cluster's tests in one group, the book's in one group, scheduled last.
 
 BOOK_BUILD_TIMEOUT = 1800  # [s] the whole `make book`; each step has its own timeout too
+BOOK_ENV = "UAVWIND_TEST_BOOK"  # the build's folder, for xdist workers
+BOOK_PID_ENV = "UAVWIND_TEST_BOOK_PID"  # its process group
 _book_build = {}
 
 
+def _is_worker():
+    return "PYTEST_XDIST_WORKER" in os.environ
+
+
+def _is_controller(config):
+    """The xdist controller: it runs no test and collects nothing."""
+    return not _is_worker() and bool(getattr(config.option, "numprocesses", None))
+
+
 def _start_book_build():
-    if _book_build or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
+    if _book_build or _is_worker() or os.environ.get("UAVWIND_SKIP_BOOK") == "1":
         return
     root = Path(__file__).resolve().parents[1]
     tmp = Path(tempfile.mkdtemp(prefix="uavwind-book-"))
@@ -209,24 +226,65 @@ def _start_book_build():
     for f in (root / "book").iterdir():
         if f.is_file():
             shutil.copy(f, book / f.name)
-    env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
+    env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results"), "BOOK_RC": str(tmp / "rc")}
     env.pop("MPLBACKEND", None)
     log = open(tmp / "make.log", "wb")  # a file, not a pipe nobody reads: it never blocks
-    proc = subprocess.Popen(["make", "-C", str(root), "book", "PROFILE=quick", f"BOOK={book}",
-                             "JOBS=2", f"RUN_FLAGS=--times {tmp / 'times.json'}"],
-                            env=env, stdout=log, stderr=subprocess.STDOUT,
+    # make's exit status lands in `rc` (written whole: a reader never sees half of it)
+    cmd = ["sh", "-c", 'make "$@"; echo $? > "$BOOK_RC.new" && mv "$BOOK_RC.new" "$BOOK_RC"',
+           "sh", "-C", str(root), "book", "PROFILE=quick", f"BOOK={book}", "JOBS=2",
+           f"RUN_FLAGS=--times {tmp / 'times.json'}"]
+    proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT,
                             start_new_session=True)  # its own process group, to stop it whole
-    _book_build.update(proc=proc, tmp=tmp, book=book, log=log, started=time.monotonic())
+    if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+        # a terminated session (`timeout make test`) ends as an interrupted one: the build
+        # is stopped (pytest_unconfigure), not left running on its own
+        signal.signal(signal.SIGTERM, _terminated)
+    _book_build.update(proc=proc, tmp=tmp, book=book, log=log, started=time.monotonic(),
+                       started_at=time.time())
+    os.environ[BOOK_ENV], os.environ[BOOK_PID_ENV] = str(tmp), str(proc.pid)
 
 
+def _terminated(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+def _whole_suite(config):
+    """No paths, the checkout, or the tests folder (with the package's doctests: the
+    testpaths), and no -k/-m."""
+    here = Path(__file__).resolve().parent
+    paths = [Path(a).resolve() for a in config.args]
+    whole = (all(p in (here, here.parent, here.parent / "uavwind") for p in paths)
+             and any(p in (here, here.parent) for p in paths))
+    return whole and not config.option.keyword and not config.option.markexpr
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist starts its workers (they inherit BOOK_ENV)
 def pytest_sessionstart(session):
     """The whole suite asked for (no paths, or the tests folder, and no -k/-m): the build
-    starts now, beside the collection, instead of after it."""
+    starts now, beside the collection, instead of after it. Under xdist the controller
+    starts it for the whole suite or for tests/test_book.py named."""
     cfg = session.config
-    here = Path(__file__).resolve().parent
-    whole = all(Path(a).resolve() in (here, here.parent) for a in cfg.args)
-    if whole and not cfg.option.keyword and not cfg.option.markexpr:
+    if _whole_suite(cfg) or (_is_controller(cfg) and any(
+            Path(a.split("::")[0]).name == "test_book.py" for a in cfg.args)):
         _start_book_build()
+
+
+def _group(item):
+    names = getattr(item, "fixturenames", ())
+    if "dask_client" in names:
+        return "dask"
+    if "built_book" in names:
+        return "book"
+    return item.nodeid.split("::")[0]
+
+
+def pytest_itemcollected(item):
+    """xdist's unit of work (``--dist loadgroup``): a module, the dask tests, the book's."""
+    item.add_marker(pytest.mark.xdist_group(_group(item)))
+
+
+def _plain(nodeid):
+    return nodeid.split("@")[0]  # xdist appends "@group" under --dist loadgroup
 
 
 @pytest.hookimpl(trylast=True)  # after -k / -m deselection: build only for tests that run
@@ -237,7 +295,7 @@ def pytest_collection_modifyitems(session, config, items):
         first = items.index(dask_items[0])
         rest = [i for i in items if i not in dask_items]
         items[:] = rest[:first] + dask_items + rest[first:]
-        _dask["last"] = dask_items[-1].nodeid
+        _dask["last"] = _plain(dask_items[-1].nodeid)
     book_items = [i for i in items if "built_book" in getattr(i, "fixturenames", ())]
     if not book_items:
         _stop_book_build()  # started for a whole suite whose book tests are not collected
@@ -246,38 +304,65 @@ def pytest_collection_modifyitems(session, config, items):
     _start_book_build()
 
 
+def _alive(pid):
+    try:
+        os.killpg(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        pass
+    return True
+
+
 @pytest.fixture(scope="session")
 def built_book():
     """The quick book's folder: waits for the background build (:func:`pytest_sessionstart`
-    or :func:`pytest_collection_modifyitems`); a failed build fails with the end of its log."""
-    if not _book_build:
+    or :func:`pytest_collection_modifyitems`, or the xdist controller's); a failed build
+    fails with the end of its log."""
+    if _book_build:
+        tmp, pid = _book_build["tmp"], _book_build["proc"].pid
+    elif _is_worker() and BOOK_ENV in os.environ:
+        tmp, pid = Path(os.environ[BOOK_ENV]), int(os.environ[BOOK_PID_ENV])
+    else:
         pytest.skip("the book build was not started (UAVWIND_SKIP_BOOK=1 or deselected)")
-    proc, tmp = _book_build["proc"], _book_build["tmp"]
+    rc_file = tmp / "rc"
     t0 = time.monotonic()
-    done = proc.poll() is not None
-    try:
-        rc = proc.wait(timeout=BOOK_BUILD_TIMEOUT)
-    except subprocess.TimeoutExpired:
-        _stop_book_build()
-        rc = "timed out"
+    done = rc_file.exists()
+    rc = None
+    while rc is None:
+        if rc_file.exists():
+            rc = int(rc_file.read_text())
+        elif "proc" in _book_build and _book_build["proc"].poll() is not None \
+                or "proc" not in _book_build and not _alive(pid):
+            rc = int(rc_file.read_text()) if rc_file.exists() else "ended without a status"
+        elif time.monotonic() - t0 > BOOK_BUILD_TIMEOUT:
+            os.killpg(pid, signal.SIGTERM)
+            rc = "timed out"
+        else:
+            time.sleep(0.5)
     _book_build["waited"] = time.monotonic() - t0
-    if not done:  # finished while waited for: its end is now (else pytest_runtest_logfinish saw it)
+    if not done and "took" not in _book_build and "started" in _book_build:
         _book_build["took"] = time.monotonic() - _book_build["started"]
     if rc != 0:
         pytest.fail(f"make book (quick) failed ({rc}):\n"
                     + (tmp / "make.log").read_text(errors="replace")[-6000:])
-    return _book_build["book"]
+    return tmp / "book"
 
 
 def _stop_book_build():
+    """Stop the build's whole process group (the fill writes its record as it stops: wait
+    for every process of it, not only the first, before its folder is removed)."""
     proc = _book_build.get("proc")
-    if proc is not None and proc.poll() is None:
-        os.killpg(proc.pid, signal.SIGTERM)
-        try:
-            proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+    if proc is None or not _alive(proc.pid):
+        return
+    os.killpg(proc.pid, signal.SIGTERM)
+    deadline = time.monotonic() + 30
+    while _alive(proc.pid) and time.monotonic() < deadline:
+        proc.poll()  # reaps the group's leader once it ends
+        time.sleep(0.2)
+    if _alive(proc.pid):
+        os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
 
 
 def pytest_runtest_logfinish(nodeid, location):
@@ -290,7 +375,9 @@ def pytest_runtest_logfinish(nodeid, location):
 
 
 def pytest_terminal_summary(terminalreporter):
-    """Where the suite's time went: the background book's build and the wait for it."""
+    """Where the suite's time went: the background book's build and the wait for it (the
+    wait is a worker's under xdist: the controller says when the build ended)."""
+    rc_file = _book_build["tmp"] / "rc" if _book_build else None
     if "waited" in _book_build:
         took = _book_build.get("took")
         terminalreporter.write_line(
@@ -299,6 +386,10 @@ def pytest_terminal_summary(terminalreporter):
             + (f" (it ended during {_book_build['ended_during']})"
                if "ended_during" in _book_build else "")
             + f"; its tests waited {_book_build['waited']:.0f} s for it")
+    elif rc_file is not None and rc_file.exists():
+        took = rc_file.stat().st_mtime - _book_build["started_at"]
+        terminalreporter.write_line(f"quick book: built in the background in {took:.0f} s "
+                                    f"(exit {rc_file.read_text().strip()})")
 
 
 def pytest_unconfigure(config):

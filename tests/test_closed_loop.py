@@ -13,7 +13,7 @@ from uavwind.method.closed_loop import (ClosedLoop, Evidence, Greedy, OpenLoopBe
                                         RecedingCEM, categorical_cem, fly_episode, held_out,
                                         run_episodes, segment_actions, separation_bound)
 from uavwind.method.closed_loop.policies import Situation
-from uavwind.sim.dryden import CitedDryden
+from uavwind.sim.cited_dryden import CitedDryden
 from uavwind.sim.observation import CONSUMER_NOISE, Noise
 from uavwind.sim.rollout import Rollout
 from uavwind.sim.setting import EnvironmentGroup, Setting
@@ -473,3 +473,18 @@ def test_the_planning_helpers_name_bad_input():
               "n_iter": 2, "smoothing": 0.5, **kwargs}
         with pytest.raises(ValueError, match=word):
             categorical_cem(score, **kw)
+
+
+def test_an_episodes_environment_built_once_flies_as_the_episode_builds_it():
+    """episode_environment (what the benchmarks build outside their timings) is the wind
+    fly_episode builds itself: the same rows either way; its inputs are checked."""
+    from uavwind.method.closed_loop import ClosedLoop, episode_environment, fly_episode
+
+    s = uw.make_setting("light constant", "strong constant", 2, layout="halves")
+    prob = ClosedLoop(setting=s, decision_interval=6.0, report_interval=3.0)
+    env = episode_environment(prob, 1, 5)
+    assert env[0] in (0, 1)
+    own = fly_episode(prob, "random", 1, 5)
+    assert fly_episode(prob, "random", 1, 5, environment=env) == own
+    with pytest.raises(ValueError, match="episode"):
+        episode_environment(prob, -1, 5)

@@ -14,7 +14,7 @@ from helpers import exact_cells
 from test_fill import TINY
 
 from uavwind import study as ex
-from uavwind.study import fill
+from uavwind.study import _dask_probe, fill
 
 distributed = pytest.importorskip("distributed")
 
@@ -198,7 +198,7 @@ def test_a_scheduler_address_that_is_not_a_dask_scheduler_fails_within_seconds(t
                             scheduler=f"tcp://127.0.0.1:{port}")
     finally:
         server.close()
-    assert time.monotonic() - t0 < fill.PROBE_SECONDS + 3
+    assert time.monotonic() - t0 < _dask_probe.PROBE_SECONDS + 3
     assert not (tmp_path / "r").exists()
 
 
@@ -217,4 +217,4 @@ def test_a_stop_request_ends_the_wait_for_a_silent_scheduler(tmp_path):
 
 
 def test_a_real_scheduler_address_passes_the_probe(client):
-    fill._probe_scheduler(client.scheduler.address)  # no error, within the probe's time
+    _dask_probe._probe_scheduler(client.scheduler.address)  # no error, within the probe's time

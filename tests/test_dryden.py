@@ -7,14 +7,8 @@ import scipy.signal as sg
 from scipy.signal import welch
 
 import uavwind as uw
-from uavwind.sim.dryden import (
-    FEET,
-    CitedDryden,
-    cited_dryden_parameters,
-    cited_transfer_functions,
-    dryden_parameters,
-    dryden_psd,
-)
+from uavwind.sim.cited_dryden import CitedDryden, cited_dryden_parameters, cited_transfer_functions
+from uavwind.sim.mil_dryden import FEET, dryden_parameters, dryden_psd
 
 
 @pytest.mark.parametrize("kwargs, err, match", [
@@ -76,7 +70,7 @@ def test_dryden_u_autocorrelation_at_one_second(ensemble):
 
 def test_dryden_discrete_variance_is_sigma_squared():
     """White noise of std sqrt(pi/dt) makes the stationary output variance sigma^2."""
-    from uavwind.sim.dryden import _stationary_covariance
+    from uavwind.sim.mil_dryden import _stationary_covariance
 
     w = uw.DrydenWind([11.18, 12.5, 13.86], dt=0.1, seed=0)
     for j, ax in enumerate("uvw"):
@@ -153,7 +147,7 @@ def _zoh_second_order(T, dt):
 def test_dryden_control_discretisation_equals_the_closed_form_zoh():
     """python-control's sample_system(..., 'zoh') equals the closed-form ZOH of eqs 10-12
     to 1e-12, and gusts from the closed form equal the wind's to 1e-8."""
-    from uavwind.sim.dryden import _canonical, dryden_gain
+    from uavwind.sim.mil_dryden import _canonical, dryden_gain
 
     w20 = np.linspace(11.18, 13.86, 7)
     w = uw.DrydenWind(w20, seed=9)

@@ -7,7 +7,7 @@ from sklearn.metrics import silhouette_score
 import uavwind as uw
 from uavwind import study as ex
 from uavwind.analysis import inference as inf
-from uavwind.study import registry
+from uavwind.study import cases, registry
 
 
 TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
@@ -28,7 +28,7 @@ def _line_silhouette(rho, n=5):
 
 
 def test_fit_ratio_recovers_a_known_ratio_on_a_synthetic_curve(rng):
-    ratios = np.array(registry.FIT_RATIOS)
+    ratios = np.array(cases.FIT_RATIOS)
     truth = 9.0
     curve = np.array([_line_silhouette(r) for r in ratios])
     scores = curve[:, None] + rng.normal(0, 0.3, size=(ratios.size, 200))

@@ -15,8 +15,8 @@ from uavwind.method.softdtw import _consts, _dispatch, _kernels
 from uavwind.method.softdtw._kernels import (_objgrad_batch_serial, _sdtw_cross_serial,
                                              _sdtw_forward)
 from uavwind.method.softdtw._libm import _exp_glibc, _libm_selfcheck, _log_glibc
-from uavwind.method.softdtw._lockstep import N, _objgrad_lockstep, _sdtw_cross_lockstep
-from uavwind.method.softdtw._simd import vload, vlt, vstore
+from uavwind.method.softdtw._lockstep import _objgrad_lockstep, _sdtw_cross_lockstep
+from uavwind.method.softdtw._simd import N, vload, vlt, vstore
 from uavwind.method.softdtw._vlibm import vexp, vexp_care, vlog, vlog_care
 from uavwind.study.conditions import PAPER_SCENARIOS
 
@@ -397,3 +397,32 @@ def test_work_arrays_start_on_a_cache_line():
     for arr in ws[:6]:
         assert arr.ctypes.data % ALIGN == 0
     assert ws[5].shape == (120 * 120 * N,) and not ws[5].any()  # E starts all zero
+
+
+def test_the_engines_measured_names_are_public():
+    """What the benchmarks time, through public names only: the lanes, the threads, the
+    kernel switch (restored on leaving, the same doubles either way), the clusters'
+    objectives in one call (= one call per centre) and the pair costs alone."""
+    import numba
+
+    assert fk.LANES == N
+    assert fk.n_threads() == (numba.get_num_threads() if _consts.PARALLEL else 1)
+    X, _ = _loop(1, "inferred", seed=4)
+    centres = [X[:5].mean(0), X[5:].mean(0)]
+    before = _consts.LOCKSTEP
+    values = {}
+    for on in (True, False):
+        with fk.use_lockstep(on):
+            assert _consts.LOCKSTEP is on
+            values[on] = fk.soft_dtw_objgrad_many(centres, [X[:5], X[5:]], 0.5, parallel=False)
+        assert _consts.LOCKSTEP is before
+    for (v1, g1), (v2, g2), Z, Xs in zip(values[True], values[False], centres, [X[:5], X[5:]]):
+        v, g = fk.soft_dtw_objgrad(Z, Xs, 0.5, parallel=False)
+        assert v1 == v2 == v and np.array_equal(g1, g) and np.array_equal(g2, g)
+    with pytest.raises(ValueError, match="one length"):
+        fk.soft_dtw_objgrad_many(centres, [X], 0.5)
+    fill, cells = fk.lockstep_costs(centres[0], X, sqrtsq=True)
+    assert cells == N * X.shape[1] * X.shape[1]
+    fill()  # fills the costs, returns nothing
+    with pytest.raises(ValueError, match="features"):
+        fk.lockstep_costs(centres[0][:, :2], X)

@@ -20,7 +20,8 @@ from uavwind.sim.manoeuvres import (FLYABLE, FlyableLimits, check_flyable, requi
                                     waypoints_to_vector)
 from uavwind.study import run_experiment
 from uavwind.study.profiles import DEFAULT_SEED
-from uavwind.study.registry import EXPERIMENTS, FUTURE_VEHICLE
+from uavwind.study.cases import FUTURE_VEHICLE
+from uavwind.study.registry import EXPERIMENTS
 
 
 def _setting(observation="position", **kw):
@@ -267,7 +268,7 @@ def test_a_reference_loop_the_vehicle_cannot_fly_is_recorded_as_crashed_not_fata
     ground. The simulator refuses the flight (GroundContact, naming the environment and the
     time); the search records the loop as crashed (score 0, one cluster, not correct)."""
     from uavwind.sim.multirotor import GroundContact
-    from uavwind.study.registry import FUTURE_VEHICLE
+    from uavwind.study.cases import FUTURE_VEHICLE
 
     _, case = _strong_case()
     s = replace(case.setting, uav=FUTURE_VEHICLE, flyable=uw.FLYABLE, wind_ramp=0.0)
@@ -294,7 +295,7 @@ def test_a_crash_inside_a_block_leaves_its_neighbours_as_they_are_alone(monkeypa
     above, loop 6 crashed in the middle of their block, give the rows each gives alone:
     the crash recorded, the flown loops' scores and flight metrics unchanged."""
     from uavwind.method import search
-    from uavwind.study.registry import FUTURE_VEHICLE
+    from uavwind.study.cases import FUTURE_VEHICLE
 
     _, case = _strong_case()
     s = replace(case.setting, uav=FUTURE_VEHICLE, flyable=uw.FLYABLE, wind_ramp=0.0)
@@ -332,8 +333,9 @@ def test_the_budget_in_wind_leaves_room_for_the_lean_and_a_thrust_margin():
     ``l``, a reference acceleration of at most ``min(g sin 30, c sin(55 - l), T - c)`` keeps
     the total within the cone and the margin, in any direction (checked on a 1 ms grid)."""
     from uavwind.sim.manoeuvres import FLYABLE_IN_WIND, GRAVITY
-    from uavwind.sim.multirotor import NEURAL_FLY_CONTROL, Multirotor
-    from uavwind.study.registry import FLYABLE_VEHICLE
+    from uavwind.sim.multirotor import Multirotor
+    from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL
+    from uavwind.study.cases import FLYABLE_VEHICLE
 
     assert FLYABLE_IN_WIND.in_wind(FLYABLE_VEHICLE, 0.0).max_acceleration == \
         pytest.approx(FLYABLE.max_acceleration)

@@ -13,7 +13,7 @@ import pandas as pd
 from sklearn.metrics import silhouette_score
 
 import uavwind as uw
-from uavwind.sim.dryden import FEET
+from uavwind.sim.mil_dryden import FEET
 from uavwind.study.paper import PAPER_FILES, load_paper_values
 
 NOTES = Path(__file__).resolve().parents[1] / "book" / "replication_notes.md"
@@ -53,7 +53,7 @@ def _allowed():
     ok |= {round(TABLE3_SPACING, 2)}  # Table 3's spacing along x = y
     ok |= {0.01}  # wind spacing of test_the_multirotor_keeps_thrust_because_zero_thrust_is_chaotic
     from uavwind.data.neuralfly import CONDITIONS
-    from uavwind.sim.multirotor import NEURAL_FLY
+    from uavwind.sim.rotor_params import NEURAL_FLY
     ok |= set(CONDITIONS.values())  # Neural-Fly's tunnel winds (section 13)
     ok |= {NEURAL_FLY["thrust_to_weight"]}  # the Neural-Fly quadrotor's, from its article
     return ok

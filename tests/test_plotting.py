@@ -107,49 +107,49 @@ CALLS = {
         index=["row"])),
     "silhouette_vs_ratio": lambda f: plotting.silhouette_vs_ratio(*_fits_and_curves()),
     "predicted_vs_paper": lambda f: plotting.predicted_vs_paper(_oos()),
-    "noise_curves": lambda f: plotting.noise_curves(beyond.noise_table(
+    "noise_curves": lambda f: beyond_figures.noise_curves(beyond.noise_table(
         _loops(scenario=["a", "b"], noise_sigma=[0.0, 0.5, 2.0], noise_bias=[0.0]))),
-    "observation_bars": lambda f: plotting.observation_bars(beyond.observation_table(
+    "observation_bars": lambda f: beyond_figures.observation_bars(beyond.observation_table(
         _loops(scenario=["a", "b"], observation=["position", "velocity"],
                noise=["none", "consumer"]))),
-    "baseline_vs_clustering": lambda f: plotting.baseline_vs_clustering(beyond.baseline_table(
+    "baseline_vs_clustering": lambda f: beyond_figures.baseline_vs_clustering(beyond.baseline_table(
         _loops(scenario=["a"], noise_sigma=[0.0, 1.0], noise_bias=[0.0]))),
     "stamp": lambda f: plotting.stamp(plotting.fig2_flowcharts(), _loops(scenario=["a"])),
-    "vehicle_trajectories": lambda f: plotting.vehicle_trajectories(
+    "vehicle_trajectories": lambda f: beyond_figures.vehicle_trajectories(
         {"point mass": f, "multirotor": f.positions + 1.0}, uw.table3_setting().groups),
-    "future_grid": lambda f: plotting.future_grid(beyond.future_table(
+    "future_grid": lambda f: beyond_figures.future_grid(beyond.future_table(
         _loops(scenario=["a", "b"], action=["thrust", "attitude"],
                observation=["position", "imu"], noise=["none", "consumer"]))),
-    "vehicle_scores": lambda f: plotting.vehicle_scores(beyond.vehicle_table(
+    "vehicle_scores": lambda f: beyond_figures.vehicle_scores(beyond.vehicle_table(
         _loops(scenario_id=[1, 2], vehicle=["point mass", "multirotor"]).assign(
             scenario=lambda d: "S" + d["scenario_id"].astype(str)))),
-    "closed_loop_curves": lambda f: plotting.closed_loop_curves(
+    "closed_loop_curves": lambda f: beyond_figures.closed_loop_curves(
         closed_loop.accuracy_over_time(_episodes())),
-    "reliability_diagram": lambda f: plotting.reliability_diagram(
+    "reliability_diagram": lambda f: beyond_figures.reliability_diagram(
         closed_loop.reliability(_episodes(), by=("vehicle", "policy"))),
-    "twin_validation": lambda f: plotting.twin_validation(pd.DataFrame({
+    "twin_validation": lambda f: beyond_figures.twin_validation(pd.DataFrame({
         "condition": ["nowind", "35wind", "70p20sint"] * 2, "wind_speed": [0.0, 4.2, 8.5] * 2,
         "quantity": ["force along x"] * 3 + ["lean"] * 3, "unit": ["N"] * 3 + ["deg"] * 3,
         "fitted": [False, True, False] * 2,
         **{c: [1.0, 2.0, 3.0] * 2 for c in ("sim", "held_out", "real_min", "real_max")}})),
-    "wind_estimates": lambda f: plotting.wind_estimates(pd.DataFrame({
+    "wind_estimates": lambda f: beyond_figures.wind_estimates(pd.DataFrame({
         "kind": ["estimate"] * 4, "method": ["drag", "drag", "ekf", "ekf"],
         "controller": ["a", "b", "a", "b"], "condition": ["35wind", "70p20sint"] * 2,
         "wind_speed": [4.2, 8.5] * 2, "estimate": [4.0, 8.1, 4.4, 8.9]})),
-    "wind_estimate_series": lambda f: plotting.wind_estimate_series(pd.DataFrame({
+    "wind_estimate_series": lambda f: beyond_figures.wind_estimate_series(pd.DataFrame({
         "kind": ["series"] * 8, "method": ["drag"] * 4 + ["ekf"] * 4, "controller": ["a"] * 8,
         "condition": ["35wind", "35wind", "70p20sint", "70p20sint"] * 2,
         "wind_speed": [4.2, 4.2, 8.5, 8.5] * 2, "t": [0.0, 1.0] * 4,
         "estimate": [4.0, 4.3, 8.0, 9.0, 4.1, 4.2, 8.2, 8.8], "std": [0.3] * 8,
         "truth": [4.2, 4.2, 8.5, 9.3] * 2})),
-    "channel_pair_heatmap": lambda f: plotting.channel_pair_heatmap(pd.DataFrame({
+    "channel_pair_heatmap": lambda f: beyond_figures.channel_pair_heatmap(pd.DataFrame({
         "condition_a": ["nowind"] * 2, "condition_b": ["35wind"] * 2,
         "channel": ["position", "attitude"], "mean": [40.0, 90.0]})),
-    "flyable_scores": lambda f: plotting.flyable_scores(__import__(
+    "flyable_scores": lambda f: beyond_figures.flyable_scores(__import__(
         "uavwind.analysis.manoeuvres", fromlist=["flyable_table"]).flyable_table(
         _loops(scenario=["a", "b"], action=["waypoints", "thrust"],
                observation=["position", "imu"], noise=["consumer"]))),
-    "manoeuvre_plot": lambda f: plotting.manoeuvre_plot(
+    "manoeuvre_plot": lambda f: beyond_figures.manoeuvre_plot(
         closed_loop.manoeuvres(_episodes()), "a", "multirotor"),
 }
 
@@ -262,13 +262,13 @@ def test_the_flyable_bars_keep_their_legend_off_the_bars():
                            "ci_low": 85.0, "ci_high": 95.0}
                           for s in ("S1", "S2") for o in ("position", "imu")
                           for a in ("waypoints", "thrust")])
-    fig = plotting.flyable_scores(table)
+    fig = beyond_figures.flyable_scores(table)
     assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
     plt.close(fig)
     # a pair that scored 0 reads "0"; one not run stays blank
     table.loc[0, "mean"] = table.loc[0, "ci_low"] = table.loc[0, "ci_high"] = 0.0
     table = table.drop(index=1)
-    fig = plotting.flyable_scores(table)
+    fig = beyond_figures.flyable_scores(table)
     assert sum([t.get_text() for t in ax.texts].count("0") for ax in fig.axes) == 1
     plt.close(fig)
 
@@ -281,7 +281,7 @@ def test_exp8_bars_mark_a_zero_bar_and_keep_their_legend_above():
                           for o, n, m in (("position", "none", 90.0), ("position", "consumer", 0.0),
                                           ("velocity", "none", 80.0),
                                           ("velocity", "consumer", 70.0))])
-    fig = plotting.observation_bars(table)
+    fig = beyond_figures.observation_bars(table)
     assert [t.get_text() for t in fig.axes[0].texts] == ["0"]
     assert fig.axes[0].get_legend() is None and len(fig.legends) == 1
     plt.close(fig)
@@ -314,7 +314,7 @@ def test_closed_loop_lines_stay_distinguishable():
     t = np.arange(0.5, 12.5, 0.5)
     rows = [{"scenario": "S", "vehicle": "V", "policy": p, "time": x, "accuracy": 0.9,
              "accuracy_low": 0.8, "accuracy_high": 1.0} for p in ("best", "greedy") for x in t]
-    fig = plotting.closed_loop_curves(pd.DataFrame(rows))
+    fig = beyond_figures.closed_loop_curves(pd.DataFrame(rows))
     lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines() if not ln.get_label().startswith("_")}
     best, greedy = lines["open-loop best"], lines["closed-loop greedy"]
     assert best.get_marker() != greedy.get_marker() and best.get_zorder() > greedy.get_zorder()

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import uavwind as uw
-from uavwind.sim.multirotor import NEURAL_FLY, Multirotor
+from uavwind.sim.multirotor import Multirotor
+from uavwind.sim.rotor_params import NEURAL_FLY
 from uavwind.sim.references import FLAT_KEYS, Hover, Lemniscate, WaypointSpline
 
 pytest.importorskip("rotorpy")

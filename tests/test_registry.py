@@ -11,7 +11,7 @@ from uavwind.analysis.claims import (
     needed_experiments,
 )
 from uavwind.report.display import PRETTY
-from uavwind.study import registry
+from uavwind.study import cases, registry
 from uavwind.study.registry import EXPERIMENTS, column_names, label_columns
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -79,7 +79,7 @@ def test_registry_matches_the_paper():
                                     "exp11_cem", "exp12", "exp14", "exp14_cem", "fit_layout",
                                     "fit_mixed", "fit_turbulence"]
     sizes = {k: len(e.cases()) for k, e in ex.EXPERIMENTS.items()}
-    n_ratios = len(registry.FIT_RATIOS)
+    n_ratios = len(cases.FIT_RATIOS)
     assert sizes == {"example": 1, "exp1": 8, "exp2": 32, "exp3": 32, "exp4": 28, "exp5": 2,
                      "exp6": 1, "exp6_raw": 1, "exp7": 3 * 11, "exp8": 3 * 4 * 2, "exp9": 3 * 11,
                      "exp10": 8 * 4 + 8 * 2, "exp11": 4 * 2 * 5 * 2, "exp11_cem": 4,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import uavwind as uw
-from uavwind.sim.dryden import CitedDryden
+from uavwind.sim.cited_dryden import CitedDryden
 from uavwind.sim.rollout import Rollout, WindTable, state_size
 from uavwind.sim.setting import EnvironmentGroup, Setting
 from uavwind.sim.wind import WindGroups, ConstantWind, ShearWind

@@ -12,7 +12,8 @@ import pytest
 import uavwind as uw
 from uavwind.analysis import figure8, real_flights as rf
 from uavwind.data.neuralfly import NOISE_CUTOFF, lap_starts, pitch_degrees, split_noise
-from uavwind.sim.multirotor import NEURAL_FLY_CONTROL, PX4_LIKE, Multirotor, PositionControl
+from uavwind.sim.multirotor import Multirotor
+from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL, PX4_LIKE, PositionControl
 
 DURATION = 20.0  # three laps: the ramp lap, then two
 
@@ -284,7 +285,7 @@ needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
 def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
     """``NEURAL_FLY_FITTED`` (Exp 14's vehicle) is Exp 13's fit of the drag and lift, redone
     here on one lap a flight."""
-    from uavwind.study.registry import NEURAL_FLY_FITTED
+    from uavwind.study.cases import NEURAL_FLY_FITTED
 
     flights = uw.load_neuralfly()
     study = rf.RealFlightStudy(max_laps=1)  # forces are lap means: one lap a flight gives them

@@ -26,7 +26,7 @@ The package is layered, data flowing one way (a layer imports only the layers be
 from . import _compat
 from ._version import __version__
 
-_compat.install()  # the flat module paths of 0.1 keep working for one release
+_compat.install()  # the module paths 0.1's users import keep working for one release
 
 from .data.neuralfly import RealFlight, load_neuralfly  # noqa: E402
 from .method.baseline import estimate_wind  # noqa: E402
@@ -37,12 +37,13 @@ from .method.search import CEMResult, cem, random_search  # noqa: E402
 from .report.display import pretty  # noqa: E402
 from .sim.actions import (MAX_THRUST, PAPER_EXAMPLE, SAMPLERS, AttitudeSequence,  # noqa: E402
                           ThrustSequence, sample_attitude, sample_continuous, sample_paper)
-from .sim.dryden import (CitedDryden, DrydenWind, cited_dryden_parameters,  # noqa: E402
-                         cited_gusts, dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .sim.cited_dryden import CitedDryden, cited_dryden_parameters, cited_gusts  # noqa: E402
+from .sim.dryden import DrydenWind  # noqa: E402
 from .sim.dynamics import simulate, simulate_flight  # noqa: E402
 from .sim.flight import Flight  # noqa: E402
 from .sim.manoeuvres import (FLYABLE, FLYABLE_IN_WIND, FlyableLimits, check_flyable,  # noqa: E402
                              sample_waypoints)
+from .sim.mil_dryden import dryden_parameters, dryden_psd, dryden_transfer_functions  # noqa: E402
 from .sim.multirotor import Multirotor  # noqa: E402
 from .sim.references import Hover, Lemniscate, Reference, WaypointSpline  # noqa: E402
 from .sim.rotor_params import PositionControl  # noqa: E402
@@ -105,8 +106,9 @@ register_measured("exp13", _run_exp13)
 
 def __getattr__(name):
     """Names of 0.1 that moved or went: ``uavwind.<old module>`` as an attribute
-    (``uw.observation.Noise``) and ``uw.SimulationSettings``, through
-    :mod:`uavwind._compat` (one ``DeprecationWarning``)."""
+    (``from uavwind import experiments as ex``, as 0.1's README showed) and
+    ``uw.SimulationSettings``, through :mod:`uavwind._compat` (a ``DeprecationWarning``
+    naming the new import path)."""
     found = _compat.old_attribute(name)
     if found is _compat.MISSING:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

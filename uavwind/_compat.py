@@ -1,12 +1,16 @@
-"""Old import paths: the flat modules of uavwind 0.1, kept importable for one release.
+"""The names of uavwind 0.1 that its users import and that moved, kept for one release.
 
-The package was arranged into subpackages by layer (``core``, ``sim``, ``method``,
-``study``, ``analysis``, ``report``), and 0.1's ``SimulationSettings`` (never used by a
-setting) went. Code that still imports ``uavwind.scenarios`` or
-``uavwind.softdtw`` gets the module that now owns those names, with one
-``DeprecationWarning`` naming the new place. A module that moved whole is the same object
-under both names (so its numba kernels and caches are not loaded twice); one that was
-split is a read-only view of the names of its successors.
+0.1 was a package of flat modules; 0.2 arranged them into subpackages by layer. Its users
+wrote ``import uavwind as uw`` (every ``uw.X`` of 0.1 still works, but for the two below)
+and, as 0.1's README showed, three module paths: ``from uavwind import experiments as ex``
+(``ex.EXPERIMENTS``, ``ex.run_experiment``, ``ex.comparison_table``),
+``uavwind.fill.fill_cache`` and ``from uavwind.softdtw import SoftDTWKMeans,
+silhouette_score``. This module owns those names (:data:`OLD_NAMES`) and 0.1's
+``uw.SimulationSettings`` / ``uw.PAPER_SIMULATION`` (no setting ever used them: a
+:class:`~uavwind.sim.setting.Setting` carries its own time grid). Each still works and
+raises a ``DeprecationWarning`` naming where to import it from now; any other name of an
+old module is an ``AttributeError`` that says where its module went. Nothing in uavwind,
+its pages or its benchmarks imports them.
 """
 
 from __future__ import annotations
@@ -22,67 +26,55 @@ from dataclasses import dataclass
 from .core.checks import check_scalar
 from .sim.vehicle import n_steps
 
-#: old dotted name -> the module(s) that now own its names, first one first
-MOVED = {
-    "uavwind.config": ("uavwind.sim.vehicle", "uavwind.core.checks"),
-    "uavwind.stats": ("uavwind.core.stats",),
-    "uavwind.actions": ("uavwind.sim.actions",),
-    "uavwind.wind": ("uavwind.sim.wind",),
-    "uavwind.dryden": ("uavwind.sim.dryden",),
-    "uavwind.dynamics": ("uavwind.sim.dynamics",),
-    "uavwind.observation": ("uavwind.sim.observation",),
-    "uavwind.clustering": ("uavwind.method.clustering",),
-    "uavwind.softdtw": ("uavwind.method.softdtw",),
-    "uavwind.search": ("uavwind.method.search", "uavwind.core.seeding", "uavwind.core.stats"),
-    "uavwind.baseline": ("uavwind.method.baseline",),
-    "uavwind.scenarios": ("uavwind.study.conditions", "uavwind.study.layouts",
-                          "uavwind.study.readings", "uavwind.study.builders",
-                          "uavwind.sim.setting"),
-    "uavwind.experiments": ("uavwind.study.registry", "uavwind.study.runner",
-                            "uavwind.study.profiles", "uavwind.study.readings",
-                            "uavwind.analysis.tables", "uavwind.study.cache"),
-    "uavwind.cache": ("uavwind.study.cache",),
-    "uavwind.fill": ("uavwind.study.fill",),
-    "uavwind.paper": ("uavwind.study.paper",),
-    "uavwind.inference": ("uavwind.analysis.inference",),
-    "uavwind.beyond": ("uavwind.analysis.beyond",),
-    "uavwind.claims": ("uavwind.analysis.claims",),
-    "uavwind.display": ("uavwind.report.display",),
-    "uavwind.plotting": ("uavwind.report.plotting",),
-    "uavwind.explore": ("uavwind.report.explore",),
-    "uavwind.performance": ("uavwind.report.performance",),
+#: old module -> {name users of 0.1 import from it: the module to import it from now}
+OLD_NAMES = {
+    "uavwind.experiments": {"EXPERIMENTS": "uavwind.study.registry",
+                            "run_experiment": "uavwind.study.runner",
+                            "comparison_table": "uavwind.analysis.tables"},
+    "uavwind.fill": {"fill_cache": "uavwind.study.fill"},
+    "uavwind.softdtw": {"SoftDTWKMeans": "uavwind.method.softdtw",
+                        "silhouette_score": "uavwind.method.softdtw"},
 }
 
+#: old module -> the package its other names went to (named in the AttributeError)
+_NOW_IN = {"uavwind.experiments": "uavwind.study", "uavwind.fill": "uavwind.study.fill",
+           "uavwind.softdtw": "uavwind.method.softdtw"}
 
-def _successor(name):
-    """``(old name, new names)`` for ``name`` or a submodule of a moved package, else None."""
-    if name in MOVED:
-        return name, MOVED[name]
-    for old, new in MOVED.items():
-        if len(new) == 1 and name.startswith(old + "."):
-            return name, (new[0] + name[len(old):],)
-    return None
+#: 0.1's ``uw.X`` names that went
+OLD_TOP = ("SimulationSettings", "PAPER_SIMULATION")
+
+
+def _deprecated(old: str, name: str, new: str, stacklevel: int = 3) -> None:
+    warnings.warn(f"{old}.{name} is deprecated and will be removed in the next release: "
+                  f"use 'from {new} import {name}'", DeprecationWarning, stacklevel=stacklevel)
+
+
+def _old_module(old: str) -> types.ModuleType:
+    """The module object ``old`` names: its names of :data:`OLD_NAMES`, each warning."""
+    names = OLD_NAMES[old]
+    mod = types.ModuleType(old, f"Deprecated (uavwind 0.1): import {', '.join(names)} from "
+                                f"{' / '.join(dict.fromkeys(names.values()))}.")
+
+    def __getattr__(name):
+        if name not in names:
+            raise AttributeError(f"module {old!r} has no attribute {name!r} (uavwind 0.1's "
+                                 f"{old} is gone: its names are in {_NOW_IN[old]})")
+        _deprecated(old, name, names[name])
+        return getattr(importlib.import_module(names[name]), name)
+
+    mod.__getattr__ = __getattr__
+    mod.__all__ = list(names)
+    return mod
 
 
 class _OldPaths(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Finds the old dotted names and hands out their successors."""
+    """Finds the module paths of :data:`OLD_NAMES` and hands out their modules."""
 
     def find_spec(self, name, path=None, target=None):
-        if _successor(name) is None:
-            return None
-        return importlib.util.spec_from_loader(name, self)
+        return importlib.util.spec_from_loader(name, self) if name in OLD_NAMES else None
 
     def create_module(self, spec):
-        old, new = _successor(spec.name)
-        warnings.warn(f"{old} is deprecated and will be removed in the next release: import "
-                      f"from {' / '.join(new)}", DeprecationWarning, stacklevel=2)
-        mods = [importlib.import_module(n) for n in new]
-        if len(mods) == 1:
-            return mods[0]  # the very module: one set of objects under both names
-        view = types.ModuleType(old, f"Deprecated: the names of {', '.join(new)}.")
-        for m in reversed(mods):  # the first successor wins a name two of them define
-            view.__dict__.update({k: v for k, v in vars(m).items() if not k.startswith("__")})
-        return view
+        return _old_module(spec.name)
 
     def exec_module(self, module):
         pass
@@ -91,13 +83,12 @@ class _OldPaths(importlib.abc.MetaPathFinder, importlib.abc.Loader):
 MISSING = object()
 
 
-def old_attribute(name):
-    """What ``uavwind.<name>`` meant in 0.1 if it no longer exists there (warns), else
-    :data:`MISSING`."""
-    old = f"uavwind.{name}"
-    if old in MOVED:
-        return importlib.import_module(old)
-    if name in ("SimulationSettings", "PAPER_SIMULATION"):
+def old_attribute(name: str):
+    """What ``uavwind.<name>`` meant in 0.1 if it went (a module of :data:`OLD_NAMES`, or a
+    name of :data:`OLD_TOP`, which warns), else :data:`MISSING`."""
+    if f"uavwind.{name}" in OLD_NAMES:
+        return importlib.import_module(f"uavwind.{name}")
+    if name in OLD_TOP:
         warnings.warn(f"uavwind.{name} is deprecated and will be removed in the next release: "
                       f"a Setting carries dt, duration and start_altitude itself",
                       DeprecationWarning, stacklevel=3)
@@ -133,7 +124,7 @@ class SimulationSettings:
         return n_steps(self.dt, self.duration)
 
 
-def install():
+def install() -> None:
     """Put the finder first on ``sys.meta_path`` (once)."""
     if not any(isinstance(f, _OldPaths) for f in sys.meta_path):
         sys.meta_path.insert(0, _OldPaths())

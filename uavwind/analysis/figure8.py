@@ -18,7 +18,7 @@ The twin (each choice stated on the page):
   subtracted: the authors' ``fa`` holds about a newton in still air); the other winds are
   predictions.
 * *Controller.* RotorPy's SE3 law with an integral term and a thrust cone with vertical
-  priority (:data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`): the real controllers hold
+  priority (:data:`~uavwind.sim.rotor_params.NEURAL_FLY_CONTROL`): the real controllers hold
   the path in steady wind, which a PD law cannot (it leaves a steady error of ``F / (m kp)``).
 * *Wind.* Along -x, uniform, constant or 8.5 + 2.4 sin t m/s (``70p20sint``), ramped in over
   the first lap from a hover in still air, PLUS (:class:`~uavwind.sim.wind.SumWind`)
@@ -145,7 +145,7 @@ class TwinCalibration:
 
     def vehicle(self) -> Multirotor:
         """The twin's vehicle: the Neural-Fly preset with these factors and
-        :data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`."""
+        :data:`~uavwind.sim.rotor_params.NEURAL_FLY_CONTROL`."""
         return Multirotor.neural_fly(drag_scale=self.drag_scale, lift_scale=self.lift_scale,
                                      position_control=NEURAL_FLY_CONTROL)
 

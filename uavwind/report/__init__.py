@@ -2,6 +2,7 @@
 
 * :mod:`.display` -- the project's vocabulary as display names;
 * :mod:`.plotting` -- the paper's figures; :mod:`.beyond_figures` -- the figures beyond it;
+* :mod:`.sweeps` -- the pages of the paper's sweeps (Exps 2-4), one call each;
 * :mod:`.explore` -- the Explore page, live and static;
 * :mod:`.performance` -- the performance page's tables from a benchmark report.
 

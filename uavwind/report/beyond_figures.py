@@ -18,7 +18,7 @@ test cannot reach elsewhere.
   :func:`channel_pair_heatmap` -- the real
   flights (Exp 13).
 
-:mod:`uavwind.report.plotting` re-exports every one of them.
+Import them from here: :mod:`uavwind.report.plotting` has the paper's figures only.
 """
 
 from __future__ import annotations

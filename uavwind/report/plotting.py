@@ -17,8 +17,8 @@ test cannot reach elsewhere). Figures:
 * :func:`stamp`, :func:`panel_grid`, :func:`integer_ticks` -- provenance and layout.
 
 The figures beyond the paper (noise, observations, the baseline, the multirotor, the future
-work, the closed loop, the real flights) are :mod:`uavwind.report.beyond_figures`'; they are
-re-exported here, so ``plotting.future_grid`` and the like keep working.
+work, the closed loop, the real flights) are
+:mod:`uavwind.report.beyond_figures`' (imported from there, not from here).
 """
 
 from __future__ import annotations
@@ -31,14 +31,8 @@ import numpy as np
 
 from ..analysis.tables import provenance
 from ..core.stats import summarise
-from ..sim.dryden import dryden_psd
+from ..sim.mil_dryden import dryden_psd
 from ._drawing import GROUP_COLOURS, _errors, _legend_above, _mark_zero_bars, _plt
-# the figures beyond the paper, re-exported: this module's names before they had a module
-from .beyond_figures import (POLICY_MARKERS, POLICY_STYLES, baseline_vs_clustering,  # noqa: F401
-                             channel_pair_heatmap, closed_loop_curves, flyable_scores,
-                             future_grid, manoeuvre_plot, noise_curves, observation_bars,
-                             reliability_diagram, twin_validation, vehicle_scores,
-                             vehicle_trajectories, wind_estimate_series, wind_estimates)
 
 if TYPE_CHECKING:
     import pandas as pd

@@ -6,17 +6,17 @@ whose gusts come from one of two models (:data:`VARIANTS`):
 * :class:`MilDryden` -- MIL-F-8785C low altitude, feet inside and m/s outside
   (replication notes, decision 4), with :func:`dryden_parameters`,
   :func:`dryden_transfer_functions` and the analytic spectrum :func:`dryden_psd`
-  (``uavwind.sim._mil_dryden``);
+  (:mod:`uavwind.sim.mil_dryden`);
 * :class:`CitedDryden` -- the implementation the paper cites (Abichandani et al.), quirk by
   quirk, with :func:`cited_dryden_parameters`, :func:`cited_transfer_functions` and
-  :func:`cited_gusts` (``uavwind.sim._cited_dryden``).
+  :func:`cited_gusts` (:mod:`uavwind.sim.cited_dryden`).
 
 Both models shape noise with the same three Dryden filters, whose gains are
 :func:`dryden_gain` (written once), built with ``control.tf``. The MIL-F-8785C filters are
 discretised with ``control.sample_system(..., "zoh")`` (cached per parameter set; the
 closed-form zero-order hold is the tests' oracle); the cited series are simulated with
-``control.forced_response``, as the cited code's ``scipy.signal.lsim`` does. Every name of
-the two models is importable from here.
+``control.forced_response``, as the cited code's ``scipy.signal.lsim`` does. The names of
+the two models are imported from their own modules.
 """
 
 from __future__ import annotations
@@ -27,11 +27,8 @@ from functools import cached_property
 import numpy as np
 
 from ..core.checks import check_array, check_choice, check_instance, check_scalar
-# the two models, re-exported: this module's names before they had modules of their own
-from ._cited_dryden import (FEET_PER_METRE, CitedDryden, cited_dryden_parameters,  # noqa: F401
-                            cited_gusts, cited_transfer_functions)
-from ._mil_dryden import (FEET, MilDryden, _canonical, _stationary_covariance,  # noqa: F401
-                          dryden_gain, dryden_parameters, dryden_psd, dryden_transfer_functions)
+from .cited_dryden import CitedDryden
+from .mil_dryden import MilDryden
 from .wind import WindModel
 
 #: Dryden variants: the standard, and the implementation the paper cites.
@@ -41,9 +38,7 @@ W20_MAX = 1000.0
 #: Smallest W20 accepted [m/s] (below it the filters' time constants overflow).
 W20_MIN = 1e-3
 
-__all__ = ["FEET", "VARIANTS", "MilDryden", "CitedDryden", "DrydenWind", "dryden_gain",
-           "dryden_parameters", "dryden_transfer_functions", "dryden_psd",
-           "cited_dryden_parameters", "cited_transfer_functions", "cited_gusts"]
+__all__ = ["VARIANTS", "DrydenWind"]
 
 
 # --------------------------------------------------------------------------- #

@@ -216,7 +216,7 @@ class FlyableLimits:
 FLYABLE = FlyableLimits()
 #: The same for a vehicle holding against the wind (Exp 14): also the reference and the
 #: strongest wind together within 55 degrees of up (5 below the 60 degree thrust cone of
-#: :data:`~uavwind.sim.multirotor.NEURAL_FLY_CONTROL`) and 80% of the full thrust.
+#: :data:`~uavwind.sim.rotor_params.NEURAL_FLY_CONTROL`) and 80% of the full thrust.
 FLYABLE_IN_WIND = FlyableLimits(thrust_margin=0.8)
 
 

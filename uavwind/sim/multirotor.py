@@ -70,10 +70,8 @@ from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ET
                      SPEED_MIN)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
-# the vehicle's parameters, re-exported: this module's names before they had a module
-from .rotor_params import (BASE_MASS, DRAG_KEYS, EXTRA, GRAVITY, NEURAL_FLY,  # noqa: F401
-                           NEURAL_FLY_CONTROL, PRESETS, PX4_LIKE, SE3_KD_POS, SE3_KP_POS,
-                           PositionControl, default_mass, rotorpy_params)
+from .rotor_params import (DRAG_KEYS, GRAVITY, PRESETS, PositionControl, default_mass,
+                           rotorpy_params)
 
 if TYPE_CHECKING:
     from .references import Reference

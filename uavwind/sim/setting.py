@@ -26,7 +26,9 @@ import pandas as pd
 from ..core.checks import check_scalar
 from .actions import SAMPLERS
 from .manoeuvres import FLYABLE, FlyableLimits  # registers the "waypoints" sampler
-from .dryden import VARIANTS, CitedDryden, DrydenWind, dryden_parameters
+from .cited_dryden import CitedDryden
+from .dryden import VARIANTS, DrydenWind
+from .mil_dryden import dryden_parameters
 from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
 from .multirotor import Multirotor

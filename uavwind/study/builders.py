@@ -22,7 +22,7 @@ from .readings import INFERRED_TURBULENCE, turbulence_fields
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from ..sim.dryden import CitedDryden
+    from ..sim.cited_dryden import CitedDryden
     from .layouts import Layout
 
 __all__ = ["make_group", "make_setting", "range_similarity_settings",

@@ -38,8 +38,7 @@ from ..core.checks import check_instance
 from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..method.clustering import ClusteringParams, softdtw_engine
 from ..method.search import CEMRun, evaluate
-# PROBE_SECONDS and _probe_scheduler are named here too (fill_cache's text, the tests)
-from ._dask_probe import PROBE_SECONDS, _check_scheduler, _probe_scheduler  # noqa: F401
+from ._dask_probe import _check_scheduler
 from ._pools import _ClusterPool, _LocalPool, _Watcher
 from ._timing import _analysis_record, _cpu_seconds, _entry_record, time_by_experiment
 from .cache import check_writable, results_dir
@@ -387,7 +386,7 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         Fill on a ``dask.distributed`` cluster instead of local workers: the address of its
         scheduler (``"tcp://host:8786"``) or a ``Client``. A ``tcp://`` address that refuses
         the connection, stays silent or is not a dask scheduler is a ``ValueError`` within
-        :data:`PROBE_SECONDS`. Each worker computes one task (a chunk, or
+        ``uavwind.study._dask_probe.PROBE_SECONDS``. Each worker computes one task (a chunk, or
         one CEM sample) at a time per thread and returns its rows; this process steps the
         CEM runs, verifies and writes every entry (the workers need no access to
         ``results``). The rows equal a local fill's, bit for bit.

@@ -13,7 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from ..core.checks import check_scalar
-from ..sim.dryden import VARIANTS, CitedDryden
+from ..sim.cited_dryden import CitedDryden
+from ..sim.dryden import VARIANTS
 from .conditions import HORIZONTAL
 from .layouts import Layout, resolve_layout
 

@@ -9,9 +9,9 @@ layer computes and the package's face registers (:func:`register_measured`). Wha
 experiment flies -- :class:`Case` (one row of an experiment: a
 :class:`~uavwind.sim.setting.Setting` and its labels in the paper's table), the case
 builders and the constants they use (the vehicles, channels and noise levels of the
-experiments beyond the paper) -- is :mod:`uavwind.study.cases`'; the case and the constants
-are also importable from here. Running an experiment is :mod:`uavwind.study.runner`'s;
-summarising it, :mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and
+experiments beyond the paper) -- is :mod:`uavwind.study.cases`' (import them from there).
+Running an experiment is :mod:`uavwind.study.runner`'s; summarising it,
+:mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and
 its builder, one notebook and one line in the book's ``_toc.yml``.
 
 Every experiment is built under a *reading* (:data:`~uavwind.study.readings.READINGS`),
@@ -30,17 +30,11 @@ from typing import TYPE_CHECKING
 
 from ..core.checks import check_choice, check_kwargs
 from ..data.neuralfly import ENV_VAR as NEURALFLY_ENV
-# the constants are re-exported (this module's names before the cases had a module)
-from .cases import (BIAS_LEVELS, BIAS_TIME, CLOSED_LOOP_POLICIES,  # noqa: F401
-                    CLOSED_LOOP_VEHICLES, FIT_RATIOS, FLYABLE_CEM_SCALE, FLYABLE_CHANNELS,
-                    FLYABLE_CPU_PER_LOOP, FLYABLE_RAMP, FLYABLE_VEHICLE, FUTURE_ACTIONS,
-                    FUTURE_CEM_SCALE,
-                    FUTURE_CHANNELS, FUTURE_NOISE, FUTURE_VEHICLE, MIXED_SPACINGS,
-                    NEURAL_FLY_FITTED, NOISE_LEVELS, NOISY_VEHICLES, THRUST_CHANGES, VEHICLES,
-                    Case, example_cases, exp1_cases, exp2_cases, exp3_cases, exp4_cases,
-                    exp5_cases, exp6_cases, exp7_cases, exp8_cases, exp10_cases, exp11_cases,
-                    exp11_cem_cases, exp12_cases, exp14_cases, exp14_cem_cases,
-                    fit_layout_cases, fit_mixed_cases, fit_turbulence_cases)
+from .cases import (CLOSED_LOOP_POLICIES, FLYABLE_CEM_SCALE, FUTURE_CEM_SCALE, Case, example_cases,
+                    exp1_cases, exp2_cases, exp3_cases, exp4_cases, exp5_cases, exp6_cases,
+                    exp7_cases, exp8_cases, exp10_cases, exp11_cases, exp11_cem_cases, exp12_cases,
+                    exp14_cases, exp14_cem_cases, fit_layout_cases, fit_mixed_cases,
+                    fit_turbulence_cases)
 from .readings import DEFAULT_READING, get_reading
 
 if TYPE_CHECKING:

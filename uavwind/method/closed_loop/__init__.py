@@ -14,7 +14,7 @@ the question is how many seconds it needs.
 """
 
 from .belief import Belief, Evidence
-from .episode import EPISODE_COLUMNS, fly_episode, run_episodes
+from .episode import EPISODE_COLUMNS, episode_environment, fly_episode, run_episodes
 from .policies import (POLICIES, Greedy, OpenLoopBest, OpenLoopRandom, Policy, RecedingCEM,
                        Situation, categorical_cem, get_policy, separation_bound)
 from .problem import ClosedLoop, held_out, segment_actions
@@ -22,4 +22,4 @@ from .problem import ClosedLoop, held_out, segment_actions
 __all__ = ["ClosedLoop", "held_out", "segment_actions", "Belief", "Evidence",
            "Policy", "OpenLoopRandom", "OpenLoopBest", "Greedy", "RecedingCEM", "POLICIES",
            "get_policy", "Situation", "separation_bound", "categorical_cem", "fly_episode",
-           "run_episodes", "EPISODE_COLUMNS"]
+           "episode_environment", "run_episodes", "EPISODE_COLUMNS"]

@@ -1,7 +1,8 @@
 """Flying closed-loop episodes: one vehicle, one held-out wind, each policy, a belief every
 report interval.
 
-This module owns :func:`fly_episode` (one flight of one policy, its rows) and
+This module owns :func:`fly_episode` (one flight of one policy, its rows),
+:func:`episode_environment` (an episode's held-out wind, built once for its policies) and
 :func:`run_episodes` (a range of episodes, every policy in each, over worker processes, in
 episode order; the same rows whatever the number of workers, since every draw of an
 episode comes from its own spawn key).
@@ -34,7 +35,7 @@ from .belief import Evidence
 from .policies import Policy, Situation, get_policy
 from .problem import SEED_NOISE, SEED_POLICY, SEED_TEST, ClosedLoop
 
-__all__ = ["fly_episode", "run_episodes", "EPISODE_COLUMNS"]
+__all__ = ["fly_episode", "episode_environment", "run_episodes", "EPISODE_COLUMNS"]
 
 #: The columns of an episode's rows (one row per policy and reported belief).
 EPISODE_COLUMNS = ("episode", "policy", "test_group", "test_speed", "time", "segment",
@@ -61,16 +62,19 @@ def _runs(forces):
 
 
 def fly_episode(problem: ClosedLoop, policy: str | Policy, episode: int,
-                seed: int | np.random.SeedSequence = 0, *, _test=None) -> list[dict]:
+                seed: int | np.random.SeedSequence = 0, *,
+                environment: tuple | None = None) -> list[dict]:
     """Fly episode ``episode`` of ``problem`` with ``policy``: one row per reported belief
     (the columns of :data:`EPISODE_COLUMNS`; ``time`` [s] when the belief was formed,
-    ``thrust`` the mean thrust [N] flown since the previous report)."""
+    ``thrust`` the mean thrust [N] flown since the previous report). ``environment``:
+    :func:`episode_environment` of the same problem, episode and seed, to build the test
+    wind once for several policies (trusted as such); None builds it here."""
     check_instance(problem, "problem", ClosedLoop)
     policy = get_policy(policy)
     episode = check_scalar(episode, "episode", low=0, high=10 ** 9, integer=True)
     root = root_seed(seed)
     s = problem.setting
-    group, env, test_wind = _test or _test_environment(problem, episode, root)
+    group, env, test_wind = environment or _episode_environment(problem, episode, root)
     known = _known_wind(problem, root)
     world = Rollout.for_flight(s.uav, WindGroups(known, test_wind), s.dt, s.duration)
     n_known = known.n_env
@@ -115,8 +119,19 @@ def fly_episode(problem: ClosedLoop, policy: str | Policy, episode: int,
     return out
 
 
-def _test_environment(problem, episode, root):
-    """``(group, environment, wind)`` of episode ``episode`` (the wind built once)."""
+def episode_environment(problem: ClosedLoop, episode: int,
+                        seed: int | np.random.SeedSequence = 0) -> tuple:
+    """``(group, environment, wind)`` of episode ``episode`` of ``problem`` under ``seed``:
+    the held-out test environment (:meth:`ClosedLoop.test_environment`) and its wind, built
+    once, which every policy of the episode flies through (``fly_episode(...,
+    environment=...)``)."""
+    check_instance(problem, "problem", ClosedLoop)
+    episode = check_scalar(episode, "episode", low=0, high=10 ** 9, integer=True)
+    return _episode_environment(problem, episode, root_seed(seed))
+
+
+def _episode_environment(problem, episode, root):
+    """:func:`episode_environment` on checked inputs (the fill's episodes, fly_episode)."""
     group, env = problem.test_environment(episode, root)
     return group, env, env.wind(child_seed(root, SEED_TEST, episode, 0))
 
@@ -124,8 +139,9 @@ def _test_environment(problem, episode, root):
 def _episode(problem, policies, episode, root, pin):
     if pin:
         pin_threads()
-    test = _test_environment(problem, episode, root)
-    return [row for p in policies for row in fly_episode(problem, p, episode, root, _test=test)]
+    test = _episode_environment(problem, episode, root)
+    return [row for p in policies
+            for row in fly_episode(problem, p, episode, root, environment=test)]
 
 
 def _check_policies(policies):

@@ -22,6 +22,11 @@ kernels from ``clustering/`` estimators and scikit-learn ``_kmeans.py`` from its
 * :mod:`._cache` -- the stamp of these sources beside numba's cache, which clears the
   entries compiled from other sources (numba's cache sees only a kernel's own file).
 
+What the benchmarks measure is named here too, so they import no private module:
+:data:`LANES` (pairs per vector on this host), :func:`n_threads`, :func:`use_lockstep`
+(the lockstep or the scalar kernels inside a block) and :func:`lockstep_costs` (the
+lockstep kernel's pair costs alone).
+
 The replication notes ("The fast engine") say why the arithmetic is the same and where it
 could stop being so.
 
@@ -40,17 +45,67 @@ import contextlib
 import numpy as np
 from numpy.typing import ArrayLike
 
-from . import _cache, _lockstep
+from . import _cache, _consts, _lockstep
+from ._checks import _as_dataset, _as_series, _same_features
+from ._kernels import _n_workers
+from ._lockstep_forward import R, _all_cost_rows
+from ._simd import N
 from .kmeans import EmptyClusterError, KMeansResult, SoftDTWKMeans, fit, fit_many
-from .metrics import dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad
+from .metrics import (dtw, dtw_pdist, soft_dtw, soft_dtw_cross, soft_dtw_grad, soft_dtw_objgrad,
+                      soft_dtw_objgrad_many)
 from .silhouette import silhouette
 
 # before any kernel loads: entries numba cached from other sources of this subpackage go
 _cache.check(_lockstep._objgrad_serial)
 
 __all__ = ["SoftDTWKMeans", "fit_many", "silhouette_score", "EmptyClusterError", "soft_dtw",
-           "soft_dtw_cross", "soft_dtw_grad", "soft_dtw_objgrad", "dtw", "dtw_pdist",
-           "warmup"]
+           "soft_dtw_cross", "soft_dtw_grad", "soft_dtw_objgrad", "soft_dtw_objgrad_many", "dtw",
+           "dtw_pdist", "warmup", "LANES", "n_threads", "use_lockstep", "lockstep_costs"]
+
+#: Pairs the lockstep kernels compute in one SIMD vector on this host (8 with AVX-512,
+#: else 4): a figure of the engine is a figure of one host's lanes.
+LANES = N
+
+
+def n_threads() -> int:
+    """Threads the kernels use in this process: numba's thread count where their helper
+    threads are on (``UAVWIND_SOFTDTW_PARALLEL=1``; off by default), else 1."""
+    return _n_workers(_consts.PARALLEL, 1 << 30)
+
+
+@contextlib.contextmanager
+def use_lockstep(on: bool = True):
+    """Inside the block, soft-DTW values and barycentre objectives run on the lockstep
+    kernels (``on``; the default unless ``UAVWIND_SOFTDTW_LOCKSTEP=0``) or on the scalar
+    reference kernels (one pair at a time; the same doubles). The switch is the process's:
+    it is restored on leaving, and no other thread should run kernels meanwhile."""
+    before = _consts.LOCKSTEP
+    _consts.LOCKSTEP = bool(on)
+    try:
+        yield
+    finally:
+        _consts.LOCKSTEP = before
+
+
+def lockstep_costs(Z: ArrayLike, X: ArrayLike, sqrtsq: bool = False):
+    """The lockstep kernel's pair costs alone, for timing them: ``(fill, cells)``.
+
+    ``fill()`` computes the squared Euclidean costs of :data:`LANES` copies of ``Z`` against
+    the first :data:`LANES` series of ``X`` (the last one repeated if ``X`` has fewer), one
+    per lane, every block of rows of the ``len(Z)`` x ``X.shape[1]`` matrix, as the soft-DTW
+    value needs them; with ``sqrtsq``, ``sqrt(.) ** 2`` of each, as tslearn's barycentre
+    objective has them. The series are lane-interleaved here, once; ``cells`` is the number
+    of costs one ``fill()`` computes (``LANES * len(Z) * X.shape[1]``)."""
+    Z = _as_series(Z, "Z")
+    X = _as_dataset(X, "X")
+    _same_features(Z, X, "Z", "X")
+    m, d = Z.shape
+    n = X.shape[1]
+    xs, ys, D = np.empty(m * d * N), np.empty(n * d * N), np.empty(R * n * N)
+    _lockstep._pack_series(np.ascontiguousarray(np.repeat(Z[None], N, axis=0)), 0, xs)
+    _lockstep._pack_series(np.ascontiguousarray(X), 0, ys)
+    sq = bool(sqrtsq)
+    return (lambda: _all_cost_rows(xs, ys, m, n, d, sq, D)), N * m * n
 
 
 def silhouette_score(X: ArrayLike, labels: ArrayLike, metric: str = "dtw",

@@ -11,7 +11,8 @@ from . import _consts
 from ._kernels import (_dtw_upper_par_inner, _dtw_upper_range, _jacobian_product_sq_euc,
                        _n_workers, _objgrad_batch_par, _objgrad_batch_serial,
                        _sdtw_cross_par_inner, _sdtw_cross_serial)
-from ._lockstep import N, _dtw_upper_lockstep, _objgrad_lockstep, _sdtw_cross_lockstep
+from ._lockstep import _dtw_upper_lockstep, _objgrad_lockstep, _sdtw_cross_lockstep
+from ._simd import N
 
 
 def _use_lockstep(fx, lockstep=None):

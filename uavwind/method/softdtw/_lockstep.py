@@ -48,8 +48,7 @@ import numpy as np
 from numba import njit
 
 from ._kernels import _reduce_objgrad_into, _unrank_upper
-# R and the cost rows are named here too (the benchmarks time them)
-from ._lockstep_forward import R, _cost_rows, _forward  # noqa: F401
+from ._lockstep_forward import R, _forward
 from ._scalar_forward import _is_pow2
 from ._share import NO_MAILBOX, announce, fetch_add, share
 from ._simd import (N, lane, many, mnot, mor, sel, splat, vadd, vdiv, veq, vfma, vload, vmin,

@@ -87,6 +87,14 @@ def _cost_rows(x, y, i0, rb, n, d, sqrtsq, D):
             vstore(D, base + j * N, _cost_at(x, y, i0 + r, j, d, sqrtsq))
 
 
+@njit(cache=True, nogil=True, error_model="numpy", boundscheck=False)
+def _all_cost_rows(x, y, m, n, d, sqrtsq, D):
+    """:func:`_cost_rows` of every block of :data:`R` rows of the ``m`` x ``n`` matrix, each
+    block into D's rows over the last: the costs alone, as the benchmarks time them."""
+    for i0 in range(0, m, R):
+        _cost_rows(x, y, i0, min(R, m - i0), n, d, sqrtsq, D)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _cost_at(x, y, i, j, d, sqrtsq):
     """The cost of cell (i, j) on every lane, as :func:`_cost_rows` stores it (whose

@@ -14,7 +14,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ._checks import _as_dataset, _as_series, _check_gamma, _same_features, _use_parallel
-from ._dispatch import _dtw_upper, _objgrad, _sdtw_cross
+from ._dispatch import _dtw_upper, _objgrad, _objgrad_many, _sdtw_cross
 from ._kernels import (_dtw_value, _n_workers, _objgrad_range, _sdtw_upper_par_inner,
                        _sdtw_upper_range, _sdtw_value)
 from ._libm import _libm_selfcheck
@@ -65,6 +65,22 @@ def soft_dtw_objgrad(Z: ArrayLike, Xs: ArrayLike, gamma: float = 1.0,
     _same_features(Z, Xs, "Z", "Xs")
     gamma = _check_gamma(gamma)
     return _objgrad(Z, Xs, gamma, _use_parallel(parallel), _libm_selfcheck())
+
+
+def soft_dtw_objgrad_many(Zs: list[ArrayLike], Xss: list[ArrayLike], gamma: float = 1.0,
+                          parallel: bool | None = None) -> list[tuple[float, np.ndarray]]:
+    """:func:`soft_dtw_objgrad` of ``Zs[j]`` over ``Xss[j]`` for every j (one k-means round's
+    clusters), in one call: the lockstep kernel takes every cluster's series ``N`` per
+    vector whichever centre they belong to. The same doubles as one call per centre."""
+    if len(Zs) != len(Xss) or not len(Zs):
+        raise ValueError(f"Zs and Xss must be non-empty and of one length, got {len(Zs)} "
+                         f"and {len(Xss)}")
+    Zs = [_as_series(Z, f"Zs[{j}]") for j, Z in enumerate(Zs)]
+    Xss = [_as_dataset(Xs, f"Xss[{j}]") for j, Xs in enumerate(Xss)]
+    for j, (Z, Xs) in enumerate(zip(Zs, Xss)):
+        _same_features(Z, Xs, f"Zs[{j}]", f"Xss[{j}]")
+    gamma = _check_gamma(gamma)
+    return _objgrad_many(Zs, Xss, gamma, _use_parallel(parallel), _libm_selfcheck())
 
 
 def dtw(x: ArrayLike, y: ArrayLike) -> float:

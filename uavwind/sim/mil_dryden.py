@@ -8,7 +8,6 @@ lengths (:func:`dryden_parameters`, feet inside and m/s outside), its filters as
 (:func:`dryden_psd`), their zero-order-hold discretisation with ``control.sample_system``
 (cached per parameter set), and :class:`MilDryden`, whose gust source draws each
 environment's white noise and starts every filter in its stationary state.
-:mod:`uavwind.sim.dryden` re-exports every public name.
 """
 
 from __future__ import annotations

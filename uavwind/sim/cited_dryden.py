@@ -5,10 +5,9 @@ variant: :class:`CitedDryden`, each way the published code differs from MIL-F-87
 field (so every reading of it is one argument away), its intensities and scale lengths in
 its own units (:func:`cited_dryden_parameters`), its three filters
 (:func:`cited_transfer_functions`, the same gains as MIL-F-8785C's,
-:func:`~uavwind.sim.dryden.dryden_gain`), the gust series it simulates with
+:func:`~uavwind.sim.mil_dryden.dryden_gain`), the gust series it simulates with
 ``control.forced_response`` as its ``scipy.signal.lsim`` call does (:func:`cited_gusts`,
 cached per parameter set) and their look-up on its own time grid.
-:mod:`uavwind.sim.dryden` re-exports every public name.
 """
 
 from __future__ import annotations
@@ -22,7 +21,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.checks import check_scalar
-from ._mil_dryden import dryden_gain
+from .mil_dryden import dryden_gain
 
 if TYPE_CHECKING:
     from control import TransferFunction
