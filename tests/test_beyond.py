@@ -60,15 +60,20 @@ def test_breaking_sentences_and_rows_at_a_noise_level():
              "score": 80.0 if ok else 0.0, "correct": ok}
             for s, rates, n in (("s", ((0.0, 1.0), (1.0, 0.9), (2.0, 0.1)), 20),
                                 ("t", ((0.0, 1.0), (1.0, 0.9), (2.0, 0.8)), 20),
-                                ("u", ((0.0, 1.0), (1.0, 0.5), (2.0, 0.0)), 2))
+                                ("u", ((0.0, 1.0), (1.0, 0.5), (2.0, 0.0)), 2),
+                                ("v", ((0.0, 1.0), (1.0, 1.0), (2.0, 0.0)), 2))
             for sig, rate in rates for i, ok in enumerate(np.arange(n) < n * rate)]
     df = pd.DataFrame(rows)
     text = beyond.breaking_sentences(beyond.breaking_level(df))
     assert text["s"] == "drops below half between 1 m (90% correct) and 2 m (10%)"
     assert text["t"].startswith("still groups 80%") and "2 m, the largest" in text["t"]
     # two loops a level (a quick build): 50% at 1 m has an interval across one half
-    assert text["u"].endswith("**cannot decide** where it breaks"), text["u"]
-    df = df[df["scenario"] != "u"]
+    assert "**cannot decide** where it breaks" in text["u"], text["u"]
+    # and 100% then 0% of two loops (zero-width "intervals", issue 67) is no verdict either
+    assert text["v"].startswith("groups 100% of the loops correctly at 1 m and 0% at 2 m on 2 "
+                                "loops a level: **cannot decide**"), text["v"]
+    assert "drops below" not in text["v"] and "make book" in text["v"]
+    df = df[~df["scenario"].isin(["u", "v"])]
     table = beyond.noise_table(df)
     assert list(beyond.at_noise(table, sigma=1.0).index) == ["s", "t"]
     with pytest.raises(ValueError, match="noise_sigma = 3"):

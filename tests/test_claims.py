@@ -136,11 +136,20 @@ def test_too_few_loops_or_intervals_across_zero_cannot_decide():
                           for d, ss in (("similar", (0.0, 80.0)), ("opposite", (90.0, 91.0)))
                           for i, s in enumerate(ss)])
     assert C.claim_c7({"exp5": exp5}).verdict == "cannot decide"
-    # with decided intervals on the wrong side the verdicts stand
+    # two loops on the wrong side of every other scenario still decide nothing (issue 67:
+    # a 2-loop "interval" is the range of the two loops)...
     far = df.copy()
     far.loc[(far["scenario_id"].isin([1, 4])) & ~far["long_run"], "score"] = [50.0, 51.0, 54.0, 55.0]
-    assert C.claim_c1({"exp1": far}).verdict == "not reproduced"
-    assert C._fmt((-1e-17, -0.001, 0.5)) == "0.00 [0.00, 0.50]"
+    v = C.claim_c1({"exp1": far})
+    assert v.verdict == "cannot decide" and "fewer than the 5 a verdict needs" in v.evidence
+    assert "95%" not in v.evidence.split("; too few")[0].split("scenario (")[1]
+    # ...while five loops a scenario, decided on the wrong side, stand
+    five = _fake("exp1", [{"scenario_id": k, "long_run": False, "loop": i,
+                           "score": (50.0 if k in (1, 4) else 0.0) + i}
+                          for k in range(1, 8) for i in range(5)])
+    assert C.claim_c1({"exp1": five}).verdict == "not reproduced"
+    assert C._fmt((-1e-17, -0.001, 0.5), 5) == "0.00 [0.00, 0.50]"
+    assert C._fmt((81.39, 81.39, 81.39), 5) == "81.39 (the same on all 5 loops)"
 
 
 def test_first_loops_cuts_every_case_and_the_long_run_tenfold():

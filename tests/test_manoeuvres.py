@@ -189,10 +189,14 @@ def test_exp14_end_to_end_at_a_tiny_profile():
 
 def test_verdicts_follow_the_interval_of_the_correct_share():
     n = MIN_VERDICT_LOOPS
-    t = pd.DataFrame({"n_loops": [n, n, n, n - 1], "correct_low": [0.6, 0.1, 0.3, 0.9],
-                      "correct_high": [1.0, 0.4, 0.8, 1.0]})
+    t = pd.DataFrame({"n_loops": [n, n, n, n - 1, n, 2],
+                      "correct_rate": [0.8, 0.2, 0.6, 1.0, 1.0, 1.0],
+                      "correct_low": [0.6, 0.1, 0.3, 0.9, 1.0, 1.0],
+                      "correct_high": [1.0, 0.4, 0.8, 1.0, 1.0, 1.0]})
+    # every loop of 5 correct (a zero-width bootstrap) separates; of 2, it cannot decide
     assert flyable_verdicts(t)["verdict"].tolist() == [
-        "separates", "does not separate", "cannot decide", "cannot decide"]
+        "separates", "does not separate", "cannot decide", "cannot decide", "separates",
+        "cannot decide"]
 
 
 def test_flyable_table_summarises_every_combination():

@@ -328,3 +328,16 @@ def test_a_signed_number_never_reads_minus_zero():
     assert signed(-0.006) == "-0.01" and signed(0.126, 1) == "+0.1" and signed(3) == "+3.00"
     with pytest.raises(ValueError, match="digits must be an int"):
         signed(1.0, 2.5)
+
+
+def test_no_error_bar_where_there_is_no_95_percent_interval():
+    """Two loops' bootstrap is their range and a zero-width interval is none: the figures
+    draw no bar for either (issue 67), and do for three loops or more."""
+    import pandas as pd
+
+    from uavwind.report._drawing import _errors
+    t = pd.DataFrame({"mean": [50.0, 50.0, 50.0, 80.0], "ci_low": [40.0, 40.0, 50.0, 70.0],
+                      "ci_high": [60.0, 60.0, 50.0, 85.0], "n_loops": [2, 3, 5, 50]})
+    err = _errors(t)
+    assert np.isnan(err[:, 0]).all() and np.isnan(err[:, 2]).all()
+    assert err[:, 1].tolist() == [10.0, 10.0] and err[:, 3].tolist() == [10.0, 5.0]

@@ -21,13 +21,27 @@ Markdown cells of ``notebooks/*.md`` and the hand-written pages ``book/*.md`` --
   $0.1 \times 12 = 1.2$), inline code or a code block, a link's target, a
   directive's option lines (``:label:``), a version string (``rotorpy 3.0.0``: a name).
 
-**Integers are not checked.** A whole number in prose is usually a label or a count the
-page sets (section 4, Table 4, Exp 13, eq 9, 2024, 50 loops, 12 s): the test cannot tell
-those from results, so the rule for an integer *result* (a count of loops that grouped
-correctly, a rounded percentage) is the same -- glue it -- but it is held by review, not here.
+**Integer results too** (issue 67). An integer that is a *result* -- a percentage (``83%``,
+``83 percent``), a count out of a total (``5 of 5``, ``3 out of 4``, ``4/5``) or a count of
+outcomes (``12 loops grouped correctly``, ``3 pairs separate``, ``2 verdicts change``) -- obeys
+the same rule as a decimal: glued, printed by a code cell, or marked ``{abbr}`80% (input)```.
+Most whole numbers in prose are not results, and these are allowed, each by name
+(:data:`INTEGER_EXCEPTIONS`):
+
+* **labels**: experiment, table, figure, section, equation, exercise, decision, issue and
+  round numbers (``Exp 13``, ``Tables 5-7``, ``eqs 2-8``, ``Exercise 20``), claim and scenario
+  ids (``C3``, ``S1``: a letter and a number are one word);
+* **years** (``2024``) and **citations** (a ``{cite}`` role is not prose);
+* **the confidence level** ``95%`` of an interval (``95% CI``, ``95% bootstrap interval``,
+  ``95% t interval``, ``95% confidence``, ``the 95% level``): the level asked for, not found;
+* **settings and inputs written as such**: a number of the paper or of a setting that is not
+  a percentage, a total or a count of outcomes (``50 loops``, ``12 s``, ``10 environments per
+  group``) is not read; a percentage or total that is an input is marked ``(input)`` or
+  ``(paper)`` like a decimal.
 
 A Markdown cell that breaks the rule fails this test with the page, the line and the
-number; ``test_a_planted_bare_number_is_caught`` shows the checker catching one.
+number; ``test_a_planted_bare_number_is_caught`` and
+``test_a_planted_integer_result_is_caught`` show the checker catching one of each.
 """
 from __future__ import annotations
 
@@ -103,15 +117,64 @@ def _prose(markdown: str) -> str:
     return text
 
 
+#: The integers in prose that are not results, each allowed by name (see the module's doc).
+INTEGER_EXCEPTIONS = {
+    "label": re.compile(r"\b(?:Exps?|Experiments?|Tables?|Figs?|Figures?|[Ss]ections?|§|eqs?|"
+                        r"[Ee]quations?|Exercises?|[Dd]ecisions?|[Ii]ssues?|[Rr]ounds?|"
+                        r"[Ss]essions?|[Ss]cenarios?|[Cc]laims?)\.?\s*$"),
+    "year": re.compile(r"^(?:19|20)\d\d$"),
+    "confidence level": re.compile(r"^\s*(?:bootstrap\s+|Student\s+|two-sided\s+|one-sided\s+)?"
+                                   r"(?:t\s+)?(?:lower\s+|upper\s+)?(?:CIs?|confidence|intervals?|level|bound)\b"),
+}
+
+#: An integer result: a percentage, a count out of a total, or a count of outcomes.
+_PERCENT = re.compile(r"(?<![\w.,])(\d+)\s?(?:%|percent\b|per cent\b)")
+_OF_TOTAL = re.compile(r"(?<![\w.,])(\d+)\s+(?:out\s+)?of\s+(?:the\s+|its\s+|their\s+)?\d+\b"
+                       r"|(?<![\w.,/])(\d+)/\d+(?![\w/.])")
+_OUTCOMES = (r"grouped|group(?:s)?\s+correctly|separat(?:e|es|ed)|decid(?:e|es|ed)|reproduc(?:e|es|ed)|"
+             r"crash(?:ed|es)?|flipped|fail(?:s|ed)?|chang(?:e|es|ed)|agree(?:s|d)?|misgroup\w*|"
+             r"pass(?:es|ed)?")
+_COUNT_OF = re.compile(r"(?<![\w.,])(\d+)\s+(?:\w+\s+){0,2}?(?:loops?|pairs?|cases?|cells?|"
+                       r"scenarios?|channels?|controllers?|episodes?|flights?|verdicts?|claims?|"
+                       r"environments?|runs?|settings?)\s+(?:\w+\s+){0,1}?(?:" + _OUTCOMES + r")\b")
+
+
+def _integer_results(line: str) -> list[str]:
+    """The integer results in one line of prose, less :data:`INTEGER_EXCEPTIONS`; a number
+    is reported once, in the first phrase that holds it."""
+    found, seen = [], set()
+    for rx in (_PERCENT, _OF_TOTAL, _COUNT_OF):
+        for m in rx.finditer(line):
+            g = next(i for i in range(1, (m.lastindex or 0) + 1) if m.group(i))
+            num, start = m.group(g), m.start(g)
+            if start in seen:
+                continue
+            seen.add(start)
+            if INTEGER_EXCEPTIONS["label"].search(line[:start]):
+                continue
+            if INTEGER_EXCEPTIONS["year"].match(num):
+                continue
+            if rx is _PERCENT and num == "95" and INTEGER_EXCEPTIONS["confidence level"].match(
+                    line[m.end():]):
+                continue
+            found.append(m.group(0).strip())
+    return found
+
+
 def bare_numbers(markdown: str) -> list[tuple[int, str, str]]:
-    """Every decimal number in the prose of ``markdown`` that is neither computed (glue)
-    nor marked (``{abbr}`x (paper)```), as (line number from 1, number, line)."""
+    """Every decimal number and every integer result (a percentage, a count out of a total,
+    a count of outcomes) in the prose of ``markdown`` that is neither computed (glue) nor
+    marked (``{abbr}`x (paper)```) nor one of :data:`INTEGER_EXCEPTIONS`, as (line number
+    from 1, the number or the phrase holding it, line)."""
     if not isinstance(markdown, str):
         raise ValueError(f"markdown must be a str, got {type(markdown).__name__}")
     lines = markdown.splitlines()
-    return [(i + 1, m.group(0), lines[i].strip())
-            for i, line in enumerate(_prose(markdown).splitlines())
-            for m in _DECIMAL.finditer(line)]
+    out = []
+    for i, line in enumerate(_prose(markdown).splitlines()):
+        hits = [(m.start(), m.group(0)) for m in _DECIMAL.finditer(line)]
+        hits += [(line.find(r), r) for r in _integer_results(line)]
+        out += [(i + 1, num, lines[i].strip()) for _, num in sorted(hits)]
+    return out
 
 
 def markdown_cells(path: Path) -> list[str]:
@@ -159,6 +222,36 @@ def test_the_checker_passes_what_the_rule_allows(text):
     assert bare_numbers(text) == [], text
 
 
+@pytest.mark.parametrize("text", [
+    "5 of 5 loops grouped correctly",
+    "it groups 83% of the loops correctly",
+    "the clustering separates 3 out of 4 pairs",
+    "4/5 controllers agree",
+    "12 loops grouped correctly and the rest did not",
+    "2 verdicts change at 30 loops",
+    "only 3 light pairs separate",
+    "a score of 40 percent",
+    "{abbr}`83% (the authors)` is not a source the rule knows",
+])
+def test_the_checker_flags_an_integer_result(text):
+    assert bare_numbers(text), text
+
+
+@pytest.mark.parametrize("text", [
+    "Exp 13 and Exps 13-14, Table 4, Tables 5-7, Fig 4, section 12, eqs 2-8, Exercise 20",
+    "Exercises 23 of 24 name none",   # a label, not a count
+    "in 2024 the authors wrote",
+    "bootstrap 95% confidence intervals; a 95% CI; the 95% level; its 95% t interval",
+    "the exact one-sided 95% lower bound of the share",
+    "50 loops per case over 12 s with 10 environments per group",
+    "a UAV {abbr}`20% (input)` heavier, {glue:text}`share:.0f`% of the loops",
+    "claim C3 and scenario S1 (scenarios 1 and 4)",
+    "{cite:p}`alwalan2024` 5 of",
+])
+def test_the_checker_allows_the_named_integer_exceptions(text):
+    assert bare_numbers(text) == [], text
+
+
 def test_the_checker_names_the_line_and_number():
     found = bare_numbers("one\n\nThe IMU scores 83.2,\nand $x = 1.5$ then 0.7.")
     assert [(n, num) for n, num, _ in found] == [(3, "83.2"), (4, "0.7")]
@@ -183,12 +276,27 @@ def test_a_planted_bare_number_is_caught(tmp_path):
     assert len(found) == 1 and "86.71" in found[0], found
 
 
+def test_a_planted_integer_result_is_caught(tmp_path):
+    """The same copy with a hand-typed count and percentage fails: integers are results too."""
+    page = tmp_path / "notebooks" / "exp1_wind_speed.md"
+    page.parent.mkdir()
+    shutil.copy(ROOT / "notebooks" / "exp1_wind_speed.md", page)
+    assert page_bare_numbers(page) == []
+    text = page.read_text()
+    head, sep, tail = text.partition("\n## ")
+    page.write_text(head + sep + tail.replace(
+        "\n", "\n\nHere 5 of 5 loops grouped correctly, 83% of the paper's.\n", 1))
+    found = page_bare_numbers(page)
+    assert len(found) == 2 and "5 of 5" in found[0] and "83%" in found[1], found
+
+
 # -- the book's own pages -------------------------------------------------------------
 
 @pytest.mark.parametrize("path", NOTEBOOKS + BOOK_PAGES, ids=lambda p: p.name)
 def test_no_bare_decimal_in_a_pages_prose(path):
     found = page_bare_numbers(path)
-    assert found == [], ("a number typed into prose: glue it from the results, or mark it "
+    assert found == [], ("a number or integer result typed into prose: glue it from the "
+                         "results, or mark it "
                          "{abbr}`x (paper)` / {abbr}`x (input)`:\n" + "\n".join(found))
 
 

@@ -174,7 +174,8 @@ def test_the_cache_is_read_back_and_a_tampered_copy_is_recomputed(flights, rows,
 
 def test_ranking_verdict_checks_only_what_the_real_flights_can_order():
     real = pd.DataFrame({"channel": ["a", "b", "c"], "mean": [90.0, 60.0, 58.0],
-                         "ci_low": [85.0, 50.0, 50.0], "ci_high": [95.0, 70.0, 66.0]})
+                         "ci_low": [85.0, 50.0, 50.0], "ci_high": [95.0, 70.0, 66.0],
+                         "n_controllers": 5})
 
     def sim(means):
         return pd.DataFrame({"channel": ["a", "b", "c"], "mean": means,
@@ -194,7 +195,8 @@ def test_the_ranking_agreement_comes_with_its_interval():
     standard error sqrt(1.06 / 3), in closed form."""
     ch = list("abcdef")
     real = pd.DataFrame({"channel": ch, "mean": [90.0, 80, 70, 60, 50, 40],
-                         "ci_low": [88.0, 78, 68, 58, 48, 38], "ci_high": [92.0, 82, 72, 62, 52, 42]})
+                         "ci_low": [88.0, 78, 68, 58, 48, 38], "ci_high": [92.0, 82, 72, 62, 52, 42],
+                         "n_controllers": 5})
     sim = pd.DataFrame({"channel": ch, "mean": [80.0, 90, 60, 70, 50, 40],
                         "ci_low": 0.0, "ci_high": 100.0})
     v = figure8.ranking_verdict(real, sim)
@@ -434,7 +436,12 @@ def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, t
 
 def test_decided_orders_are_the_pairs_whose_intervals_lie_apart():
     ch = pd.DataFrame({"channel": ["b", "a", "c"], "mean": [50.0, 80.0, 45.0],
-                       "ci_low": [40.0, 70.0, 30.0], "ci_high": [60.0, 90.0, 60.0]})
+                       "ci_low": [40.0, 70.0, 30.0], "ci_high": [60.0, 90.0, 60.0],
+                       "n_controllers": 5})
     assert rf.decided_orders(ch) == [("a", "b"), ("a", "c")]
     ch.loc[0, "ci_high"] = 70.0  # b's interval now reaches a's: that order is undecided
     assert rf.decided_orders(ch) == [("a", "c")]
+    # the one rule: fewer controllers than a verdict needs decide no order
+    assert rf.decided_orders(ch.assign(n_controllers=4)) == []
+    with pytest.raises(ValueError, match="n_controllers"):
+        rf.decided_orders(ch.drop(columns="n_controllers"))

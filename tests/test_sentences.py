@@ -8,28 +8,31 @@ from uavwind.report.sentences import (compare_phrase, first_to_lose, grouping_ph
 
 
 def test_interval_order_says_above_below_or_cannot_decide():
-    assert interval_order((5, 6), (1, 4)) == 1
-    assert interval_order((1, 4), (5, 6)) == -1
-    assert interval_order((1, 5), (4, 6)) == 0      # overlap
-    assert interval_order((1, 4), (4, 6)) == 0      # touching: not separated
-    assert interval_order((3, 3), (3, 3)) == 0      # two equal scores (exp10's 0.0 and 0.0)
+    assert interval_order((5, 6), (1, 4), n=5) == 1
+    assert interval_order((1, 4), (5, 6), n=5) == -1
+    assert interval_order((1, 5), (4, 6), n=5) == 0      # overlap
+    assert interval_order((1, 4), (4, 6), n=5) == 0      # touching: not separated
+    assert interval_order((3, 3), (3, 3), n=5) == 0      # two equal scores (exp10's 0.0 and 0.0)
+    assert interval_order((5, 6), (1, 4), n=2) == 0      # two loops decide nothing (issue 67)
 
 
 @pytest.mark.parametrize("a, b, name", [((2, 1), (0, 1), "a"), ((0, 1), (math.nan, 1), "b")])
 def test_interval_order_rejects_a_bad_interval_naming_it(a, b, name):
     with pytest.raises(ValueError, match=f"^{name} must"):
-        interval_order(a, b)
+        interval_order(a, b, n=5)
 
 
 def test_compare_phrase_takes_each_branch():
     words = dict(higher="up", lower="down", undecided="cannot decide")
-    assert compare_phrase((90, 95), (80, 85), **words) == "up"
-    assert compare_phrase((80, 85), (90, 95), **words) == "down"
-    assert compare_phrase((80, 92), (90, 95), **words) == "cannot decide"
+    assert compare_phrase((90, 95), (80, 85), **words, n=50) == "up"
+    assert compare_phrase((80, 85), (90, 95), **words, n=50) == "down"
+    assert compare_phrase((80, 92), (90, 95), **words, n=50) == "cannot decide"
+    assert compare_phrase((90, 95), (80, 85), **words, n=2) == "cannot decide"
 
 
 def test_interval_text_shows_no_interval_for_one_loop_or_a_zero_width_one():
     assert interval_text(85.0, 85.0, 85.0, n=1) == "85.0 (one loop)"
+    assert interval_text(85.0, 80.0, 90.0, n=2) == "85.0 (2 loops, no interval)"
     assert interval_text(85.0, 85.0, 85.0, n=3) == "85.0"
     assert interval_text(85.04, 80.12, 89.96, n=3) == "85.0 [80.1, 90.0]"
     assert interval_text(85.04, 80.12, 89.96, n=3, digits=2) == "85.04 [80.12, 89.96]"
@@ -64,6 +67,16 @@ def test_first_to_lose_names_the_largest_drop_or_none():
     assert first_to_lose({"a": 50.0, "b": 50.0}, {"a": 0.0, "b": 0.0}) == \
         "a and b lose most (50.0 points)"
     assert first_to_lose({"a": 50.0}, {"a": 60.0}) == "no channel loses score to the noise"
+    # with the loops' losses the ranking is the one rule's (issue 67)
+    two = first_to_lose(clean, {"position": 10.0, "attitude": 0.0, "IMU": 70.0},
+                        losses={"position": [80.0, 79.0], "attitude": [5.0, 5.0],
+                                "IMU": [10.0, 11.0]})
+    assert two.startswith("position loses most (80.0 points), not told apart from IMU")
+    assert "cannot decide" in two and "fewer than the 5" in two
+    many = first_to_lose(clean, {"position": 10.0, "attitude": 0.0, "IMU": 70.0},
+                         losses={"position": [80.0 + i for i in range(-3, 4)],
+                                 "attitude": [5.0] * 7, "IMU": [10.0 + i for i in range(-3, 4)]})
+    assert many == "position loses most (80.0 points)"
     with pytest.raises(ValueError, match="^clean and noisy must name"):
         first_to_lose({"a": 1.0}, {"b": 1.0})
     with pytest.raises(ValueError, match="^clean and noisy must be numbers"):

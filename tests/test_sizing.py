@@ -199,6 +199,9 @@ def test_profile_note_counts_loops_per_case_and_flags_a_quick_build():
     assert "**Its verdicts are provisional**" in one
     assert f"the paper profile runs {SIZINGS['exp11'].count} loops per case" in one
     assert "2 loops per case over 2 cases." in profile_note(frame(2))
+    # below the one rule's minimum the note says the page decides nothing (issue 67)
+    assert "a verdict needs at least 5" in one and "*cannot decide*" in one
+    assert "a verdict needs at least" not in profile_note(frame(5))
     assert "provisional" not in profile_note(frame(3, "paper"))
     cem = pd.DataFrame({"case": [0] * 8})  # Exp 6's quick CEM: one case, 8 samples
     cem.attrs.update(experiment="exp6", profile="quick")

@@ -97,19 +97,24 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
 
 
 def test_pretty_shows_no_interval_for_one_loop():
-    """n = 1 has no interval: not '95% CI 85.0-85.0' (issue 44); n = 2 keeps its bounds."""
+    """n = 1 has no interval: not '95% CI 85.0-85.0' (issue 44); nor has n = 2, whose
+    bootstrap is the two loops' range (issue 67); n = 3 keeps its bounds, unless they are
+    one number (a zero-width interval is not shown as one)."""
     import pandas as pd
 
     import uavwind as uw
-    df = pd.DataFrame({"mean": [85.0, 80.0], "ci_low": [85.0, 70.0], "ci_high": [85.0, 90.0],
-                       "correct_rate": [1.0, 0.5], "correct_low": [1.0, 0.0],
-                       "correct_high": [1.0, 1.0], "runner_up_low": [2.0, -1.0],
-                       "runner_up_high": [2.0, 3.0], "n_loops": [1, 2]})
+    df = pd.DataFrame({"mean": [85.0, 80.0, 80.0], "ci_low": [85.0, 70.0, 70.0],
+                       "ci_high": [85.0, 90.0, 90.0],
+                       "correct_rate": [1.0, 0.5, 1.0], "correct_low": [1.0, 0.0, 1.0],
+                       "correct_high": [1.0, 1.0, 1.0], "runner_up_low": [2.0, -1.0, -1.0],
+                       "runner_up_high": [2.0, 3.0, 3.0], "n_loops": [1, 2, 3]})
     out = uw.pretty(df)
-    one, two = out.iloc[0], out.iloc[1]
+    one, two, three = out.iloc[0], out.iloc[1], out.iloc[2]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
-    assert two["95% CI low"] == 70.0 and two["95% CI high"] == 90.0 and one["mean"] == 85.0
-    assert one["runner up low"] == "–" and two["runner up high"] == 3.0  # a paired difference's CI
+    assert [two[c] for c in ("95% CI low", "95% CI high", "runner up high")] == ["–"] * 3, two
+    assert three["95% CI low"] == 70.0 and three["95% CI high"] == 90.0 and one["mean"] == 85.0
+    assert three["runner up high"] == 3.0  # a paired difference's CI
+    assert three["correct, CI low (%)"] == "–"  # 100% [100, 100]: zero width, not shown
 
 
 def test_channel_names_read_as_words():

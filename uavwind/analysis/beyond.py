@@ -16,7 +16,9 @@ Every summary row is :func:`uavwind.core.stats.summarise` (95% bootstrap interva
 loops), the one summary and confidence-interval function of the project.
 A "best" channel is set against its runner-up on the same loops (every case of a scenario
 flies the same loops): paired differences with a bootstrap CI, and a verdict that says
-"cannot decide" when that CI spans 0.
+"cannot decide" when that CI spans 0. Every verdict here (*best*, *drops below* half) is
+the one rule's, :func:`uavwind.core.stats.decide`: none on fewer than
+:data:`~uavwind.core.stats.MIN_DECIDE` loops.
 """
 
 from __future__ import annotations
@@ -27,11 +29,12 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import check_instance
-from ..core.stats import bootstrap_ci, paired_difference, summarise
+from ..core.stats import (MIN_DECIDE, UNDECIDED, Decision, bootstrap_ci, decide,
+                          paired_difference, summarise)
 
 __all__ = ["noise_table", "breaking_level", "breaking_sentences", "at_noise",
            "observation_table", "best_observation", "baseline_table", "vehicle_table",
-           "future_table", "best_future", "loop_differences"]
+           "future_table", "best_future", "loop_differences", "baseline_advantage"]
 
 
 _COLUMNS = ("mean", "ci_low", "ci_high", "max", "correct_rate", "correct_low", "correct_high",
@@ -58,7 +61,9 @@ def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
     loops first falls below ``threshold``: ``last_ok`` (the largest level before it),
     ``first_broken`` (NaN: never within the levels run), the shares at both, and ``decided``:
     whether the share's 95% interval lies at or above the threshold at ``last_ok`` and below
-    it at ``first_broken`` (else these loops cannot place the break)."""
+    it at ``first_broken`` by the one rule (:func:`~uavwind.core.stats.decide`: at least
+    :data:`~uavwind.core.stats.MIN_DECIDE` loops a level; else these loops cannot place the
+    break), and ``n_loops``, the fewest loops of the two levels."""
     t = noise_table(df)
     t = t[t["noise_bias"] == 0].sort_values(["scenario", "noise_sigma"])
     rows = []
@@ -70,8 +75,11 @@ def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
         at_broken = below.iloc[0] if len(below) else None
         # does the share's 95% interval put each of the two levels on its side of the
         # threshold? (with a few loops it spans it, and the break cannot be placed)
-        decided = ((at_ok is None or at_ok["correct_low"] >= threshold)
-                   and (at_broken is None or at_broken["correct_high"] < threshold))
+        sides = [decide(r["correct_rate"], r["correct_low"], r["correct_high"],
+                        int(r["n_loops"]), threshold=threshold, above="above", below="below")
+                 for r in (at_ok, at_broken) if r is not None]
+        decided = ((at_ok is None or sides[0].word == "above")
+                   and (at_broken is None or sides[-1].word == "below"))
         nan = float("nan")
         rows.append({"scenario": scen,
                      "last_ok": nan if at_ok is None else float(at_ok["noise_sigma"]),
@@ -80,27 +88,39 @@ def breaking_level(df: pd.DataFrame, threshold: float = 0.5) -> pd.DataFrame:
                          nan if at_ok is None else float(at_ok["correct_rate"]),
                      "correct_rate_at_first_broken":
                          nan if at_broken is None else float(at_broken["correct_rate"]),
-                     "decided": bool(decided)})
+                     "decided": bool(decided), "n_loops": min(int(d.n) for d in sides)})
     return pd.DataFrame(rows).set_index("scenario")
 
 
 def breaking_sentences(levels: pd.DataFrame) -> dict:
     """Per scenario of ``levels`` (:func:`breaking_level`), where correct grouping breaks, in
     words: between which noise levels it drops below the threshold, or that it still holds at
-    the largest level run."""
+    the largest level run -- a verdict only where ``decided`` (the one rule); otherwise the
+    shares, and that these loops cannot place the break."""
     out = {}
     for scen, row in levels.iterrows():
+        decided = bool(row.get("decided", True))
+        n = int(row.get("n_loops", MIN_DECIDE))
+        ok = f"{100 * row['correct_rate_at_last_ok']:.0f}%"
         if np.isnan(row["first_broken"]):
-            out[scen] = (f"still groups {100 * row['correct_rate_at_last_ok']:.0f}% of the loops "
-                         f"correctly at {row['last_ok']:g} m, the largest level run")
-        else:
-            out[scen] = (f"drops below half between {row['last_ok']:g} m "
-                         f"({100 * row['correct_rate_at_last_ok']:.0f}% correct) and "
+            out[scen] = (f"still groups {ok} of the loops correctly at {row['last_ok']:g} m, "
+                         "the largest level run")
+        elif decided:
+            out[scen] = (f"drops below half between {row['last_ok']:g} m ({ok} correct) and "
                          f"{row['first_broken']:g} m "
                          f"({100 * row['correct_rate_at_first_broken']:.0f}%)")
-        if not row.get("decided", True):
-            out[scen] += (" on these loops' shares, but their 95% intervals reach across one "
-                          "half: **cannot decide** where it breaks")
+        else:
+            out[scen] = (f"groups {ok} of the loops correctly at {row['last_ok']:g} m and "
+                         f"{100 * row['correct_rate_at_first_broken']:.0f}% at "
+                         f"{row['first_broken']:g} m")
+        if not decided:
+            where = ("whether it still holds there" if np.isnan(row["first_broken"])
+                     else "where it breaks")
+            out[scen] += (f"{',' if np.isnan(row['first_broken']) else ''} on {n} loops a "
+                          f"level: **cannot decide** {where} ("
+                          + (f"a verdict needs {MIN_DECIDE} loops a level; the paper profile's "
+                             "build, `make book`, runs enough to place it)" if n < MIN_DECIDE
+                             else "the shares' 95% intervals reach across one half)"))
     return out
 
 
@@ -155,9 +175,10 @@ def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
     """The case of ``sub`` with the highest mean, set against the runner-up (``runner_up_*``)
     and each of ``references`` (``<label>_*``) by the mean of their loop-by-loop differences
     with a 95% bootstrap CI (:func:`loop_differences`; NaN for a reference not run).
-    ``verdict``: ``"best"`` when the CI against the runner-up lies above 0, ``"tied"`` when
-    the two score the same on every loop, ``"cannot decide"`` otherwise or with fewer than
-    two loops."""
+    ``verdict`` (the one rule, :func:`~uavwind.core.stats.decide`): ``"best"`` when the CI
+    against the runner-up lies above 0, ``"tied"`` when the two score the same on every loop,
+    ``"cannot decide"`` otherwise or with fewer than :data:`~uavwind.core.stats.MIN_DECIDE`
+    loops."""
     best, second, diffs = loop_differences(sub, rows, keys, references)
     out = {k: best[k] for k in keys}
     out.update({c: best[c] for c in ("mean", "ci_low", "ci_high", "correct_rate")})
@@ -171,8 +192,8 @@ def _decide_best(sub: pd.DataFrame, rows: pd.DataFrame, keys: tuple[str, ...],
         out.update(dict(zip((f"{label}_diff", f"{label}_low", f"{label}_high"), est)))
     d = diffs["runner_up"]
     out["n_loops"] = int(d.size)
-    out["verdict"] = ("cannot decide" if d.size < 2 else "tied" if (d == 0).all() else
-                      "best" if out["runner_up_low"] > 0 else "cannot decide")
+    out["verdict"] = decide(out["runner_up_diff"], out["runner_up_low"], out["runner_up_high"],
+                            int(d.size), above="best", below=UNDECIDED, within="tied").word
     return out
 
 
@@ -276,3 +297,21 @@ def baseline_table(df: pd.DataFrame) -> pd.DataFrame:
                     "n_loops": len(sub)})
         rows.append(row)
     return pd.DataFrame(rows)
+
+
+def baseline_advantage(df: pd.DataFrame, scenario: str, sigma: float = 0.0,
+                       bias: float = 0.0) -> Decision:
+    """Exp 9: does the model-based baseline group more loops correctly than causal curiosity
+    on ``scenario`` at white noise ``sigma`` [m] and bias ``bias`` [m]? Both read the same
+    loops, so the per-loop difference ``baseline_correct - correct`` (in percentage points)
+    is decided by the one rule (:func:`~uavwind.core.stats.decide`): ``"more"``, ``"fewer"``,
+    ``"as many"`` (every loop alike) or ``"cannot decide"``."""
+    df = _check_rows(df, ("scenario", "noise_sigma", "noise_bias", "loop", "correct",
+                          "baseline_correct"))
+    sub = df[(df["scenario"] == scenario) & (df["noise_sigma"] == sigma)
+             & (df["noise_bias"] == bias)].sort_values("loop")
+    if not len(sub):
+        raise ValueError(f"no loops of {scenario!r} at noise_sigma = {sigma:g} m, "
+                         f"noise_bias = {bias:g} m")
+    d = 100 * (sub["baseline_correct"].to_numpy(float) - sub["correct"].to_numpy(float))
+    return decide(*bootstrap_ci(d), d.size, above="more", below="fewer", within="as many")

@@ -30,7 +30,7 @@ import pandas as pd
 
 from ..core.checks import check_instance, check_scalar
 from ..core.seeding import child_rng, child_seed
-from ..core.stats import summarise
+from ..core.stats import MIN_DECIDE, decide, summarise
 from ..sim.actions import ThrustSequence, sample_paper
 from ..sim.dynamics import simulate, simulate_flight
 from ..sim.multirotor import Multirotor
@@ -42,10 +42,11 @@ __all__ = ["flyable_table", "flyable_verdicts", "best_channels", "MIN_VERDICT_LO
            "saturation_split", "drift_offsets", "wind_sensitivity", "zero_thrust_sensitivity",
            "SLEW_WINDOW"]
 
-#: Fewest loops a verdict needs: with every one of n loops grouped correctly, the exact
-#: one-sided 95% lower bound of the share, ``0.05 ** (1 / n)``, first exceeds 1/2 at n = 5
-#: (a percentile bootstrap of n equal outcomes is a zero-width interval at any n).
-MIN_VERDICT_LOOPS = 5
+#: Fewest loops a verdict needs: the one rule's :data:`uavwind.core.stats.MIN_DECIDE` (with
+#: every one of n loops grouped correctly, the exact one-sided 95% lower bound of the share,
+#: ``0.05 ** (1 / n)``, first exceeds 1/2 at n = 5; a percentile bootstrap of n equal
+#: outcomes is a zero-width interval at any n).
+MIN_VERDICT_LOOPS = MIN_DECIDE
 #: How long after a change of commanded attitude a control step counts as a slew [s].
 SLEW_WINDOW = 0.5
 
@@ -95,13 +96,10 @@ def flyable_table(df: pd.DataFrame) -> pd.DataFrame:
 
 
 def _verdict(row):
-    if not row["n_loops"] >= MIN_VERDICT_LOOPS:
-        return "cannot decide"
-    if row["correct_low"] > 0.5:
-        return "separates"
-    if row["correct_high"] < 0.5:
-        return "does not separate"
-    return "cannot decide"
+    n = row["n_loops"]
+    return decide(row["correct_rate"], row["correct_low"], row["correct_high"],
+                  int(n) if n == n else 0, threshold=0.5, above="separates",
+                  below="does not separate", min_n=MIN_VERDICT_LOOPS).word
 
 
 def flyable_verdicts(table: pd.DataFrame) -> pd.DataFrame:

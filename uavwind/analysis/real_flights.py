@@ -46,7 +46,7 @@ import pandas as pd
 from .._version import __version__
 from ..core.checks import check_instance, check_scalar
 from ..core.parallel import check_jobs
-from ..core.stats import t_ci
+from ..core.stats import MIN_DECIDE, decide, t_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, files_digest,
                               flight_files, flight_laps, lap_starts, pitch_degrees, read_flights,
                               split_noise)
@@ -443,8 +443,8 @@ def pair_table(rows: pd.DataFrame) -> pd.DataFrame:
 def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
     """One row per channel, best first: its mean score over every pair and controller, with
     a CI over controllers (each controller's mean over pairs is one replicate), the pooled
-    mean, the leave-one-controller-out accuracy (CI over controllers) and how many pairs
-    every controller separates."""
+    mean, the leave-one-controller-out accuracy (CI over controllers), how many pairs
+    every controller separates and ``n_controllers``, the replicates of the CI."""
     cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
     pooled = rows[(rows["kind"] == "cluster") & (rows["controller"] == "pooled")]
     loco = rows[rows["kind"] == "loco"]
@@ -458,7 +458,8 @@ def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
         out.append({"channel": ch, "mean": m, "ci_low": lo, "ci_high": hi,
                     "pooled": float(pooled[pooled.channel == ch]["score"].mean()),
                     "loco_accuracy": am, "loco_low": alo, "loco_high": ahi,
-                    "pairs_separated": int(pairs_all.sum()), "n_pairs": len(pairs_all)})
+                    "pairs_separated": int(pairs_all.sum()), "n_pairs": len(pairs_all),
+                    "n_controllers": len(per_ctl)})
     df = pd.DataFrame(out).sort_values("mean", ascending=False, ignore_index=True)
     df.insert(1, "rank", np.arange(1, len(df) + 1))
     return df
@@ -466,12 +467,22 @@ def channel_table(rows: pd.DataFrame) -> pd.DataFrame:
 
 def decided_orders(channels: pd.DataFrame) -> list[tuple[str, str]]:
     """The orders of two channels a :func:`channel_table` decides: ``(a, b)`` with ``a``
-    above ``b`` by mean and their CIs over controllers apart (``a``'s low bound not at or
-    below ``b``'s high one), best pair first."""
+    above ``b`` by mean and their CIs over controllers apart (``a``'s low bound above ``b``'s
+    high one), best pair first; by the one rule (:func:`~uavwind.core.stats.decide`, on the
+    difference of means with the interval ``[a_low - b_high, a_high - b_low]``), so no order
+    is decided on fewer than :data:`~uavwind.core.stats.MIN_DECIDE` controllers."""
     r = channels.set_index("channel")
     order = list(r.sort_values("mean", ascending=False).index)
-    return [(a, b) for i, a in enumerate(order) for b in order[i + 1:]
-            if not r.loc[a, "ci_low"] <= r.loc[b, "ci_high"]]
+    if "n_controllers" not in r:
+        raise ValueError("channels must be a channel_table (its n_controllers column is "
+                         "missing)")
+    n = r["n_controllers"]
+
+    def above(a, b):
+        return decide(r.loc[a, "mean"] - r.loc[b, "mean"], r.loc[a, "ci_low"] - r.loc[b, "ci_high"],
+                      r.loc[a, "ci_high"] - r.loc[b, "ci_low"], int(min(n[a], n[b])),
+                      unit="controllers").word == "higher"
+    return [(a, b) for i, a in enumerate(order) for b in order[i + 1:] if above(a, b)]
 
 
 def controlled_table(rows: pd.DataFrame) -> pd.DataFrame:
@@ -479,9 +490,10 @@ def controlled_table(rows: pd.DataFrame) -> pd.DataFrame:
     controller's mean over the pairs of winds), on the same wind (the negative control,
     each controller's mean over the winds), their paired difference per controller with a
     95% t interval over controllers, the share of correctly grouped control pairs, and the
-    ``verdict``: ``"separates the winds"`` when the difference's interval lies above 0,
-    ``"no better than its control"`` when it lies below or at 0, else ``"cannot decide"``
-    (and with fewer than two controllers)."""
+    ``verdict`` (the one rule, :func:`~uavwind.core.stats.decide`): ``"separates the winds"``
+    when the difference's interval lies above 0, ``"no better than its control"`` when it
+    lies below 0, else ``"cannot decide"`` (and with fewer than
+    :data:`~uavwind.core.stats.MIN_DECIDE` controllers)."""
     cl = rows[(rows["kind"] == "cluster") & (rows["controller"] != "pooled")]
     ctl = rows[rows["kind"] == "control"]
     out = []
@@ -490,14 +502,8 @@ def controlled_table(rows: pd.DataFrame) -> pd.DataFrame:
         same = ctl[ctl.channel == ch].groupby("controller")["score"].mean()
         both = pd.concat({"winds": diff_wind, "same": same}, axis=1).dropna()
         m, lo, hi = _ci((both["winds"] - both["same"]).to_numpy()) if len(both) else (np.nan,) * 3
-        if len(both) < 2 or np.isnan(lo):
-            verdict = "cannot decide"
-        elif lo > 0:
-            verdict = "separates the winds"
-        elif hi <= 0:
-            verdict = "no better than its control"
-        else:
-            verdict = "cannot decide"
+        verdict = decide(m, lo, hi, len(both), above="separates the winds",
+                         below="no better than its control", unit="controllers").word
         c = ctl[ctl.channel == ch]
         out.append({"channel": ch, "different_winds": float(diff_wind.mean()),
                     "same_wind": float(same.mean()) if len(same) else np.nan,

@@ -19,7 +19,7 @@ import pandas as pd
 
 from .._version import __version__
 from ..core.checks import check_instance
-from ..core.stats import ci_halfwidth, loops_needed, summarise
+from ..core.stats import MIN_DECIDE, ci_halfwidth, loops_needed, summarise
 from ..study.paper import load_paper_values
 from ..study.profiles import PROFILES
 from ..study.registry import EXPERIMENTS, get_experiment
@@ -163,9 +163,17 @@ def profile_note(df: pd.DataFrame) -> str:
     text = (f"**This page shows the *{prof}* profile:** {case_counts(df)} "
             f"per case over {n_cases} case{'' if n_cases == 1 else 's'}.")
     if prof != "paper":
+        col, unit = _COUNTED[exp.search]
+        fewest = int((df.groupby("case").size() if col is None
+                      else df.groupby("case")[col].nunique()).min())
         text += (f" **Its verdicts are provisional**: the paper profile runs {_span(ref)} "
-                 f"{_COUNTED[exp.search][1]} per case (`make book`), and a CI from this few "
-                 f"cannot decide most questions.")
+                 f"{unit} per case (`make book`)"
+                 + (f", and a verdict needs at least {MIN_DECIDE} (`stats.decide`, the one rule "
+                    f"of every verdict): with {fewest} per case, a verdict on this page that "
+                    f"reads a case's {unit} says *cannot decide*, which the paper profile's "
+                    f"build decides."
+                    if fewest < MIN_DECIDE else
+                    ", and a CI from this few cannot decide most questions."))
     return text
 
 

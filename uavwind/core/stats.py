@@ -8,12 +8,21 @@ correct share with its interval, count: the row of every summary table). Claims,
 and figures all call these, so an interval means the same thing everywhere;
 :func:`loops_needed` turns one loop's spread into the loops a CI of a given half-width needs
 (how the paper profile's counts beyond the paper are chosen: :mod:`uavwind.study.sizing`).
+
+It also owns **the one rule of every verdict** (issue 67): :func:`decide` says whether an
+estimate with its interval over ``n`` loops (episodes, controllers) is decided against a
+threshold, and in which word, as a :class:`Decision`; every verdict word of the book (a
+claim *reproduced* or *partly*, a channel *best* or *separates*, a share that *drops below*
+one half, one case *higher* than another) is read from one. :func:`interval_label` is how an
+interval is written: never a "95%" interval of fewer than :data:`MIN_INTERVAL` values, never a
+zero-width one.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from math import ceil, sqrt
+from dataclasses import dataclass
+from math import ceil, isnan, sqrt
 from statistics import NormalDist
 from typing import TYPE_CHECKING
 
@@ -26,7 +35,8 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["bootstrap_ci", "t_ci", "paired_difference", "correct_share", "summarise", "loops_needed",
-           "ci_halfwidth", "wilson_ci", "N_BOOT", "SEED", "LEVEL"]
+           "ci_halfwidth", "wilson_ci", "N_BOOT", "SEED", "LEVEL", "Decision", "decide",
+           "interval_label", "MIN_DECIDE", "MIN_INTERVAL", "UNDECIDED"]
 
 #: Bootstrap resamples of every interval.
 N_BOOT = 2000
@@ -200,3 +210,145 @@ def wilson_ci(k: int, n: int, level: float = LEVEL) -> tuple[float, float, float
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
     half = z / (1 + z * z / n) * sqrt(p * (1 - p) / n + z * z / (4 * n * n))
     return p, max(0.0, centre - half), min(1.0, centre + half)
+
+
+# --------------------------------------------------------------------------- #
+# the one rule of every verdict
+# --------------------------------------------------------------------------- #
+#: Fewest values (loops, episodes, controllers) any verdict reads. With every one of ``n``
+#: loops grouped correctly, the exact one-sided 95% lower bound of the share,
+#: ``0.05 ** (1 / n)``, first exceeds 1/2 at ``n = 5``; below it no count of loops can carry
+#: a verdict, whatever its percentile bootstrap says (two loops' interval is [the lower loop,
+#: the higher loop] and covers the mean about half the time). The minimum Exp 14 and claims
+#: C3 and C7 named first.
+MIN_DECIDE = 5
+#: Fewest values an interval is shown for and called a 95% interval
+#: (:func:`interval_label`): a percentile bootstrap of two values is their range.
+MIN_INTERVAL = 3
+#: The word of a comparison the evidence does not decide.
+UNDECIDED = "cannot decide"
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What :func:`decide` concluded about one comparison or share.
+
+    Attributes
+    ----------
+    decided : bool
+        Whether the evidence carries a verdict.
+    word : str
+        The verdict word (the caller's ``above``, ``below`` or ``within``), or
+        :data:`UNDECIDED`.
+    reason : str
+        Why, in words a page can print ("2 loops, fewer than the 5 a verdict needs").
+    n : int
+        The values (loops, episodes, controllers) the estimate is over.
+    estimate, low, high : float
+        The estimate and its 95% interval.
+    threshold : float
+        What it was compared with (0 for a difference, 1/2 for a share).
+    margin : float or None
+        The size of difference that counts as none (``within``), if one was asked.
+    min_n : int
+        The fewest values the verdict needed.
+    """
+
+    decided: bool
+    word: str
+    reason: str
+    n: int
+    estimate: float
+    low: float
+    high: float
+    threshold: float = 0.0
+    margin: float | None = None
+    min_n: int = MIN_DECIDE
+
+    @property
+    def too_few(self) -> bool:
+        """Undecided because ``n`` is below :attr:`min_n` (more loops may decide it)."""
+        return self.n < self.min_n
+
+    def __str__(self) -> str:
+        return self.word
+
+
+def decide(estimate: float, low: float, high: float, n: int, *, threshold: float = 0.0,
+           margin: float | None = None, above: str = "higher", below: str = "lower",
+           within: str = "no different", unit: str = "loops",
+           min_n: int = MIN_DECIDE) -> Decision:
+    """The one rule of every verdict: is ``estimate`` (with its 95% interval ``[low, high]``
+    over ``n`` values) decidedly above ``threshold``, below it, or -- with ``margin`` -- within
+    ``margin`` of it?
+
+    In this order:
+
+    1. ``n < min_n`` (default :data:`MIN_DECIDE`, 5): **undecided**, whatever the interval
+       (too few loops; the reason says so and how many a verdict needs);
+    2. a NaN estimate or bound: **undecided** (no interval);
+    3. ``margin`` given and the interval inside ``(threshold - margin, threshold + margin)``:
+       ``within`` (the difference is smaller than the size that matters);
+    4. a zero-width interval (``low == high``: every one of the ``n`` values is the same, so
+       a bootstrap has no spread to resample): decided by the estimate itself, ``above`` /
+       ``below`` / ``within`` (equal to the threshold: a tie on every loop); at ``n >= 5`` a
+       share of ``n`` out of ``n`` has an exact lower bound above 1/2, so this is no weaker
+       than an interval;
+    5. ``low > threshold``: ``above``; ``high < threshold``: ``below``;
+    6. otherwise **undecided**: the interval spans the threshold.
+
+    >>> decide(3.0, 1.0, 5.0, 50).word
+    'higher'
+    >>> decide(3.0, 1.0, 5.0, 2).word       # two loops decide nothing
+    'cannot decide'
+    >>> decide(0.2, -1.0, 1.4, 50, margin=5.0, within="no major effect").word
+    'no major effect'
+    """
+    n = check_scalar(n, "n", low=0, integer=True)
+    min_n = check_scalar(min_n, "min_n", low=1, integer=True)
+    est, lo, hi, thr = (float(v) for v in (estimate, low, high, threshold))
+    if margin is not None:
+        margin = check_scalar(margin, "margin", low=0.0)
+    if not isnan(lo) and not isnan(hi) and lo > hi:
+        raise ValueError(f"low must not exceed high, got [{lo}, {hi}]")
+
+    def out(decided, word, reason):
+        return Decision(decided, word, reason, n, est, lo, hi, thr, margin, min_n)
+
+    if n < min_n:
+        return out(False, UNDECIDED, f"only {n} {unit}, fewer than the {min_n} a verdict needs")
+    if isnan(est) or isnan(lo) or isnan(hi):
+        return out(False, UNDECIDED, "no interval to read")
+    if margin is not None and thr - margin < lo and hi < thr + margin:
+        return out(True, within, f"the 95% interval lies within {margin:g} of {thr:g}")
+    if lo == hi:
+        word = above if est > thr else below if est < thr else within
+        return out(True, word, f"every one of the {n} {unit} gives {est:g} (no spread)")
+    if lo > thr:
+        return out(True, above, f"the 95% interval lies above {thr:g}")
+    if hi < thr:
+        return out(True, below, f"the 95% interval lies below {thr:g}")
+    return out(False, UNDECIDED, f"the 95% interval spans {thr:g}")
+
+
+def interval_label(estimate: float, low: float, high: float, n: int, digits: int = 2,
+                   scale: float = 1.0, unit: str = "loops", suffix: str = "") -> str:
+    """An estimate with its 95% interval as the book writes it: ``"85.00 [80.10, 89.90]"``;
+    with fewer than :data:`MIN_INTERVAL` values no interval is called one
+    (``"85.00 (2 loops, no interval)"``), and a zero-width interval is not shown as an
+    interval (``"85.00 (the same on all 5 loops)"``). ``scale`` multiplies every number
+    (100 for a share in percent) and ``suffix`` follows the estimate (``"%"``).
+
+    >>> interval_label(0.5, 0.0, 1.0, 2, digits=0, scale=100)
+    '50 (2 loops, no interval)'
+    """
+    n = check_scalar(n, "n", low=0, integer=True)
+    est, lo, hi = (float(v) * scale for v in (estimate, low, high))
+    # round(., d) + 0.0: never "-0.00" (a bias of -1e-17 is none)
+    e, lo_r, hi_r = (round(v, digits) + 0.0 for v in (est, lo, hi))
+    if n < MIN_INTERVAL or isnan(lo) or isnan(hi):
+        one = unit[:-1] if unit.endswith("s") else unit
+        return f"{e:.{digits}f}{suffix} ({n} {one if n == 1 else unit}, no interval)"
+    if lo_r == hi_r:
+        return f"{e:.{digits}f}{suffix} (the same on all {n} {unit})"
+    return f"{e:.{digits}f}{suffix} [{lo_r:.{digits}f}, {hi_r:.{digits}f}]"

@@ -4,10 +4,15 @@ This module owns the drawing helpers :mod:`uavwind.report.plotting` (the paper's
 :mod:`uavwind.report.beyond_figures` (the figures beyond it) both use: ``_plt``, pyplot
 imported when a figure is drawn (a page that only reads results never loads matplotlib),
 :data:`GROUP_COLOURS`, the two groups' colours, and ``_mark_zero_bars``, the "0" beside a bar
-that scored 0, and ``_legend_above``, one legend above a figure's panels.
+that scored 0, ``_legend_above``, one legend above a figure's panels, and ``_errors``, the
+error bars of a 95% interval, left out where there is none to show.
 """
 
 from __future__ import annotations
+
+import numpy as np
+
+from ..core.stats import MIN_INTERVAL
 
 #: The colours of group 0 and group 1 in every figure.
 GROUP_COLOURS = ("tab:blue", "tab:orange")
@@ -44,3 +49,16 @@ def _legend_above(fig, axes, fontsize: float = 8) -> None:
     if seen:
         fig.legend(list(seen.values()), list(seen), fontsize=fontsize,
                    loc="outside upper center", ncol=min(len(seen), 5))
+
+
+def _errors(frame, mean: str = "mean", low: str = "ci_low", high: str = "ci_high",
+            n: str = "n_loops") -> np.ndarray:
+    """The (2, k) error bars of ``frame``'s 95% intervals around ``mean``: NaN (no bar) for a
+    row of fewer than :data:`~uavwind.core.stats.MIN_INTERVAL` loops (``n``: two loops'
+    bootstrap is their range, not a 95% interval) or with a zero-width interval."""
+    err = np.clip(np.vstack([np.asarray(frame[mean] - frame[low], float),
+                             np.asarray(frame[high] - frame[mean], float)]), 0, None)
+    flat = np.asarray(frame[low], float) == np.asarray(frame[high], float)
+    few = (np.asarray(frame[n], float) < MIN_INTERVAL) if n in frame else np.zeros_like(flat)
+    err[:, flat | few] = np.nan
+    return err

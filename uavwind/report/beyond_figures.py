@@ -30,8 +30,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..analysis.closed_loop import POLICY_NAMES
+from ..core.stats import MIN_INTERVAL
 from ..analysis.wind_estimates import BASELINE, PROTOCOL_NAMES, estimates
-from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
+from ._drawing import GROUP_COLOURS, _errors, _legend_above, _mark_zero_bars, _plt
 from .display import channel_name
 
 if TYPE_CHECKING:
@@ -56,8 +57,9 @@ def noise_curves(table: pd.DataFrame) -> Figure:
                                                   ("correct_rate", "correct_low",
                                                    "correct_high", 100)]):
             line, = ax.plot(x, scale * sub[y], marker="o", ms=3, label=scen)
-            ax.fill_between(x, scale * sub[lo], scale * sub[hi], color=line.get_color(),
-                            alpha=0.15)
+            if (sub["n_loops"] >= MIN_INTERVAL).all():  # two loops' range is no 95% band
+                ax.fill_between(x, scale * sub[lo], scale * sub[hi], color=line.get_color(),
+                                alpha=0.15)
     for ax, label in zip(axes, ["mean score", "correctly grouped loops (%)"]):
         ax.set_xscale("log")
         ax.axvline(1.0, color="0.5", ls=":", lw=0.8)
@@ -81,7 +83,7 @@ def observation_bars(table: pd.DataFrame) -> Figure:
         x = np.arange(len(obs))
         for j, (noise, colour) in enumerate((("none", "tab:blue"), ("consumer", "tab:orange"))):
             s = sub[sub["noise"] == noise].set_index("observation").reindex(obs)
-            err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
+            err = _errors(s)  # no bar where there is no 95% interval
             _mark_zero_bars(ax, ax.bar(x + (j - 0.5) * 0.38, s["mean"], 0.38, yerr=err,
                                        capsize=2, color=colour, label=f"noise: {noise}"),
                             fontsize=9)
@@ -169,7 +171,7 @@ def vehicle_scores(table) -> Figure:
     y = np.arange(len(scen))
     for j, v in enumerate(vehicles):
         s = table[table["vehicle"] == v].set_index("scenario").reindex(scen)
-        err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0, None)
+        err = _errors(s)  # no bar where there is no 95% interval
         _mark_zero_bars(ax, ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h,
                                     xerr=err, capsize=2, label=v))
     ax.set_yticks(y, scen, fontsize=8)
@@ -226,10 +228,7 @@ def flyable_scores(table) -> Figure:
         for j, a in enumerate(actions):
             s = table[(table["observation"] == o) & (table["action"] == a)]
             s = s.set_index("scenario").reindex(scen)
-            err = np.clip(np.vstack([s["mean"] - s["ci_low"], s["ci_high"] - s["mean"]]), 0,
-                          None)
-            if "n_loops" in s:  # one loop has no interval: no error bar either
-                err[:, (s["n_loops"] < 2).to_numpy()] = np.nan
+            err = _errors(s)  # fewer than 3 loops, or zero width: no 95% interval, no bar
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))

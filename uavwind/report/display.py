@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from ..core.stats import MIN_INTERVAL
 from ..study.registry import column_names
 
 if TYPE_CHECKING:
@@ -65,14 +66,25 @@ SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate"
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     """A display copy of ``df``: shares as percentages, columns and index levels renamed
     by :data:`PRETTY` (unknown names pass through), numbers rounded to ``precision``; a row
-    of one loop (``n_loops`` 1) shows no interval (its bounds, ``ci_low``/``ci_high`` and
-    any ``*_low``/``*_high``, as :data:`MISSING`), since one value has none."""
+    of fewer than :data:`~uavwind.core.stats.MIN_INTERVAL` loops (``n_loops``) shows no
+    interval (its bounds, ``ci_low``/``ci_high`` and any ``*_low``/``*_high``, as
+    :data:`MISSING`): one value has none, and two values' bootstrap is only their range, not
+    a 95% interval; nor does a zero-width interval (every loop alike) show as one."""
     out = df.copy()
+    bounds = [c for c in out.columns
+              if c in _INTERVAL_BOUNDS or str(c).endswith(("_low", "_high"))]
     if "n_loops" in out.columns:
-        one = (out["n_loops"] == 1).to_numpy()
-        for col in out.columns:
-            if (col in _INTERVAL_BOUNDS or str(col).endswith(("_low", "_high"))) and one.any():
-                out[col] = out[col].astype(float).where(~one)
+        few = (out["n_loops"].astype(float) < MIN_INTERVAL).to_numpy()
+        for col in bounds:
+            if few.any():
+                out[col] = out[col].astype(float).where(~few)
+    for low in [c for c in bounds if str(c).endswith("_low")]:
+        high = str(low)[:-4] + "_high"
+        if high in out.columns:
+            flat = (out[low].astype(float) == out[high].astype(float)).to_numpy()
+            if flat.any():
+                out[low] = out[low].astype(float).where(~flat)
+                out[high] = out[high].astype(float).where(~flat)
     for col in out.columns:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
         if name in SHARES or str(name).startswith("correct_rate"):

@@ -32,7 +32,7 @@ import numpy as np
 from ..analysis.tables import provenance
 from ..core.stats import summarise
 from ..sim.mil_dryden import dryden_psd
-from ._drawing import GROUP_COLOURS, _legend_above, _mark_zero_bars, _plt
+from ._drawing import GROUP_COLOURS, _errors, _legend_above, _mark_zero_bars, _plt
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -252,11 +252,12 @@ def score_vs_parameter(df: pd.DataFrame, x: str, by: str = "scenario", ncols: in
         rows = [summarise(sub.loc[sub[x] == v]) for v in xs]
         mx = np.array([r["max"] for r in rows])
         mn = np.array([r["mean"] for r in rows])
-        ci = np.array([[r["mean"] - r["ci_low"] for r in rows],
-                       [r["ci_high"] - r["mean"] for r in rows]])
+        ci = _errors({k: np.array([r[k] for r in rows], float)  # no 95% interval, no bar
+                      for k in ("mean", "ci_low", "ci_high", "n_loops")})
         ax.plot(xs, mx, marker="^", color="tab:red", label="maximum")
         ax.errorbar(xs, mn, yerr=ci, marker="o", color="tab:blue", capsize=2,
-                    label="mean (95% bootstrap CI)")
+                    label="mean (95% bootstrap CI)" if np.isfinite(ci).any() else
+                    "mean (too few loops for a 95% CI)")
         if paper is not None:
             p = paper.loc[paper["scenario"] == key]
             ax.scatter(p[x], p["maximum"], marker="^", color="0.5", zorder=3, label="paper max")

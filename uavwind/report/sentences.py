@@ -3,8 +3,9 @@
 This module owns the book's *verdict words* in prose: a sentence that says one thing is
 higher, loses first, takes something away or groups the environments is computed here from
 the numbers it describes, so it cannot contradict them when a profile, a count or a sizing
-changes (issue 44). A verdict word is given only where the 95% intervals carry it: two
-intervals that overlap *cannot decide*, and the sentence says so.
+changes (issue 44). A verdict word is given only where the one rule of every verdict,
+:func:`uavwind.core.stats.decide`, carries it: two intervals that overlap, or intervals over
+fewer loops than a verdict needs, *cannot decide*, and the sentence says so.
 
 Each function raises a ``ValueError`` naming the parameter on input it cannot judge (an
 interval whose low end lies above its high end, a NaN, an empty set of rates).
@@ -14,6 +15,10 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from ..core.stats import MIN_INTERVAL, UNDECIDED, decide, paired_difference
 
 __all__ = ["interval_order", "compare_phrase", "interval_text", "grouping_phrase",
            "first_to_lose"]
@@ -28,28 +33,30 @@ def _interval(low: float, high: float, name: str) -> tuple[float, float]:
     return low, high
 
 
-def interval_order(a: Sequence[float], b: Sequence[float]) -> int:
+def interval_order(a: Sequence[float], b: Sequence[float], *, n: int) -> int:
     """``+1`` when interval ``a`` = (low, high) lies wholly above ``b``, ``-1`` wholly below,
-    ``0`` when they overlap: the intervals cannot decide which is higher."""
+    ``0`` when they overlap or either is over fewer than
+    :data:`~uavwind.core.stats.MIN_DECIDE` loops (``n``, the fewer of the two): the
+    intervals cannot decide which is higher. The one rule
+    (:func:`~uavwind.core.stats.decide`) on ``a - b`` with ``[a_low - b_high, a_high - b_low]``."""
     a_lo, a_hi = _interval(*a, "a")
     b_lo, b_hi = _interval(*b, "b")
-    if a_lo > b_hi:
-        return 1
-    if a_hi < b_lo:
-        return -1
-    return 0
+    d = decide((a_lo + a_hi - b_lo - b_hi) / 2, a_lo - b_hi, a_hi - b_lo, n)
+    return {"higher": 1, "lower": -1}.get(d.word, 0)
 
 
 def compare_phrase(a: Sequence[float], b: Sequence[float], higher: str, lower: str,
-                   undecided: str) -> str:
+                   undecided: str, *, n: int) -> str:
     """``higher`` when ``a``'s interval lies above ``b``'s, ``lower`` when below, else
-    ``undecided`` (:func:`interval_order`)."""
-    return {1: higher, -1: lower, 0: undecided}[interval_order(a, b)]
+    ``undecided`` (:func:`interval_order` over ``n`` loops)."""
+    return {1: higher, -1: lower, 0: undecided}[interval_order(a, b, n=n)]
 
 
 def interval_text(mean: float, low: float, high: float, n: int, digits: int = 1) -> str:
-    """``"85.0 [80.1, 89.9]"``: a mean with its 95% interval; a mean of one loop (``n`` = 1)
-    or a zero-width interval has none to show, so only ``"85.0 (one loop)"`` or the mean."""
+    """``"85.0 [80.1, 89.9]"``: a mean with its 95% interval; a mean of fewer than
+    :data:`~uavwind.core.stats.MIN_INTERVAL` loops has none to call one (``"85.0 (one
+    loop)"``, ``"85.0 (2 loops, no interval)"``) and a zero-width interval is not shown, only
+    the mean."""
     n = int(n)
     if n < 1:
         raise ValueError(f"n must be at least 1, got {n}")
@@ -57,6 +64,8 @@ def interval_text(mean: float, low: float, high: float, n: int, digits: int = 1)
         raise ValueError(f"mean must be a number, got {mean}")
     if n == 1:
         return f"{mean:.{digits}f} (one loop)"
+    if n < MIN_INTERVAL:
+        return f"{mean:.{digits}f} ({n} loops, no interval)"
     lo, hi = _interval(low, high, "interval")
     if round(lo, digits) == round(hi, digits):
         return f"{mean:.{digits}f}"
@@ -84,11 +93,17 @@ def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:
             f"case by case")
 
 
-def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str:
+def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float],
+                  losses: Mapping[str, Sequence[float]] | None = None) -> str:
     """Which channel loses most of its score when noise is added, from each channel's score
     without (``clean``) and with noise (``noisy``), keyed alike: ``"<name> loses most (<points>
     points)"`` (ties named together), or ``"no channel loses score to the noise"`` when none
-    scores lower with it."""
+    scores lower with it.
+
+    With ``losses`` (channel -> its loss on each loop, the same loops for every channel) the
+    ranking is the one rule's (:func:`~uavwind.core.stats.decide` on the paired difference
+    between the largest loss and the runner-up's): where it cannot decide, the sentence names
+    the runner-up and says so."""
     if set(clean) != set(noisy) or not clean:
         raise ValueError(f"clean and noisy must name the same channels, got {sorted(clean)} "
                          f"and {sorted(noisy)}")
@@ -99,5 +114,16 @@ def first_to_lose(clean: Mapping[str, float], noisy: Mapping[str, float]) -> str
     losers = sorted(k for k, v in loss.items() if v == top)
     if top <= 0:
         return "no channel loses score to the noise"
-    return f"{' and '.join(losers)} {'loses' if len(losers) == 1 else 'lose'} most ({top:.1f} points)"
+    text = f"{' and '.join(losers)} {'loses' if len(losers) == 1 else 'lose'} most ({top:.1f} points)"
+    rest = sorted((k for k in loss if k not in losers), key=loss.get, reverse=True)
+    if losses is None or len(losers) > 1 or not rest:
+        return text
+    second = rest[0]
+    a, b = (np.asarray(losses[k], dtype=float) for k in (losers[0], second))
+    n = min(a.size, b.size)
+    d = decide(*paired_difference(a[:n], b[:n]), n) if n else decide(0.0, 0.0, 0.0, 0)
+    if d.word == "higher":
+        return text
+    return (f"{text}, not told apart from {second} ({loss[second]:.1f} points): "
+            f"{UNDECIDED} on these loops ({d.reason})")
 
