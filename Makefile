@@ -86,8 +86,9 @@ $(STAMP): environment.txt
 
 venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
 
-test: $(STAMP)  ## run the test suite
-	$(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder
+# --durations: where the suite's own time goes, printed with every run
+test: $(STAMP)  ## run the test suite (TEST_JOBS processes, the quick book built beside them)
+	$(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder --durations=20
 
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
 	$(TIMEOUT) $(BENCH_TIMEOUT) $(BIN)/python benchmarks/bench.py

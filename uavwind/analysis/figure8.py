@@ -47,7 +47,7 @@ import numpy as np
 import pandas as pd
 
 from .._version import __version__
-from ..core.checks import check_instance, check_scalar
+from ..core.checks import Range, check_fields, check_instance, check_scalar
 from ..core.seeding import child_rng, child_seed, root_seed
 from ..data.neuralfly import CONDITIONS, NOISE_CUTOFF, RealFlight
 from ..sim.dryden import DrydenWind
@@ -125,14 +125,9 @@ class TwinCalibration:
     controllers: tuple = ()
 
     def __post_init__(self):
-        object.__setattr__(self, "drag_scale", check_scalar(self.drag_scale, "drag_scale", low=0.0,
-                                                            low_inclusive=False, high=100.0))
-        object.__setattr__(self, "lift_scale", check_scalar(self.lift_scale, "lift_scale",
-                                                            low=0.0, high=100.0))
-        object.__setattr__(self, "gust_scale", check_scalar(self.gust_scale, "gust_scale",
-                                                            low=0.0, high=10.0))
-        object.__setattr__(self, "axis_offset", check_scalar(self.axis_offset, "axis_offset",
-                                                             low=-45.0, high=45.0))
+        check_fields(self, {"drag_scale": Range(0.0, 100.0, low_inclusive=False),
+                            "lift_scale": Range(0.0, 100.0), "gust_scale": Range(0.0, 10.0),
+                            "axis_offset": Range(-45.0, 45.0)})
         known = set(noise_columns())
         for c, col, std in self.noise:
             if c not in CONDITIONS or col not in known:

@@ -44,7 +44,7 @@ import numpy as np
 import pandas as pd
 
 from .._version import __version__
-from ..core.checks import check_instance, check_scalar
+from ..core.checks import Range, check_fields, check_instance
 from ..core.parallel import check_jobs
 from ..core.stats import MIN_DECIDE, decide, t_ci
 from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, files_digest,
@@ -108,12 +108,10 @@ class RealFlightStudy:
     max_iter: int = 5
 
     def __post_init__(self):
-        object.__setattr__(self, "n_samples", check_scalar(self.n_samples, "n_samples", low=4,
-                                                           high=10_000, integer=True))
-        object.__setattr__(self, "drop_first", check_scalar(self.drop_first, "drop_first",
-                                                            low=0, high=100, integer=True))
-        object.__setattr__(self, "max_laps", check_scalar(self.max_laps, "max_laps", low=0,
-                                                          high=10_000, integer=True))
+        check_fields(self, {"n_samples": Range(4, 10_000, integer=True),
+                            "drop_first": Range(0, 100, integer=True),
+                            "max_laps": Range(0, 10_000, integer=True),
+                            "max_iter": Range(1, 10_000, integer=True)})
         if isinstance(self.channels, str) or not self.channels:
             raise TypeError(f"channels must be a non-empty tuple of channel names, got "
                             f"{self.channels!r}")
@@ -128,8 +126,6 @@ class RealFlightStudy:
             if c not in CONDITIONS:
                 raise ValueError(f"conditions must be among {list(CONDITIONS)}, got {c!r}")
         object.__setattr__(self, "conditions", tuple(self.conditions))
-        object.__setattr__(self, "max_iter", check_scalar(self.max_iter, "max_iter", low=1,
-                                                          high=10_000, integer=True))
 
 
 #: The study at each profile: the quick one keeps two laps per flight and three conditions

@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.checks import check_scalar
+from ..core.checks import Range, check_fields, check_scalar
 from .mil_dryden import dryden_gain
 
 if TYPE_CHECKING:
@@ -87,15 +87,12 @@ class CitedDryden:
 
     def __post_init__(self):
         if self.turbulence_level is not None:
-            object.__setattr__(self, "turbulence_level", check_scalar(
-                self.turbulence_level, "turbulence_level", low=0, low_inclusive=False,
-                high=1e3))
+            check_fields(self, {"turbulence_level": Range(0, 1e3, low_inclusive=False)})
         check_scalar(self.length_constant, "length_constant", low=0, low_inclusive=False)
         check_scalar(self.length_exponent, "length_exponent", low=0)
         check_scalar(self.noise_scale, "noise_scale", low=0)
         check_scalar(self.grid_duration, "grid_duration", low=0, low_inclusive=False)
-        object.__setattr__(self, "grid_samples", check_scalar(
-            self.grid_samples, "grid_samples", low=2, high=10 ** 7, integer=True))
+        check_fields(self, {"grid_samples": Range(2, 10 ** 7, integer=True)})
         check_scalar(self.output_scale, "output_scale", low=0, low_inclusive=False)
         if self.seeds is not None:
             seeds = tuple(int(x) for x in self.seeds)

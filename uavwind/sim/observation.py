@@ -33,7 +33,7 @@ import math
 from dataclasses import dataclass
 import numpy as np
 
-from ..core.checks import check_instance, check_scalar
+from ..core.checks import Range, check_fields, check_instance, check_scalar
 from ..core.seeding import child_seed, root_seed
 from .flight import Flight
 
@@ -93,12 +93,10 @@ class Noise:
     rate: float = 0.0
 
     def __post_init__(self):
-        for name, high in (("position", 1e3), ("bias", 1e3), ("velocity", 1e2),
-                           ("acceleration", 1e2), ("attitude", 1.0), ("rate", 10.0)):
-            object.__setattr__(self, name, check_scalar(getattr(self, name), name, low=0.0,
-                                                        high=high))
-        object.__setattr__(self, "bias_time", check_scalar(
-            self.bias_time, "bias_time", low=0.0, low_inclusive=False, high=1e7))
+        check_fields(self, {"position": Range(0.0, 1e3), "bias": Range(0.0, 1e3),
+                            "velocity": Range(0.0, 1e2), "acceleration": Range(0.0, 1e2),
+                            "attitude": Range(0.0, 1.0), "rate": Range(0.0, 10.0),
+                            "bias_time": Range(0.0, 1e7, low_inclusive=False)})
 
     @property
     def is_zero(self) -> bool:

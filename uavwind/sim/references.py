@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..core.checks import check_array, check_instance, check_scalar
+from ..core.checks import Range, check_array, check_fields, check_instance, check_scalar
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -133,8 +133,7 @@ class Lemniscate(Reference):
         if min(amp) < 0:
             raise ValueError(f"amplitude must be >= 0 on every axis [m], got {amp}")
         object.__setattr__(self, "amplitude", amp)
-        object.__setattr__(self, "period", check_scalar(self.period, "period", low=0.0,
-                                                        low_inclusive=False, high=1e6))
+        check_fields(self, {"period": Range(0.0, 1e6, low_inclusive=False)})
 
     @property
     def omega(self) -> float:

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..core.checks import check_scalar
+from ..core.checks import Range, check_fields, check_scalar
 from .actions import SAMPLERS
 from .manoeuvres import FLYABLE, FlyableLimits  # registers the "waypoints" sampler
 from .cited_dryden import CitedDryden
@@ -234,8 +234,7 @@ class Setting:
                 raise TypeError(f"{g} must be an EnvironmentGroup, got {type(getattr(self, g)).__name__}")
         if self.sampler not in SAMPLERS:
             raise ValueError(f"sampler must be one of {sorted(SAMPLERS)}, got {self.sampler!r}")
-        object.__setattr__(self, "n_changes", check_scalar(self.n_changes, "n_changes", low=0,
-                                                           integer=True))
+        check_fields(self, {"n_changes": Range(0, integer=True)})
         if not isinstance(self.uav, (UAV, Multirotor)):
             raise TypeError(f"uav must be a UAV or a Multirotor, got {type(self.uav).__name__}")
         if self.sampler == "waypoints" and not (isinstance(self.uav, Multirotor)
@@ -247,8 +246,7 @@ class Setting:
         if self.sampler == "waypoints" and self.start_altitude < self.flyable.floor:
             raise ValueError(f"start_altitude must be >= {self.flyable.floor:g} m (the floor of the "
                              f"'waypoints' sampler) [m], got {self.start_altitude!r}")
-        object.__setattr__(self, "wind_ramp", check_scalar(self.wind_ramp, "wind_ramp",
-                                                           low=0.0, high=self.duration))
+        check_fields(self, {"wind_ramp": Range(0.0, self.duration)})
         if self.sampler == "waypoints":
             self.waypoint_limits()  # a wind the vehicle cannot hold: say so now, not mid-search
         if self.n_env < 3:

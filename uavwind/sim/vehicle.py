@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.checks import check_scalar
+from ..core.checks import Range, check_fields, check_scalar
 
 #: Standard gravity [m/s^2] (paper eq 4 uses 9.81).
 GRAVITY = 9.81
@@ -50,8 +50,8 @@ class UAV:
     def __post_init__(self):
         object.__setattr__(self, "mass",
                            check_scalar(self.mass, "mass", low=0, low_inclusive=False))
-        for name in ("drag_coefficient", "area", "air_density", "gravity"):
-            object.__setattr__(self, name, check_scalar(getattr(self, name), name, low=0))
+        check_fields(self, dict.fromkeys(("drag_coefficient", "area", "air_density", "gravity"),
+                                         Range(0)))
 
     @property
     def drag_factor(self) -> float:

@@ -25,7 +25,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ...core.checks import check_instance, check_scalar
+from ...core.checks import Range, check_fields, check_instance, check_scalar
 from ...core.seeding import child_rng, child_seed
 from ...sim.actions import MAX_THRUST
 from ...sim.multirotor import Multirotor
@@ -167,13 +167,11 @@ class ClosedLoop:
                 raise ValueError(f"{name} = {getattr(self, name):g} s must {verb} {what}")
         object.__setattr__(self, "decision_interval", d)
         object.__setattr__(self, "report_interval", r)
-        object.__setattr__(self, "magnitude_step", check_scalar(
-            self.magnitude_step, "magnitude_step", low=0, low_inclusive=False, high=MAX_THRUST))
+        check_fields(self, {"magnitude_step": Range(0, MAX_THRUST, low_inclusive=False)})
         if self.min_thrust is None:
             low = self.magnitude_step if isinstance(s.uav, Multirotor) else 0.0
             object.__setattr__(self, "min_thrust", low)
-        object.__setattr__(self, "min_thrust", check_scalar(self.min_thrust, "min_thrust",
-                                                            low=0.0, high=MAX_THRUST))
+        check_fields(self, {"min_thrust": Range(0.0, MAX_THRUST)})
         top = math.floor(MAX_THRUST / self.magnitude_step + 1e-9) * self.magnitude_step
         if self.min_thrust > top + 1e-12:
             raise ValueError(f"min_thrust = {self.min_thrust:g} N leaves no action: the "
