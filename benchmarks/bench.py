@@ -41,7 +41,7 @@ ON_REQUEST = {"builds": bench_builds}
 #: Sections whose latest record on each host is kept as well, as ``<section>_hosts`` (CPU
 #: model -> record, with the date it was measured): this machine kind comes as an AMD EPYC or
 #: an Intel Xeon, so measuring a section again on one host keeps the other hosts' records.
-BY_HOST = ("heldout", "builds")
+BY_HOST = ("heldout", "builds", "paper_profile")
 
 
 def merged(old, fresh, stamp):
