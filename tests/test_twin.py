@@ -319,3 +319,40 @@ def test_the_validation_table_scores_the_twin_beside_the_training_mean():
     score = figure8.validation_score(val)
     assert score["n"] == 2 and score["wins"] == 2  # both winds of the lean
     assert score["twin"] == pytest.approx(0.1) and score["trivial"] == pytest.approx(0.5)
+
+
+# --------------------------------------------------------------------------- #
+# lap-to-lap spreads (the validation's rows: how unsteady the vehicle is from lap to lap)
+# --------------------------------------------------------------------------- #
+def test_cut_laps_cuts_any_series_as_flight_laps_cuts_a_channel():
+    """The same windows as flight_laps: a channel cut either way is the same array; a series
+    that repeats every lap is the same in every lap (its spread 0), and one lap shifted by c
+    from the other leaves each c/2 from their mean lap."""
+    from uavwind.data.neuralfly import cut_laps, flight_laps
+    f = _flight(duration=30.0)
+    laps = flight_laps(f, ("position",), 60, 1)
+    assert np.array_equal(cut_laps(f, f.arrays["p"], 60, 1), laps["position"])
+    starts = lap_starts(f)
+    period = float(np.median(np.diff(starts)))
+    periodic = np.sin(2 * np.pi * (f.t - starts[0]) / period)[:, None]
+    cut = cut_laps(f, periodic, 60, 1)
+    assert cut.shape[0] >= 2 and np.abs(cut - cut.mean(0)).max() < 0.02
+    step = np.where(f.t >= starts[2], 0.4, 0.0)[:, None]  # laps 1 and 2 (kept) differ by 0.4
+    two = cut_laps(f, step, 60, 1)[:2, 1:]  # (the first sample interpolates across the step)
+    assert np.allclose(np.abs(two - two.mean(0)), 0.2)
+    with pytest.raises(ValueError, match="series must have shape"):
+        cut_laps(f, step[:-1], 60, 1)
+
+
+def test_the_flight_rows_spread_grows_with_the_gusts():
+    """Each lap-to-lap spread of rf.SPREADS is a column of the flight rows; the bare twin flies
+    its laps almost alike, the gusty twin's pitch and position vary from lap to lap more."""
+    study = rf.RealFlightStudy(n_samples=60, drop_first=1, max_laps=0)
+    calm = rf.flight_summaries([_flight(duration=40.0)], study)[0]
+    gusty_cal = figure8.TwinCalibration(gust_scale=0.25)
+    gusty = rf.flight_summaries([_flight(duration=40.0, cal=gusty_cal)], study)[0]
+    for col in rf.SPREADS:
+        assert np.isfinite(calm[col]) and np.isfinite(gusty[col]), col
+    assert gusty["pitch_spread"] > 2 * calm["pitch_spread"]
+    assert gusty["position_spread"] > 2 * calm["position_spread"]
+    assert gusty["fa_x_spread"] > 2 * calm["fa_x_spread"]

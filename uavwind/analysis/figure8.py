@@ -74,7 +74,7 @@ SIM_SEED = 13
 #: as long as they need (:func:`flight_duration`). 3: the calibrated twin (gusts that reach
 #: it, lift, controller with an integral and a thrust cone, sensor offset and noise). 4: the
 #: drag and lift fitted together (Broyden), to the same tolerances.
-SIM_VERSION = "4"
+SIM_VERSION = "5"
 #: The one wind the forces (drag and lift) are fitted on: 8.5 m/s, where both are well above
 #: the still-air residual; 4.2 and 12.1 m/s are predictions.
 FIT_CONDITION = "70wind"
@@ -467,6 +467,9 @@ VALIDATION = {"force along x": ("aero_force_x", True, "N"),
               "lean": ("pitch_deg", False, "deg"),
               "tracking error": ("tracking_rms", False, "m"),
               "lap-to-lap spread of force x": ("fa_x_spread", False, "N"),
+              "lap-to-lap spread of pitch": ("pitch_spread", False, "deg"),
+              "lap-to-lap spread of vertical tracking": ("z_tracking_spread", False, "m"),
+              "lap-to-lap spread of position": ("position_spread", False, "m"),
               "noise of force x": ("noise_aero_force_x", False, "N"),
               "noise of the attitude x": ("noise_attitude_x", False, "1")}
 
@@ -529,7 +532,8 @@ def validation_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame
 #: The quantities of :data:`VALIDATION` that are the vehicle's physics (tracking error is the
 #: controller's own): what :func:`validation_score` averages.
 PHYSICAL = ("force along x", "force along z", "lean", "lap-to-lap spread of force x",
-            "noise of force x", "noise of the attitude x")
+            "lap-to-lap spread of pitch", "lap-to-lap spread of vertical tracking",
+            "lap-to-lap spread of position", "noise of force x", "noise of the attitude x")
 
 
 def validation_score(table: pd.DataFrame, predicted_only: bool = False) -> dict:

@@ -47,15 +47,15 @@ from .._version import __version__
 from ..core.checks import Range, check_fields, check_instance
 from ..core.parallel import check_jobs
 from ..core.stats import MIN_DECIDE, decide, t_ci
-from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, files_digest,
-                              flight_files, flight_laps, lap_starts, pitch_degrees, read_flights,
-                              split_noise)
+from ..data.neuralfly import (CHANNELS, CONDITIONS, RealFlight, channel_series, cut_laps,
+                              files_digest, flight_files, flight_laps, lap_starts,
+                              pitch_degrees, read_flights, split_noise)
 from ..method.clustering import ClusteringParams, score_loop, softdtw_engine
 from .memo import memo
 from .wind_estimates import estimation_rows
 
-__all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "compute_rows",
-           "pair_table", "channel_table", "controlled_table", "flight_table", "flights_digest",
+__all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "SPREADS", "real_flight_rows",
+           "compute_rows", "pair_table", "channel_table", "controlled_table", "flight_table", "flights_digest",
            "decided_orders",
            "NOISE_CHANNELS", "noise_columns", "flight_summaries"]
 
@@ -63,7 +63,7 @@ __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "real_flight_rows", "co
 #: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are
 #: kept under the files' bytes, not the parsed arrays. 2: thrust over the hover throttle,
 #: the same-wind controls, the flight rows' lean, vertical force, spread and noise.
-REAL_VERSION = "3"
+REAL_VERSION = "4"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -286,7 +286,7 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     cols = ["kind", "controller", "other", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
             "tilt_deg", "pitch_deg", "aero_force_x", "aero_force_z", "aero_force_norm",
-            "tracking_rms", "thrust_sp", "fa_x_spread", "n_laps", *noise_columns(),
+            "tracking_rms", "thrust_sp", *SPREADS, "n_laps", *noise_columns(),
             "method", "variant", "protocol", "estimate", "sample_rmse", "coverage", "std", "amplitude",
             "phase", "phase_ref", "lag", "t", "truth"]
     for c in cols:
@@ -295,6 +295,12 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     df = df[cols]
     df["correct"] = df["correct"].astype("boolean")
     return df
+
+
+#: A flight row's lap-to-lap spreads: column -> (what it spreads, its unit).
+SPREADS = {"fa_x_spread": ("force along x", "N"), "pitch_spread": ("pitch", "deg"),
+           "z_tracking_spread": ("vertical tracking error", "m"),
+           "position_spread": ("position", "m")}
 
 
 #: What a flight row's noise columns measure: ``noise_<channel>_<axis>``, the standard
@@ -319,9 +325,10 @@ def flight_summaries(flights: list[RealFlight], study: RealFlightStudy = RealFli
 def _flight_rows(flights, raw, study):
     """One row per flight: its kept laps' mean tilt and lean towards +x (``pitch_deg``),
     aerodynamic force (x, z, norm), tracking error and thrust over the hover throttle,
-    unscaled (``raw``: :func:`_laps`); the lap-to-lap spread of the slow part of the force
-    along x (``fa_x_spread``: RMS about the mean lap, below the noise cutoff: gusts and the
-    controller) and each channel's noise (:func:`noise_columns`) over the same laps."""
+    unscaled (``raw``: :func:`_laps`); the lap-to-lap spreads (:data:`SPREADS`: RMS about
+    the mean lap of the part below the noise cutoff, what gusts and the controller do) of the
+    force along x, the pitch, the vertical tracking error and the position; and each
+    channel's noise (:func:`noise_columns`) over the same laps."""
     rows = []
     for f in flights:
         w = raw[(f.controller, f.condition)]
@@ -331,12 +338,13 @@ def _flight_rows(flights, raw, study):
         dt = float(np.median(np.diff(t)))
         lap = float(np.median(np.diff(lap_starts(f))))
         span = (t >= w["starts"][0]) & (t < w["starts"][-1] + lap)  # the kept laps
-        slow, _ = split_noise(a["fa"], dt)
-        slow_flight = RealFlight(controller=f.controller, condition=f.condition,
-                                 wind_speed=f.wind_speed, source=f.source,
-                                 arrays={**a, "fa": slow})
-        sl = flight_laps(slow_flight, ("aero_force",), study.n_samples,
-                         study.drop_first)["aero_force"][_kept(study)][..., 0]
+
+        def spread(series):
+            laps = cut_laps(f, split_noise(series, dt)[0], study.n_samples,
+                            study.drop_first)[_kept(study)]
+            return (float(np.sqrt(((laps - laps.mean(0)) ** 2).sum(-1).mean()))
+                    if len(laps) > 1 else np.nan)
+
         row = {"kind": "flight", "controller": f.controller, "condition": f.condition,
                "wind_speed": f.wind_speed, "tilt_deg": float(w["tilt"].mean()),
                "pitch_deg": float(pitch_degrees(a["R"][span]).mean()),
@@ -346,8 +354,10 @@ def _flight_rows(flights, raw, study):
                "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"],
                                                              axis=-1) ** 2).mean())),
                "thrust_sp": float(w["thrust"].mean()),
-               "fa_x_spread": float(np.sqrt(((sl - sl.mean(0)) ** 2).mean()))
-               if len(sl) > 1 else np.nan,
+               "fa_x_spread": spread(a["fa"][:, :1]),
+               "pitch_spread": spread(pitch_degrees(a["R"])[:, None]),
+               "z_tracking_spread": spread((a["p"] - a["p_d"])[:, 2:]),
+               "position_spread": spread(a["p"]),
                "n_laps": int(len(w["starts"]))}
         for ch, axes in NOISE_CHANNELS.items():
             _, fast = split_noise(channel_series(f, ch)[span], dt)

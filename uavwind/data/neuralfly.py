@@ -35,10 +35,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..core.checks import check_scalar
+from ..core.checks import check_array, check_scalar
 
 __all__ = ["RealFlight", "CONDITIONS", "CHANNELS", "COLUMNS", "ENV_VAR", "load_neuralfly",
-           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "channel_series", "tilt_degrees", "pitch_degrees", "split_noise", "NOISE_CUTOFF",
+           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "cut_laps", "channel_series", "tilt_degrees", "pitch_degrees", "split_noise", "NOISE_CUTOFF",
            "CITATION"]
 
 #: The environment variable naming the folder of the flights.
@@ -379,19 +379,37 @@ def flight_laps(flight: RealFlight, channels=tuple(CHANNELS), n_samples: int = 1
     for ch in channels:
         if ch not in CHANNELS:
             raise ValueError(f"channels must be among {list(CHANNELS)}, got {ch!r}")
+    times = _lap_times(flight, n_samples, drop_first)
+    t = flight.arrays["t"]
+    out = {ch: _resample(t, channel_series(flight, ch), times) for ch in channels}
+    out["tilt"] = _resample(t, tilt_degrees(flight.arrays["R"])[:, None], times)[..., 0]
+    out["starts"] = times[:, 0].copy()
+    return out
+
+
+def cut_laps(flight: RealFlight, series: np.ndarray, n_samples: int = 120,
+             drop_first: int = 1) -> np.ndarray:
+    """Any series (n, d) recorded at ``flight``'s times, cut into the laps
+    :func:`flight_laps` cuts (the same windows, resampled the same way): (n_laps,
+    n_samples, d). For a quantity that is no channel (a low-passed pitch, say)."""
+    n_samples = check_scalar(n_samples, "n_samples", low=4, high=100_000, integer=True)
+    drop_first = check_scalar(drop_first, "drop_first", low=0, high=1000, integer=True)
+    t = flight.arrays["t"]
+    series = check_array(series, "series", shape=(t.shape[0], None))
+    return _resample(t, series, _lap_times(flight, n_samples, drop_first))
+
+
+def _lap_times(flight, n_samples, drop_first):
+    """(n_laps, n_samples) times [s] of the kept laps' windows (inputs checked)."""
     starts = lap_starts(flight)
     bounds = list(zip(starts[:-1], starts[1:]))[drop_first:]
     if not bounds:
         raise ValueError(f"{flight.source}: {len(starts) - 1} complete lap(s), none left after "
                          f"dropping drop_first={drop_first}")
-    t = flight.arrays["t"]
-    times = np.stack([np.linspace(a, b, n_samples, endpoint=False) for a, b in bounds])
-    out = {}
-    for ch in channels:
-        y = channel_series(flight, ch)
-        out[ch] = np.stack([np.stack([np.interp(tt, t, y[:, k]) for k in range(y.shape[1])], -1)
-                            for tt in times])
-    tilt = tilt_degrees(flight.arrays["R"])
-    out["tilt"] = np.stack([np.interp(tt, t, tilt) for tt in times])
-    out["starts"] = times[:, 0].copy()
-    return out
+    return np.stack([np.linspace(a, b, n_samples, endpoint=False) for a, b in bounds])
+
+
+def _resample(t, y, times):
+    """``y`` (n, d) at ``t``, linearly resampled at each row of ``times``: (laps, samples, d)."""
+    return np.stack([np.stack([np.interp(tt, t, y[:, k]) for k in range(y.shape[1])], -1)
+                     for tt in times])
