@@ -41,18 +41,20 @@ ON_REQUEST = {"builds": bench_builds}
 #: Sections whose latest record on each host is kept as well, as ``<section>_hosts`` (CPU
 #: model -> record, with the date it was measured): this machine kind comes as an AMD EPYC or
 #: an Intel Xeon, so measuring a section again on one host keeps the other hosts' records.
-BY_HOST = ("heldout", "builds", "paper_profile")
+BY_HOST = ("heldout", "builds", "paper_profile", "threads", "cold_compile")
 
 
-def merged(old, fresh, stamp):
+def merged(old, fresh, stamp, host=None):
     """``fresh`` over ``old``; each :data:`BY_HOST` section in ``fresh`` also added, dated
-    ``stamp``, to its ``<section>_hosts`` record under its host's CPU model."""
+    ``stamp``, to its ``<section>_hosts`` record under its host's CPU model (its own
+    ``host``, else ``host``: the machine that measured it)."""
     out = {**old, **fresh}
     for name in BY_HOST:
         if name in fresh:
-            model = fresh[name].get("host", {}).get("model", "unknown")
+            h = fresh[name].get("host") or host or {}
             out[f"{name}_hosts"] = {**old.get(f"{name}_hosts", {}),
-                                    model: {"measured": stamp, **fresh[name]}}
+                                    h.get("model", "unknown"): {"measured": stamp, "host": h,
+                                                                **fresh[name]}}
     return out
 
 
@@ -70,14 +72,14 @@ def main():
             raise ValueError(f"ONLY must be one of {sorted(every)}, got {only!r}")
         fresh = {}
         every[only](fresh)
-        report = merged(on_file or report, fresh, stamp)
+        report = merged(on_file or report, fresh, stamp, host_cpu())
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies
     else:
         for section in SECTIONS.values():  # the paper profile last
             section(report)
         kept = {f"{k}_hosts": on_file[f"{k}_hosts"] for k in BY_HOST if f"{k}_hosts" in on_file}
-        report = merged(kept, report, stamp)
+        report = merged(kept, report, stamp, host_cpu())
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(report, indent=2, default=float))
     print(f"\nwritten to {OUT.relative_to(Path.cwd()) if OUT.is_relative_to(Path.cwd()) else OUT}")

@@ -287,7 +287,12 @@ def test_a_section_measured_on_another_host_keeps_the_first_hosts_record(monkeyp
     old = {"heldout": a, "heldout_hosts": {"A": {"measured": "day 1", **a}}, "x": 1}
     b = {"host": {"model": "B"}, "speedup": 30}
     out = bench.merged(old, {"heldout": b, "threads": {"host": {"model": "B"}}}, "day 2")
-    assert out["heldout"] == b and out["x"] == 1 and "threads_hosts" not in out
+    assert out["heldout"] == b and out["x"] == 1
+    assert out["threads_hosts"] == {"B": {"measured": "day 2", "host": {"model": "B"}}}
+    # a section that names no host of its own is filed under the machine that measured it
+    c = bench.merged(out, {"cold_compile": {"process": 9.0}}, "day 4", {"model": "C"})
+    assert c["cold_compile_hosts"]["C"] == {"measured": "day 4", "host": {"model": "C"},
+                                            "process": 9.0}
     assert out["heldout_hosts"] == {"A": {"measured": "day 1", **a},
                                     "B": {"measured": "day 2", **b}}
     again = bench.merged(out, {"heldout": {**a, "speedup": 17}}, "day 3")
@@ -367,3 +372,30 @@ def test_the_benchmark_on_file_gives_tables_and_sentences():
     assert all(isinstance(t, pd.DataFrame) for t in report_tables(report).values())
     lines = summary_lines(report)
     assert all(isinstance(v, str) for v in lines.values()) and "builds" in lines
+
+
+def test_each_hosts_record_stands_in_its_own_column_with_its_date_and_commit():
+    """host_records: one column per host, each figure with when and at which commit it was
+    measured; a figure a host has no record of says so; a figure of no known host is left
+    out, not shown as anyone's."""
+    from uavwind.report.performance import HOST_FIGURES, host_records
+    a = {"model": "AMD EPYC", "llvm_cpu": "znver3", "lanes": 4}
+    x = {"model": "Xeon", "llvm_cpu": "rocketlake", "lanes": 8}
+    report = {
+        "heldout_hosts": {"AMD EPYC": {"measured": "2026-12-07 06:07 UTC", "host": a,
+                                       "speedup": 28.49, "commit": "79de3a5"},
+                          "Xeon": {"measured": "2026-12-04 05:03 UTC", "host": x,
+                                   "speedup": 26.9, "commit": "5329418"}},
+        "paper_profile": {"measured_seconds": 1208.7, "measured_commit": "accaeb1", "host": x},
+        "sections_measured_later": {"paper": "2026-12-04 04:37 UTC"},
+        "cold_compile": {"process": 50.9},  # its host never recorded
+    }
+    t = host_records(report)
+    assert list(t.columns) == ["AMD EPYC (znver3, 4 lanes)", "Xeon (rocketlake, 8 lanes)"]
+    assert list(t.index) == list(HOST_FIGURES)
+    held = "engine against tslearn, held-out loops [x]"
+    assert t.loc[held, "AMD EPYC (znver3, 4 lanes)"] == "28.5 (2026-12-07, 79de3a5)"
+    paper = "make book (paper), empty cache [min]"
+    assert t.loc[paper, "Xeon (rocketlake, 8 lanes)"] == "20.1 (2026-12-04, accaeb1)"
+    assert t.loc[paper, "AMD EPYC (znver3, 4 lanes)"] == "not measured"
+    assert (t.loc["cold numba compile, one process [s]"] == "not measured").all()

@@ -13,9 +13,8 @@ import os
 import statistics
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
-
 from dataclasses import dataclass
+from typing import Any
 
 import pandas as pd
 
@@ -25,12 +24,10 @@ from ._bench_lines import (_builds_line, _by_date, _gradient_split, _hosts_line,
 from .display import show_missing
 
 __all__ = ["TARGETS", "PAPER_TARGET", "PaperTarget", "load_report", "report_tables",
-           "summary_lines", "fill_cpu_seconds"]
+           "summary_lines", "fill_cpu_seconds", "HOST_FIGURES", "host_records"]
 
 
 @dataclass(frozen=True)
-
-
 class PaperTarget:
     """The paper-profile build's target: the bounds the page states and holds figures to."""
 
@@ -66,6 +63,70 @@ def fill_cpu_seconds(report: Mapping[str, Any], experiments) -> float | None:
     rows = [r for r in report.get("paper_profile", {}).get("by_experiment", [])
             if r.get("experiment") in experiments]
     return sum(r["cpu_seconds"] for r in rows) if rows else None
+
+
+#: The figures each host's record holds (:func:`host_records`): row label -> (the report's
+#: section, how to read the figure from one record of it, its format).
+HOST_FIGURES = {
+    "make test, fresh clone [s]": ("builds", lambda r: r["make test"]["median_wall_seconds"],
+                                   "{:.0f}"),
+    "make book PROFILE=quick, fresh clone [s]": (
+        "builds", lambda r: r["quick book"]["median_wall_seconds"], "{:.0f}"),
+    "make book (paper), empty cache [min]": (
+        "paper_profile", lambda r: r["measured_seconds"] / 60, "{:.1f}"),
+    "engine against tslearn, held-out loops [x]": ("heldout", lambda r: r["speedup"],
+                                                   "{:.1f}"),
+    "helper threads beside a busy core, wall over serial [-]": (
+        "threads", lambda r: (r["cases"]["busy"]["threads"]["wall_seconds"]
+                              / r["cases"]["busy"]["serial"]["wall_seconds"]), "{:.2f}"),
+    "cold numba compile, one process [s]": ("cold_compile", lambda r: r["process"], "{:.1f}"),
+}
+
+
+_ONLY_NAME = {"paper_profile": "paper", "cold_compile": "compile"}
+
+
+def _host_label(host: Mapping[str, Any]) -> str:
+    return (f"{host.get('model', '?')} ({host.get('llvm_cpu', '?')}, "
+            f"{host.get('lanes', '?')} lanes)")
+
+
+def host_records(report: Mapping[str, Any]) -> pd.DataFrame:
+    """Each host's latest record side by side: one row per figure of :data:`HOST_FIGURES`,
+    one column per host (CPU model, LLVM CPU, float64 lanes), each cell the figure with the
+    date and commit it was measured at; a host without that figure says so. Read from the
+    sections' ``<section>_hosts`` records (``make bench`` keeps each host's latest), and
+    from a section's own record where it names its host; a figure whose host was never
+    recorded is left out (no figure without its host)."""
+    cells: dict[str, dict[str, str]] = {}
+    hosts: dict[str, Mapping[str, Any]] = {}
+    for label, (section, read, fmt) in HOST_FIGURES.items():
+        records = dict(report.get(f"{section}_hosts", {}))
+        own = report.get(section)
+        only = _ONLY_NAME.get(section, section)  # the name `ONLY=` measures it again by
+        host = (own.get("host") if isinstance(own, Mapping) else None) \
+            or report.get("sections_host", {}).get(only)
+        if isinstance(own, Mapping) and isinstance(host, Mapping) \
+                and host.get("model") not in records:
+            records[host["model"]] = {"host": host, "measured": own.get(
+                "measured", report.get("sections_measured_later", {}).get(only)), **own}
+        for model, rec in records.items():
+            host = rec.get("host") or {"model": model}
+            key = _host_label(host)
+            hosts[key] = host
+            try:
+                value = fmt.format(read(rec))
+            except (KeyError, TypeError, ZeroDivisionError):
+                continue
+            when = str(rec.get("measured", "date not recorded"))[:10]
+            commit = rec.get("commit") or rec.get("measured_commit")
+            cells.setdefault(label, {})[key] = (
+                f"{value} ({when}" + (f", {commit}" if commit else "") + ")")
+    columns = sorted(hosts)
+    return pd.DataFrame([[cells.get(label, {}).get(h, "not measured") for h in columns]
+                         for label in HOST_FIGURES],
+                        index=pd.Index(list(HOST_FIGURES), name="figure"),
+                        columns=pd.Index(columns, name="host"))
 
 
 def load_report(path: os.PathLike | str) -> dict:
