@@ -106,7 +106,7 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="fill the cache on a dask.distributed cluster (e.g. "
                           "tcp://host:8786): its workers compute, this process writes "
-                          "every entry (--jobs then applies to the tables only)")
+                          "every entry (--jobs then applies to the analyses and tables)")
     args = parser.parse_args(argv)
 
     if args.command == "list":

@@ -40,7 +40,7 @@ from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..method.clustering import ClusteringParams, softdtw_engine
 from ..method.search import CEMRun, evaluate
 from ._dask_probe import _check_scheduler
-from ._pools import _ClusterPool, _LocalPool, _Watcher
+from ._pools import _ClusterPool, _LocalPool, _SplitPool, _Watcher
 from ._timing import _analysis_record, _cpu_seconds, _entry_record, time_by_experiment
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
@@ -376,7 +376,8 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
     profile, seed, engine, results, **params
         As :func:`~uavwind.study.runner.run_experiment`.
     n_jobs : int, optional
-        Local worker processes (-1/None = all cores); unused with ``scheduler``.
+        Local worker processes (-1/None = all cores); with ``scheduler``, those of the
+        analyses.
     readings : "all", str or list of str, optional
         The experiments' readings (:data:`~uavwind.study.readings.READINGS`); ``"all"``:
         each experiment under the readings the book shows it under (its ``readings``). The
@@ -402,9 +403,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         ``uavwind.study._dask_probe.PROBE_SECONDS``. Each worker computes one task (a chunk, or
         one CEM sample) at a time per thread and returns its rows; this process steps the
         CEM runs, verifies and writes every entry (the workers need no access to
-        ``results``). The rows equal a local fill's, bit for bit. The analyses then run in
-        this process after the cluster's entries, one after the other: they read and write
-        ``results``, which the cluster's workers need not see.
+        ``results``). The rows equal a local fill's, bit for bit. The analyses run on
+        ``n_jobs`` local workers (they read and write ``results``, which the cluster's
+        workers need not see), each as soon as what it reads is stored, while the cluster
+        computes the rest.
 
     Returns
     -------
@@ -458,8 +460,15 @@ def _fill(plan, profile, seed, n_jobs, results, progress, times, stop, client):
                    file=sys.stderr)
     watcher = done = None
     try:
-        if client is not None:  # the analyses write here: in this process, after
-            done = _then(_run_tasks(missing, _ClusterPool(client), False, stop, bar), tasks)
+        if client is not None:
+            # the analyses read and write the result folder here: on the local workers, each
+            # as soon as what it reads is stored, while the cluster computes the rest
+            pool = _ClusterPool(client)
+            if tasks:
+                pool = _SplitPool(pool, _LocalPool(effective_n_jobs(n_jobs)))
+                if stop is not None:
+                    watcher = _Watcher(stop)
+            done = _run_tasks(missing, pool, False, stop, bar, analyses=tasks)
         elif effective_n_jobs(n_jobs) == 1 or len(missing) + len(tasks) == 1:
             # in this process; a lone entry still gets every worker
             done = _then(((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing),
@@ -498,7 +507,7 @@ def _fill(plan, profile, seed, n_jobs, results, progress, times, stop, client):
             if stop is not None and stop.is_set():
                 raise KeyboardInterrupt
     except BaseException:  # interrupted or failed: finished entries are on disk
-        if client is None:
+        if client is None or tasks:  # local workers (a cluster's fill: its analyses')
             stop_workers()
         if stop is not None and stop.is_set():
             raise KeyboardInterrupt from None  # the workers were stopped on request
