@@ -223,9 +223,10 @@ def _run(args, ids, everything, record, stop) -> int:
         record.write(complete=False, error=f"{type(exc).__name__}: {exc}")
         return 1
     record.write(complete=True)
+    n_analyses = sum(t.get("search") == "analysis" for t in done["times"])
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
           f"{done['computed']} computed ({done['rows_computed']} rows: loops, CEM samples or "
-          f"closed-loop reports) in "
+          f"closed-loop reports), {n_analyses} analyses computed or read, in "
           f"{time.perf_counter() - record.t0:.1f} s")
     if done["times"]:
         by_exp = time_by_experiment(done["times"])
