@@ -12,8 +12,9 @@ def exact_cells(df):
     return {c: [repr(_py(v)) for v in df[c]] for c in df.columns}
 
 
-def record_fills(monkeypatch):
-    """Replace the work of fill_cache by a record of the entries it hands out, in order."""
+def record_fills(monkeypatch, analyses=None):
+    """Replace the work of fill_cache by a record of the entries it hands out, in order (and
+    of the analyses it runs in this process, appended to ``analyses`` when given)."""
     from uavwind.study import fill
 
     order = []
@@ -21,5 +22,11 @@ def record_fills(monkeypatch):
     def record(entry, pin=True, n_jobs=1):
         order.append(entry)
         return entry.path, entry.n_rows, False, 0.5
+
+    def record_analysis(analysis, profile, seed, results, pin=True, n_jobs=1):
+        if analyses is not None:
+            analyses.append(analysis.id)
+        return None, 0.5
     monkeypatch.setattr(fill, "_fill_one", record)
+    monkeypatch.setattr(fill, "_run_analysis", record_analysis)
     return order

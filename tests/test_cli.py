@@ -42,7 +42,7 @@ def test_cli_times_file_records_every_computed_entry(tmp_path, monkeypatch, caps
                  "--no-tables", "--times", str(out)]) == 0
     rec = json.loads(out.read_text())
     assert rec["profile"] == "tiny"
-    assert len(rec["entries"]) == len(fill.needed_entries(["exp5"], "tiny")) > 0
+    assert len(rec["entries"]) == len(fill.needed_entries(["exp5"], "tiny", "inferred")) > 0
     assert {e["experiment"] for e in rec["entries"]} == {"exp5"}
     assert "by experiment and reading" in capsys.readouterr().out
     # a second run computes nothing and says so in the file
@@ -245,16 +245,18 @@ def test_run_all_skips_exp13_without_its_flights_saying_so(reading, monkeypatch,
 
     asked = []
 
-    def fill(ids, *args, analyses=(), **kwargs):
-        asked.append((list(ids), [a.name for a in analyses]))
-        return {"entries": 0, "cached": 0, "computed": 0, "rows_computed": 0, "times": []}
-    monkeypatch.setattr(cli, "fill_cache", fill)
+    def fill_(ids, *args, readings="all", **kwargs):
+        asked.append(ids)
+        _, analyses, skipped = fill._plan(ids, "quick", readings, 0, None, None)
+        return {"entries": 0, "cached": 0, "computed": 0, "rows_computed": 0, "times": [],
+                "skipped": skipped}
+    monkeypatch.setattr(cli, "fill_cache", fill_)
     monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
     assert main(["run", "all", "--no-tables", "--no-progress", *reading]) == 0
     err = capsys.readouterr().err
-    assert "exp13: no Neural-Fly folder ($UAVWIND_NEURALFLY); Experiment 13 is skipped" in err
-    (ids, analyses), = asked
-    assert ids == list(ex.EXPERIMENTS) and "exp13" not in ids + analyses
+    assert ("exp13: $UAVWIND_NEURALFLY is not set; Real flights (Neural-Fly) is left out"
+            in err)
+    assert asked == ["all"]
     assert main(["run", "exp13", "exp5", "--no-progress"]) == 2  # asked for: an error, first
     assert len(asked) == 1 and "UAVWIND_NEURALFLY" in capsys.readouterr().err
 

@@ -218,3 +218,31 @@ def test_a_stop_request_ends_the_wait_for_a_silent_scheduler(tmp_path):
 
 def test_a_real_scheduler_address_passes_the_probe(client):
     _dask_probe._probe_scheduler(client.scheduler.address)  # no error, within the probe's time
+
+
+def _where_it_ran(results):
+    """An analysis that reads nothing: says which process ran it."""
+    (results / "pid.txt").write_text(str(os.getpid()))
+
+
+def test_a_cluster_fill_runs_its_analyses_on_local_workers(tmp_path, client, monkeypatch):
+    """With a scheduler the analyses share the fill's pool: each is a task of the local
+    workers (they read and write the result folder, which the cluster's workers need not
+    see), put as soon as the entries it reads are stored by this process, while the cluster
+    computes the rest -- not in this process after the cluster, one after the other."""
+    from test_fill import _read_exp5
+
+    from uavwind.study import registry
+
+    monkeypatch.setattr(registry, "REGISTRY", dict(registry.REGISTRY))
+    registry.computes("reads_exp5", reads=("exp5",))(_read_exp5)
+    registry.computes("where", long=True)(_where_it_ran)
+    res = tmp_path / "r"
+    res.mkdir()
+    done = fill.fill_cache(["exp6", "reads_exp5", "where"], profile=TINY, results=res,
+                           n_jobs=2, progress=False, scheduler=client, readings="inferred")
+    assert (res / "exp5_seen.txt").read_text().startswith(f"custom {ex.DEFAULT_SEED} ")
+    assert int((res / "pid.txt").read_text()) != os.getpid()  # a local worker ran it
+    kinds = [(t["experiment"], t["search"]) for t in done["times"]]
+    assert ("reads_exp5", "analysis") in kinds and ("where", "analysis") in kinds
+    assert done["computed"] == len(done["times"]) - 2 > 0

@@ -28,7 +28,7 @@ def test_the_fill_makes_the_grid_and_a_page_never_does(tmp_path, monkeypatch):
         explore.cached_grid(tmp_path)
     assert calls == []
     monkeypatch.delenv(READ_ONLY_ENV)
-    explore.fill_grid("quick", 0, tmp_path)  # what `python -m uavwind analyses` runs
+    explore.fill_grid(tmp_path)  # what `python -m uavwind run explore_grid` runs
     monkeypatch.setenv(READ_ONLY_ENV, "1")
     assert explore.cached_grid(tmp_path) == {"controls": {}, "loops": {}} and calls == [1]
 

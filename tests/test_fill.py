@@ -27,7 +27,7 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
     assert fill.fill_cache(ids, profile=TINY, results=tmp_path / "pool", n_jobs=2,
                          readings="all", progress=False) == {
         "entries": done["entries"], "cached": done["entries"], "computed": 0,
-        "rows_computed": 0, "times": []}
+        "rows_computed": 0, "times": [], "skipped": []}
     for reading in READINGS:
         for eid in ids:
             pooled = ex.run_experiment(eid, profile=TINY, results=tmp_path / "pool", n_jobs=1,
@@ -41,7 +41,7 @@ def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
 def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
     order = record_fills(monkeypatch)
     done = fill.fill_cache(["exp2", "exp3", "exp6"], profile=TINY, results=tmp_path, n_jobs=1,
-                         progress=False)
+                           progress=False, readings="inferred")
     n_cases = sum(len(ex.get_experiment(i).cases()) for i in ("exp2", "exp3", "exp6"))
     assert len(order) == done["entries"] == done["computed"] < n_cases  # shared settings once
     assert len({e.path for e in order}) == len(order)
@@ -56,18 +56,19 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
 def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
     order = record_fills(monkeypatch)
     done = fill.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
-                         progress=False)
+                           progress=False)
     users = {e.path: pairs for e, pairs in
              fill._needed("all", TINY, "all", ex.DEFAULT_SEED, None, tmp_path).items()}
-    assert len(done["times"]) == len(users) == len(order)
-    for t, e in zip(done["times"], order):
+    times = [t for t in done["times"] if t["search"] != "analysis"]
+    assert len(times) == len(users) == len(order)
+    for t, e in zip(times, order):
         pairs = users[e.path]
         assert t["experiment"] == pairs[0][0] and t["case"] == e.labels["case"]
         assert (t["reading"] == "both") == (len({r for _, r in pairs}) == 2)
         assert t["shared_with"] == sorted({x for x, _ in pairs} - {pairs[0][0]})
-    assert {"inferred", "halves", "both"} <= {t["reading"] for t in done["times"]}
+    assert {"inferred", "halves", "both"} <= {t["reading"] for t in times}
     # Exp 2, 3 and 4 share their 20-environment settings: one entry, counted under exp2
-    assert any(t["experiment"] == "exp2" and "exp3" in t["shared_with"] for t in done["times"])
+    assert any(t["experiment"] == "exp2" and "exp3" in t["shared_with"] for t in times)
     # a single experiment id given as a string is that experiment, not its letters
     assert [e.path for e in fill.needed_entries("exp5", TINY)] == \
         [e.path for e in fill.needed_entries(["exp5"], TINY)]
@@ -344,43 +345,47 @@ def _failing(profile, seed, results):
     raise RuntimeError("this analysis fails")
 
 
-def test_analyses_run_in_the_fills_pool_once_what_they_read_is_stored(tmp_path):
-    """`make results` is one process and one pool: the pages' analyses are tasks of the
+def test_analyses_run_in_the_fills_pool_once_what_they_read_is_stored(tmp_path, monkeypatch):
+    """`make results` is one process and one pool: the registry's analyses are tasks of the
     fill beside the experiments' entries, each put once the entries of the experiments it
     reads are stored (here, read-only: it fails if run before them), recorded in the times
     as an analysis; with only analyses the same pool runs them, and a failing one fails
-    the fill after what finished is kept."""
+    the fill after what finished is kept. An analysis asked for brings what it reads."""
+    from uavwind.study import registry
+
+    monkeypatch.setattr(registry, "REGISTRY", dict(registry.REGISTRY))
+    registry.computes("reads_exp5", reads=("exp5",))(_read_exp5)
+    registry.computes("own", long=True)(_own_run)
+    registry.computes("bad")(_failing)
     res = tmp_path / "pool"
     res.mkdir()
-    analyses = [fill.Analysis("reads_exp5", _read_exp5, reads=("exp5",)),
-                fill.Analysis("own", _own_run, long=True)]
-    done = fill.fill_cache(["exp5", "exp6"], profile=TINY, results=res, n_jobs=2,
-                           progress=False, analyses=analyses)
+    done = fill.fill_cache(["exp6", "reads_exp5", "own"], profile=TINY, results=res, n_jobs=2,
+                           progress=False, readings="inferred")
     assert (res / "exp5_seen.txt").read_text().startswith(f"custom {ex.DEFAULT_SEED} ")
     assert (res / "own.txt").exists()
     kinds = [(t["experiment"], t["search"]) for t in done["times"]]
     assert ("reads_exp5", "analysis") in kinds and ("own", "analysis") in kinds
     assert done["computed"] == len(done["times"]) - 2
+    # what it reads: exp5's entries, under the readings the book shows exp5 under
+    assert {t["experiment"] for t in done["times"]} == {"exp5", "exp6", "reads_exp5", "own"}
     (res / "own.txt").unlink()
-    again = fill.fill_cache([], profile=TINY, results=res, n_jobs=2, progress=False,
-                            analyses=analyses)
-    assert again["entries"] == 0 and len(again["times"]) == 2 and (res / "own.txt").exists()
+    again = fill.fill_cache(["reads_exp5", "own"], profile=TINY, results=res, n_jobs=2,
+                            progress=False)
+    assert again["computed"] == 0 and len(again["times"]) == 2 and (res / "own.txt").exists()
     with pytest.raises(RuntimeError, match="this analysis fails"):
-        fill.fill_cache([], profile=TINY, results=res, n_jobs=2, progress=False,
-                        analyses=[fill.Analysis("bad", _failing), *analyses])
-    with pytest.raises(TypeError, match="analyses"):
-        fill.fill_cache([], profile=TINY, results=res, progress=False, analyses=[_own_run])
+        fill.fill_cache(["bad", "reads_exp5", "own"], profile=TINY, results=res, n_jobs=2,
+                        progress=False)
 
 
-def test_every_page_analysis_is_a_task_that_says_what_it_reads():
-    """The pages' analyses are the fill's tasks, each once, each naming experiments of the
-    registry it reads (an analysis that read one unnamed would run before it is stored)."""
-    from uavwind.analysis import page_analyses
-    from uavwind.study.registry import EXPERIMENTS
+def test_every_analysis_is_a_task_that_says_what_it_reads():
+    """The registry's analyses are the fill's tasks, each once, each naming experiments of
+    the registry it reads (an analysis that read one unnamed would run before it is stored)."""
+    from uavwind.study.registry import ANALYSES, EXPERIMENTS, REGISTRY, Analysis
 
-    tasks = page_analyses.page_analyses()
-    assert [a.name for a in tasks] == list(page_analyses.PAGE_ANALYSES)
-    assert len({a.name for a in tasks}) == len(tasks)
+    tasks = list(ANALYSES.values())
+    assert len({a.id for a in tasks}) == len(tasks) and not set(ANALYSES) & set(EXPERIMENTS)
+    assert list(REGISTRY) == [*EXPERIMENTS, *ANALYSES]
     for a in tasks:
-        assert isinstance(a, fill.Analysis) and set(a.reads) <= set(EXPERIMENTS), a.name
-    assert {"exp1", "exp10"} <= set(dict((a.name, a.reads) for a in tasks)["claims"])
+        assert isinstance(a, Analysis) and set(a.reads) <= set(EXPERIMENTS), a.id
+    assert {"exp1", "exp10"} <= set(ANALYSES["claims"].reads)
+    assert {"exp13", "exp11_filter_table", "explore_grid"} <= set(ANALYSES)

@@ -11,65 +11,74 @@ import pytest
 
 from uavwind.analysis import memo, page_analyses
 from uavwind.core.store import make_key
-from uavwind.study.fill import Analysis
+from uavwind.study import registry
+from uavwind.study.registry import ANALYSES, Analysis, computes
 
 ROOT = Path(__file__).resolve().parents[1]
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("*.md"))
 
-#: The fill's page tasks in the order they had as a hand-kept dict in memo.py.
-ORDER = ["claims", "inference", "exp12", "exp10_saturation_split", "exp10_drift_offsets",
-         "exp10_zero_thrust_sensitivity", "exp12_inferred_exercise", "model_example"]
+#: The fill's page tasks in the order they had as a hand-kept dict in memo.py (Exp 12's
+#: summaries were "exp12" until they joined the one registry, where that is the experiment).
+ORDER = ["claims", "inference", "exp12_summaries", "exp10_saturation_split",
+         "exp10_drift_offsets", "exp10_zero_thrust_sensitivity", "exp12_inferred_exercise",
+         "model_example"]
+
+
+def _page_analyses():
+    return [a for a in ANALYSES.values() if a.fill.__module__ == page_analyses.__name__]
 
 
 def test_every_page_analysis_is_registered_once_in_the_order_it_is_defined():
-    tasks = page_analyses.page_analyses()
-    names = [a.name for a in tasks]
-    assert names == list(page_analyses.PAGE_ANALYSES) == ORDER
-    assert len(set(names)) == len(names)
-    for name, a in page_analyses.PAGE_ANALYSES.items():
-        assert isinstance(a, Analysis) and a.name == name
-    reads = {a.name: a.reads for a in tasks}
+    tasks = _page_analyses()
+    names = [a.id for a in tasks]
+    assert names == ORDER
+    for name in names:
+        assert isinstance(ANALYSES[name], Analysis) and registry.REGISTRY[name] is ANALYSES[name]
+    reads = {a.id: a.reads for a in tasks}
     assert reads["inference"] == ("fit_layout",) and reads["exp12_inferred_exercise"] == ("exp12",)
     assert reads["exp10_saturation_split"] == () and reads["model_example"] == ()
     # the fill sends them to worker processes
-    assert [a.name for a in pickle.loads(pickle.dumps(tasks))] == names
+    assert [a.id for a in pickle.loads(pickle.dumps(tasks))] == names
 
 
-def test_a_name_registered_twice_is_refused_naming_it(monkeypatch):
-    before = dict(page_analyses.PAGE_ANALYSES)
+def test_an_id_registered_twice_is_refused_naming_it(monkeypatch):
+    before = dict(registry.REGISTRY)
     with pytest.raises(ValueError, match=r"'claims' is registered twice: by "
                                          r"uavwind\.analysis\.page_analyses\._fill_claims"):
-        page_analyses.fills("claims")(lambda profile, seed, results: None)
-    assert page_analyses.PAGE_ANALYSES == before  # the refused one left nothing behind
+        computes("claims")(lambda profile, seed, results: None)
+    with pytest.raises(ValueError, match=r"'exp1' is registered twice: by the experiments"):
+        computes("exp1")(lambda results: None)  # an analysis cannot take an experiment's id
+    assert registry.REGISTRY == before  # the refused one left nothing behind
 
-    monkeypatch.setattr(page_analyses, "PAGE_ANALYSES", dict(before))
+    monkeypatch.setattr(registry, "REGISTRY", dict(before))
 
     def twice(profile, seed, results):
         pass
-    assert page_analyses.fills("twice")(twice) is twice  # returned unchanged
+    assert computes("twice")(twice) is twice  # returned unchanged
     with pytest.raises(ValueError, match=r"'twice' is registered twice: by .*twice and by .*twice"):
-        page_analyses.fills("twice")(twice)
-    assert [a.name for a in page_analyses.page_analyses()] == [*ORDER, "twice"]
+        computes("twice")(twice)
+    assert list(ANALYSES)[-1] == "twice" and "twice" not in registry.EXPERIMENTS
 
 
-def test_fills_checks_what_it_registers(monkeypatch):
-    monkeypatch.setattr(page_analyses, "PAGE_ANALYSES", {})
+def test_computes_checks_what_it_registers(monkeypatch):
+    monkeypatch.setattr(registry, "REGISTRY", dict(registry.EXPERIMENTS))
     with pytest.raises(ValueError, match=r"'x' reads experiments not in the registry: \['nope'\]"):
-        page_analyses.fills("x", reads=("exp1", "nope"))
+        computes("x", reads=("exp1", "nope"))
     with pytest.raises(ValueError, match="identifier"):
-        page_analyses.fills("not a name")
+        computes("not a name")
     with pytest.raises(TypeError, match="must take 'results'"):
-        page_analyses.fills("x")(lambda profile, seed: None)
+        computes("x")(lambda profile, seed: None)
     with pytest.raises(TypeError, match="must take 'results'"):
-        page_analyses.fills("x")(lambda seed, n_loops, results=None: None)
-    assert page_analyses.PAGE_ANALYSES == {}
-    # an analysis taking some of (profile, seed, results) is called with those it names
+        computes("x")(lambda seed, n_loops, results=None: None)
+    with pytest.raises(TypeError, match="Experiment and Analysis"):
+        registry.register("x")
+    assert dict(ANALYSES) == {}
+    # an analysis taking some of (profile, seed, results, n_jobs) is called with those it names
     got = []
-    page_analyses.fills("x", reads=("exp1",))(lambda seed, results=None, n=3:
-                                               got.append((seed, results, n)))
-    task = page_analyses.PAGE_ANALYSES["x"]
-    assert task.reads == ("exp1",)
-    task.fill("quick", 7, "folder")
+    computes("x", reads=("exp1",))(lambda seed, results=None, n=3: got.append((seed, results, n)))
+    task = ANALYSES["x"]
+    assert task.reads == ("exp1",) and task.takes == ("seed", "results")
+    task.run("quick", 7, "folder", n_jobs=2)
     assert got == [(7, "folder", 3)]
 
 

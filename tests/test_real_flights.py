@@ -297,17 +297,20 @@ def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
 
 
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
-    """`analyses` with a bad folder: a clear error; `run exp13` asked for without Neural-Fly's
-    folder: an error naming the variable (issue 45: it exited 0)."""
+    """`run exp13` with a bad folder: a clear error; asked for without Neural-Fly's folder: an
+    error naming the variable (issue 45: it exited 0); the `analyses` command is gone (issue
+    68: `run` fills everything the registry lists), and saying it names `run`."""
     env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(rf.__file__).rsplit("/uavwind/", 1)[0],
            "UAVWIND_RESULTS": str(tmp_path)}
-    run = [sys.executable, "-m", "uavwind", "analyses", "--profile", "quick"]
-    p = subprocess.run(run + ["--folder", str(tmp_path / "none")], env=env, capture_output=True,
-                       text=True, timeout=120)
+    run = [sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick"]
+    p = subprocess.run(run, env={**env, "UAVWIND_NEURALFLY": str(tmp_path / "none")},
+                       capture_output=True, text=True, timeout=120)
     assert p.returncode == 2 and "existing folder" in p.stderr
-    p = subprocess.run([sys.executable, "-m", "uavwind", "run", "exp13", "--profile", "quick"],
-                       env=env, capture_output=True, text=True, timeout=120)
+    p = subprocess.run(run, env=env, capture_output=True, text=True, timeout=120)
     assert p.returncode != 0 and "UAVWIND_NEURALFLY" in p.stderr
+    p = subprocess.run([sys.executable, "-m", "uavwind", "analyses"], env=env,
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 2 and "'run'" in p.stderr and "Traceback" not in p.stderr
 
 
 def test_rows_read_from_a_folder_are_found_again_without_parsing_it(folder, rows, tmp_path,
@@ -368,21 +371,24 @@ def test_page_analyses_are_computed_once_verified_and_never_by_a_page(tmp_path, 
 
 
 def test_the_fill_computes_exp13_in_its_pool_when_the_flights_are_there(folder, monkeypatch):
-    """`make results` (run all --reading all) puts Experiment 13 in its pool as a long task
-    when the flights are there (``--folder`` or ``$UAVWIND_NEURALFLY``), and leaves it out,
-    saying so, when they are not; the task pickles (it goes to a worker process)."""
+    """`make results` (fill_cache("all")) puts Experiment 13 in its pool as a long task when
+    the flights are there (``$UAVWIND_NEURALFLY``), and leaves it out, saying so in
+    ``skipped``, when they are not; the task pickles (it goes to a worker process)."""
     import pickle
 
-    from uavwind import cli
+    from uavwind.analysis.exp13 import run_exp13
+    from uavwind.study import fill
     monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
-    names = [a.name for a in cli._book_analyses(None)]
-    assert "exp13" not in names and {"explore_grid", "exp11_filter_table", "claims"} <= set(names)
-    exp13, = [a for a in cli._book_analyses(folder) if a.name == "exp13"]
-    assert exp13.long and exp13.reads == ()
-    back = pickle.loads(pickle.dumps(exp13))
-    assert back.fill.func is cli._exp13_fill and back.fill.args == (str(folder),)
+    _, analyses, skipped = fill._plan("all", "quick", "all", 0, None, None)
+    names = [a.id for a in analyses]
+    assert skipped == ["exp13"] and "exp13" not in names
+    assert {"explore_grid", "exp11_filter_table", "claims"} <= set(names)
     monkeypatch.setenv("UAVWIND_NEURALFLY", str(folder))
-    assert "exp13" in [a.name for a in cli._book_analyses(None)]
+    _, analyses, skipped = fill._plan("all", "quick", "all", 0, None, None)
+    exp13, = [a for a in analyses if a.id == "exp13"]
+    assert skipped == [] and exp13.long and exp13.reads == ()
+    back = pickle.loads(pickle.dumps(exp13))
+    assert back.fill is run_exp13 and back.takes == ("profile", "results", "n_jobs")
 
 
 def test_an_interval_of_shares_stays_within_0_and_1_and_of_scores_within_0_and_100():
@@ -407,9 +413,10 @@ def test_run_experiment_exp13_without_its_flights_fails_naming_the_variable(monk
             run("exp13")
     with pytest.raises(ValueError, match="takes no seed, reading"):
         uw.run_experiment("exp13", seed=5, reading="halves")
-    with pytest.raises(ValueError, match="runs on measured flights"):
-        uw.study.get_experiment("exp13")  # no cases for a fill to plan
-    assert uw.study.registry.MEASURED["exp13"].notebook == "exp13_real_flights.md"
+    exp13 = uw.study.get_experiment("exp13")  # one registry: Exp 13 is an entry of it
+    assert exp13.kind == "analysis" and exp13.notebook == "exp13_real_flights.md"
+    assert exp13.data == "UAVWIND_NEURALFLY" and not exp13.available
+    assert uw.study.needed_entries(["exp13"]) == []  # it reads flights, not experiments
 
 
 def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, tmp_path,

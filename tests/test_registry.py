@@ -127,3 +127,95 @@ def test_profiles_and_loop_counts():
         ex.run_experiment("exp99")
     with pytest.raises(TypeError, match="experiment id"):
         ex.get_experiment(5)
+
+
+# ---- one registry (issue 68) --------------------------------------------------------- #
+def test_one_registry_holds_every_computed_thing_and_get_experiment_is_its_lookup():
+    """Exp 13, Exp 11's filter table, the explorer's grid and the pages' analyses are entries
+    of the one registry beside the experiments; get_experiment looks any of them up, and
+    needed_entries plans any of them (an analysis: the entries of what it reads)."""
+    from uavwind.study.fill import needed_entries
+    from uavwind.study.registry import ANALYSES, REGISTRY, get_experiment
+
+    assert {"exp13", "exp11_filter_table", "explore_grid", "claims"} <= set(ANALYSES)
+    assert list(REGISTRY) == [*EXPERIMENTS, *ANALYSES]
+    exp13 = get_experiment("exp13")
+    assert exp13.kind == "analysis" and exp13.id == "exp13" and exp13.long
+    assert ex.get_experiment("exp1") is EXPERIMENTS["exp1"] and EXPERIMENTS["exp1"].kind == "experiment"
+    assert needed_entries(["exp13"]) == [] and needed_entries("explore_grid") == []
+    claims = {e.path for e in needed_entries(["claims"], "quick", "inferred")}
+    read = {e.path for e in needed_entries(list(ANALYSES["claims"].reads), "quick", "all")}
+    assert claims == read
+    with pytest.raises(ValueError, match="unknown experiment 'nope'.*exp13"):
+        get_experiment("nope")
+
+
+def test_the_package_face_imports_every_module_that_registers():
+    """The analyses register where they are defined, above the study layer, which cannot
+    import them: the package's face imports each module that calls ``computes`` (else the
+    registry would miss its entries in a process that never imported it)."""
+    import ast
+
+    face = ast.parse((ROOT / "uavwind" / "__init__.py").read_text())
+    imported = set()
+    for node in ast.walk(face):
+        if isinstance(node, ast.ImportFrom) and node.level == 1 and node.module:
+            imported |= {f"{node.module}.{a.name}" for a in node.names}
+    registering = set()
+    for path in (ROOT / "uavwind").rglob("*.py"):
+        rel = path.relative_to(ROOT / "uavwind").with_suffix("")
+        if rel.parts[0] == "study":
+            continue  # the registry's own layer: it registers its experiments itself
+        if re.search(r"^@computes\(", path.read_text(), re.M):
+            registering.add(".".join(rel.parts))
+    assert registering == {"analysis.page_analyses", "analysis.filters", "analysis.exp13",
+                           "report.explore"}
+    assert registering <= imported, registering - imported
+
+
+def test_list_shows_every_entry_and_analyses_is_no_command(capsys):
+    from uavwind.cli import main
+    from uavwind.study.registry import REGISTRY
+
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    shown = {line.split()[0] for line in out.splitlines()[1:]}
+    assert shown == set(REGISTRY)
+    assert {"exp13", "exp11_filter_table", "explore_grid", "exp1"} <= shown
+    with pytest.raises(SystemExit) as stop:
+        main(["analyses"])
+    assert stop.value.code == 2 and "'run'" in capsys.readouterr().err
+
+
+def test_fill_cache_all_is_what_make_results_runs(tmp_path, monkeypatch):
+    """``fill_cache("all")`` and ``python -m uavwind run all --reading all`` (the Makefile's
+    ``make results``) hand out the same entries and the same analyses."""
+    from helpers import record_fills
+
+    from uavwind.cli import main
+    from uavwind.study import fill
+
+    tiny = {"loops": 2, "long_loops": 3, "fit_loops": 2, "episodes": 1,
+            "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 1}}
+    monkeypatch.setitem(ex.PROFILES, "tiny", ex.get_profile({**tiny, "name": "tiny"}))
+    monkeypatch.delenv("UAVWIND_NEURALFLY", raising=False)
+    make = (ROOT / "Makefile").read_text()
+    assert "-m uavwind run all --reading all --profile $(PROFILE)" in make
+    runs = {}
+    for how in ("python", "cli"):
+        analyses = []
+        order = record_fills(monkeypatch, analyses)
+        results = tmp_path / how
+        if how == "python":
+            done = fill.fill_cache("all", profile="tiny", results=results, n_jobs=1,
+                                   progress=False)
+        else:
+            monkeypatch.setenv("UAVWIND_RESULTS", str(results))
+            assert main(["run", "all", "--reading", "all", "--profile", "tiny", "--jobs", "1",
+                         "--no-tables", "--no-progress"]) == 0
+        runs[how] = (sorted(e.path.relative_to(results).as_posix() for e in order), analyses)
+    assert runs["python"] == runs["cli"]
+    entries, analyses = runs["python"]
+    assert len(entries) == len(fill.needed_entries("all", "tiny")) > 0
+    assert "exp13" not in analyses and {"explore_grid", "exp11_filter_table", "claims"} <= set(analyses)
+    assert done["skipped"] == ["exp13"]

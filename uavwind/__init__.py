@@ -58,7 +58,6 @@ from .study.conditions import (PAPER_SCENARIOS, SPEED_RANGES, WindCondition,  # 
                                scenario_table, table3_setting)
 from .study.layouts import INFERRED_GAP_RATIOS, LAYOUTS, Layout, group_speeds, resolve_layout  # noqa: E402
 from .study.readings import READINGS, Reading, get_reading  # noqa: E402
-from .study.registry import register_measured  # noqa: E402
 from .study.runner import run_experiment  # noqa: E402
 
 __all__ = [
@@ -90,18 +89,13 @@ __all__ = [
 ]
 
 
-def _run_exp13(profile, results=None, n_jobs=None):
-    """Experiment 13's rows for the study's registry:
-    :func:`uavwind.analysis.exp13.run_exp13`."""
-    # kept in a function: the analysis layer (with the page analyses its modules import)
-    # loads when Exp 13 runs, not with every `import uavwind` (about 8% of its time)
-    from .analysis.exp13 import run_exp13
-    return run_exp13(profile, results=results, n_jobs=n_jobs)
-
-
-# the study's registry lists Exp 13 but cannot import the analysis layer above it: the
-# package's face hands it the rows, so run_experiment("exp13") works wherever uavwind is
-register_measured("exp13", _run_exp13)
+# the analyses join the study's registry where they are defined, in the layers above it,
+# which it cannot import: the package's face imports the modules that register them, so the
+# registry (python -m uavwind list, run ID, fill_cache("all")) is whole wherever uavwind is
+# imported (tests/test_registry.py: every module that registers is imported here)
+# (in the order the fill has always put them: the long ones first)
+from .report import explore  # noqa: E402,F401
+from .analysis import filters, exp13, page_analyses  # noqa: E402,F401,I001
 
 
 def __getattr__(name):

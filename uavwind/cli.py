@@ -1,17 +1,17 @@
-"""Command line: run experiments into the result cache.
+"""Command line: run what the registry lists into the result cache.
 
-    python -m uavwind list
+    python -m uavwind list          (every id: the experiments, then the analyses)
     python -m uavwind run exp1 exp2 --profile paper --jobs -1
+    python -m uavwind run exp13 claims explore_grid --profile quick
     python -m uavwind run all --reading all --profile paper --scheduler tcp://host:8786
-    python -m uavwind run all --profile quick
-    python -m uavwind run all --profile paper --reading all --no-tables   (what make book runs)
-    python -m uavwind analyses --profile paper [--folder DIR]   (the analyses pages read:
-        Exp 11's filter table; Exp 13 when Neural-Fly's flights are there)
+    python -m uavwind run all --profile paper --reading all --no-tables   (make results)
 
-`run` first computes every missing result of the chosen experiments and readings in one
-pool of workers, longest task first, then prints each experiment's table from the cache.
-``--times FILE`` keeps the CPU seconds of every entry it computed (JSON), for a profile of
-where a build's time goes.
+`run` first computes every missing result of the chosen ids in one pool of workers, longest
+task first -- an experiment's entries under the chosen readings, an analysis (a page's
+summary, Exp 11's filter table, the explorer's grid, Exp 13 on Neural-Fly's flights) once
+what it reads is stored -- then prints each experiment's table (and what an analysis shows)
+from the cache. ``run all --reading all`` is ``fill_cache("all")``. ``--times FILE`` keeps
+the CPU seconds of every entry it computed (JSON), for a profile of where a build's time goes.
 """
 
 from __future__ import annotations
@@ -26,25 +26,17 @@ import threading
 import time
 import warnings
 from collections.abc import Sequence
-from functools import partial
 
-from .analysis.exp13 import run_exp13
-from .analysis.figure8 import calibration_of, ranking_verdict, sim_rows, validation_table
-from .analysis.filters import filter_table
-from .analysis.page_analyses import page_analyses
-from .analysis.real_flights import channel_table, real_flight_rows
 from .analysis.tables import summary_table
 from .core.io import check_target
 from .core.parallel import check_jobs, cores, stop_workers
 from .core.store import atomic_write
-from .data.neuralfly import ENV_VAR as NEURALFLY_ENV, neuralfly_folder
 from .method.clustering import ENGINES
-from .report.explore import fill_grid
-from .study.cache import check_writable
-from .study.fill import Analysis, fill_cache, time_by_experiment
-from .study.profiles import PROFILES
-from .study.readings import READINGS
-from .study.registry import EXPERIMENTS, MEASURED, get_experiment
+from .study.cache import check_writable, results_dir
+from .study.fill import fill_cache, time_by_experiment
+from .study.profiles import DEFAULT_SEED, PROFILES
+from .study.readings import DEFAULT_READING, READINGS
+from .study.registry import ANALYSES, REGISTRY, Analysis, get_experiment
 from .study.runner import run_experiment
 
 
@@ -92,17 +84,11 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
     parser = argparse.ArgumentParser(prog="python -m uavwind", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="command", required=True)
-    sub.add_parser("list", help="list the experiments")
-    real = sub.add_parser("analyses", help="the analyses the pages read, into the result "
-                          "cache: Exp 11's filter table, Exp 13 (Neural-Fly's real flights and "
-                          "their simulated twins)")
-    real.add_argument("--folder", default=None, help="the Neural-Fly flights (default "
-                      "$UAVWIND_NEURALFLY; without either, Exp 13 is skipped)")
-    real.add_argument("--profile", default="quick", choices=sorted(PROFILES))
-    real.add_argument("--jobs", type=_jobs, default=-1)
-    run = sub.add_parser("run", help="run experiments (cached; resumes where it stopped)")
+    sub.add_parser("list", help="list everything the book computes: the experiments and the "
+                   "analyses, by id")
+    run = sub.add_parser("run", help="run ids of the list (cached; resumes where it stopped)")
     run.add_argument("experiments", nargs="+",
-                     help=f"ids ({', '.join([*EXPERIMENTS, *MEASURED])}) or 'all'")
+                     help=f"ids ({', '.join(REGISTRY)}) or 'all'")
     run.add_argument("--profile", default="quick", choices=sorted(PROFILES))
     run.add_argument("--jobs", type=_jobs, default=-1,
                      help=f"worker processes, 1-{_CORES} (-1 = all cores)")
@@ -120,38 +106,29 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
     run.add_argument("--scheduler", default=None, metavar="ADDRESS",
                      help="fill the cache on a dask.distributed cluster (e.g. "
                           "tcp://host:8786): its workers compute, this process writes "
-                          "every entry (--jobs then applies to the tables only)")
+                          "every entry (--jobs then applies to the analyses and tables)")
     args = parser.parse_args(argv)
 
-    if args.command == "analyses":
-        return _analyses(args)
     if args.command == "list":
-        for e in EXPERIMENTS.values():
-            print(f"{e.id:14s} {e.title:36s} {e.paper_table:32s} {len(e.cases()):3d} cases  "
-                  f"{e.notebook}")
-        for m in MEASURED.values():
-            print(f"{m.id:14s} {m.title:36s} {m.paper_table:32s} {'':3s}       {m.notebook} "
-                  f"(needs ${m.data})")
+        _list()
         return 0
     if "all" in args.experiments and len(args.experiments) > 1:
-        parser.error(f"'all' means every experiment: give it alone, not with "
+        parser.error(f"'all' means every experiment and analysis: give it alone, not with "
                      f"{', '.join(e for e in args.experiments if e != 'all')}")
     everything = args.experiments == ["all"]
-    ids = list(EXPERIMENTS) if everything else [i for i in args.experiments if i not in MEASURED]
-    # the experiments on measured flights (Exp 13) run by name after the fill: asked for by
-    # name they need their flights; `run all` runs them when the flights are there
-    measured = list(MEASURED) if everything else [i for i in args.experiments if i in MEASURED]
+    ids = list(REGISTRY) if everything else list(dict.fromkeys(args.experiments))
     try:
         for i in ids:  # validate every name before any work starts
             get_experiment(i)
     except (ValueError, TypeError) as exc:
         parser.error(str(exc))
-    for i in ([] if everything else measured):
-        try:  # asked for by name without its flights: fails before any work
-            MEASURED[i].check_data()
+    for i in ([] if everything else ids):
+        try:  # an analysis asked for by name without its data: fails before any work
+            item = REGISTRY[i]
+            if isinstance(item, Analysis):
+                item.check_data()
         except ValueError as exc:
-            print(f"python -m uavwind run {i}: error: {exc} (or fill its analysis with "
-                  f"`python -m uavwind analyses --folder FOLDER`)", file=sys.stderr)
+            print(f"python -m uavwind run {i}: error: {exc}", file=sys.stderr)
             return 2
     times = None
     if args.times is not None:
@@ -188,7 +165,7 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
     previous = _on_signals(stop, stop_now) if _in_main_thread() else {}
     code = 1
     try:
-        code = _run(args, ids, measured, everything, record, stop)
+        code = _run(args, ids, everything, record, stop)
         if record.failed and code == 0:  # the run's record was asked for and is lost
             code = 1
         return code
@@ -201,24 +178,37 @@ def main(argv: Sequence[str] | None = None, program: bool = False) -> int:
             _exit_within(code)
 
 
-def _run(args, ids, measured, everything, record, stop) -> int:
-    """``run``, its arguments checked: the fill of ``ids`` (the book's whole fill when
-    ``everything`` under both readings, with the pages' analyses), the experiments on
-    measured flights of ``measured``, then the tables; ``record`` keeps the ``--times``
-    record, ``stop`` is set by a signal (checked between entries, after the fill, between
-    experiments and between tables: each one ends the run with exit 130)."""
+def _list() -> None:
+    """``list``: every id of the registry, one line each -- the experiments (their paper
+    table and cases), then the analyses (what they read) -- with the page that shows it."""
+    print(f"{'id':30s} {'kind':10s} {'title':38s} {'what':34s} page")
+    for item in REGISTRY.values():
+        if isinstance(item, Analysis):
+            what = ("reads " + ", ".join(item.reads)) if item.reads else "reads no experiment"
+            if len(what) > 34:
+                what = f"reads {len(item.reads)} experiments"
+            if item.data:
+                what = f"needs ${item.data}"
+        else:
+            what = f"{len(item.cases())} cases: {item.paper_table}"
+        print(f"{item.id:30s} {item.kind:10s} {item.title[:38]:38s} {what[:34]:34s} "
+              f"{item.notebook}")
+
+
+def _run(args, ids, everything, record, stop) -> int:
+    """``run``, its arguments checked: the fill of ``ids`` (``everything``: every id of the
+    registry, ``fill_cache("all")`` under ``--reading all``), then the tables of the
+    experiments among them and what the analyses show; ``record`` keeps the ``--times``
+    record, ``stop`` is set by a signal (checked between entries, after the fill, and between
+    tables: each one ends the run with exit 130)."""
     kw = {} if args.seed is None else {"seed": args.seed}
-    readings = list(READINGS) if args.reading == "all" else [args.reading]
-    # the book's whole fill (`make results`: every experiment under both readings) computes
-    # what the pages read beside the experiments, in the same pool: their analyses, Exp 11's
-    # filter table, the explorer's grid and Exp 13's real flights (when they are there)
-    book = everything and args.reading == "all" and args.seed is None
+    readings = list(READINGS) if args.reading == "all" else [args.reading or DEFAULT_READING]
     try:
-        analyses = _book_analyses(None) if book else []
-        done = fill_cache(ids, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
-                          readings="all" if args.reading == "all" else args.reading,
+        done = fill_cache("all" if everything else ids, profile=args.profile, n_jobs=args.jobs,
+                          engine=args.engine,
+                          readings="all" if args.reading == "all" else readings[0],
                           progress=not args.no_progress, times=record.records, stop=stop,
-                          scheduler=args.scheduler, analyses=analyses, **kw)
+                          scheduler=args.scheduler, **kw)
     except KeyboardInterrupt:
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
         record.write(complete=False, error="interrupted")
@@ -233,28 +223,38 @@ def _run(args, ids, measured, everything, record, stop) -> int:
         record.write(complete=False, error=f"{type(exc).__name__}: {exc}")
         return 1
     record.write(complete=True)
+    n_analyses = sum(t.get("search") == "analysis" for t in done["times"])
     print(f"results: {done['entries']} entries, {done['cached']} from the cache, "
           f"{done['computed']} computed ({done['rows_computed']} rows: loops, CEM samples or "
-          f"closed-loop reports) in "
+          f"closed-loop reports), {n_analyses} analyses computed or read, in "
           f"{time.perf_counter() - record.t0:.1f} s")
     if done["times"]:
         by_exp = time_by_experiment(done["times"])
         print("CPU seconds of the computed entries, by experiment and reading:")
         print(by_exp.round({"cpu_seconds": 1, "share": 1}).to_string(), "\n")
-    if book and not os.environ.get(NEURALFLY_ENV):
-        print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
+    for i in done.get("skipped", ()):
+        a = ANALYSES[i]
+        print(f"{i}: ${a.data} is not set; {a.title or i} is left out (set it to run it)",
               file=sys.stderr)
-    if not book:  # the book's fill ran Exp 13 among its analyses
-        for i in measured:  # Exp 13, the one experiment on measured flights
-            if stop.is_set():
-                break
-            if _exp13(args):
+    skipped = set(done.get("skipped", ()))
+    for i in ([] if args.no_tables else ids):
+        item = REGISTRY[i]
+        if stop.is_set():
+            break
+        if isinstance(item, Analysis):
+            if item.show is None or i in skipped:
+                continue
+            try:
+                print(item.show(args.profile, args.seed if args.seed is not None
+                                else DEFAULT_SEED, results_dir(None)), "\n")
+            except (ValueError, TypeError) as exc:
+                print(f"python -m uavwind run {i}: error: {exc}", file=sys.stderr)
                 return 2
-    for reading in readings:
-        for i in ([] if args.no_tables else ids):
+            continue
+        for reading in readings:
             if stop.is_set():
                 break
-            if args.reading == "all" and reading not in get_experiment(i).readings:
+            if args.reading == "all" and reading not in item.readings:
                 continue  # the book runs it under its own readings only
             df = run_experiment(i, profile=args.profile, n_jobs=args.jobs, engine=args.engine,
                                 progress=False, reading=reading, **kw)
@@ -263,93 +263,6 @@ def _run(args, ids, measured, everything, record, stop) -> int:
     if stop.is_set():  # after the fill: what it computed is complete, and recorded
         print("interrupted; finished chunks are kept, a rerun resumes", file=sys.stderr)
         return 130
-    return 0
-
-
-def _exp13(args) -> int:
-    """``run exp13`` (and ``run all``): Experiment 13 through the registry
-    (:func:`~uavwind.study.runner.run_experiment`: its rows into the cache, the flights from
-    ``$UAVWIND_NEURALFLY``), then its channel table and its simulated twin's validation.
-    Without the flights it is skipped, saying so (asked for by name, :func:`main` refused it
-    first)."""
-    if not os.environ.get(NEURALFLY_ENV):
-        print(f"exp13: no Neural-Fly folder (${NEURALFLY_ENV}); Experiment 13 is skipped",
-              file=sys.stderr)
-        return 0
-    try:
-        real = run_experiment("exp13", profile=args.profile, n_jobs=args.jobs)
-        sim = sim_rows(real, profile=args.profile)  # computed beside it: read from the cache
-    except (ValueError, TypeError) as exc:
-        print(f"python -m uavwind run exp13: error: {exc}", file=sys.stderr)
-        return 2
-    if args.no_tables:
-        return 0
-    real_ch, sim_ch = channel_table(real), channel_table(sim)
-    print(f"exp13 ({args.profile} profile): real flights, mean score over controllers "
-          f"(95% CI over controllers)")
-    print(real_ch.round(2).to_string(), "\n")
-    cal = calibration_of(sim)
-    print(f"simulated twin (drag x {cal.drag_scale:.3f}, lift x {cal.lift_scale:.3f}, gusts "
-          f"W20 = {cal.gust_scale:.3f} x the mean speed; fitted on "
-          f"{', '.join(cal.controllers)}, checked on {sim.attrs['held_out']}):")
-    print(validation_table(real, sim).round(2).to_string(), "\n")
-    v = ranking_verdict(real_ch, sim_ch)
-    print(f"does the simulation rank the channels as the real flights do? {v['verdict']} "
-          f"(agree {len(v['agree'])}, disagree {len(v['disagree'])}, tied in the simulation "
-          f"{len(v['sim_tied'])}, Spearman {v['spearman']:.2f})")
-    return 0
-
-
-def _exp13_fill(folder, profile, seed, results):
-    """The fill's task for Experiment 13: its real-flight rows, then its calibrated twin's
-    (:func:`~uavwind.analysis.exp13.run_exp13`, on one worker)."""
-    run_exp13(profile, results=results, n_jobs=1, folder=folder)
-
-
-def _filter_fill(profile, seed, results):
-    """The fill's task for Experiment 11's filter table."""
-    filter_table(profile=profile, results=results, n_jobs=1)
-
-
-def _book_analyses(folder) -> list:
-    """Every analysis the pages read, as the fill's tasks: the explorer's grid, Exp 11's
-    filter table and Exp 13's real flights (first: long, and reading no experiment), then
-    :func:`~uavwind.analysis.page_analyses.page_analyses` (each once what it reads is stored).
-    Exp 13 only with its flights: ``folder``, else ``$UAVWIND_NEURALFLY`` (else left out)."""
-    out = [Analysis("explore_grid", fill_grid, long=True),
-           Analysis("exp11_filter_table", _filter_fill, long=True)]
-    if folder is not None or os.environ.get(NEURALFLY_ENV):
-        out.append(Analysis("exp13", partial(_exp13_fill, str(neuralfly_folder(folder))),
-                            long=True))
-    return out + page_analyses()
-
-
-def _analyses(args) -> int:
-    """Fill the caches of the analyses the pages read (:func:`_book_analyses`: the
-    explorer's grid, Exp 11's filter table, Exp 13's real and simulated rows, the pages'
-    summaries and exercises), in one pool: what ``run all --reading all`` computes beside
-    the experiments, for a cache whose experiments were filled another way. Exp 13 is
-    skipped, saying so, without Neural-Fly's folder."""
-    try:
-        have = args.folder is not None or bool(os.environ.get(NEURALFLY_ENV))
-        folder = neuralfly_folder(args.folder) if have else None  # a bad folder: fail first
-        t0 = time.perf_counter()
-        done = fill_cache([], profile=args.profile, n_jobs=args.jobs, progress=False,
-                          analyses=_book_analyses(folder))
-        cpu = {r["experiment"]: r["cpu_seconds"] for r in done["times"]}
-        print(f"analyses: {', '.join(f'{k} ({v:.1f} CPU-s)' for k, v in cpu.items())}, in "
-              f"{time.perf_counter() - t0:.1f} s")
-        if folder is None:
-            print(f"analyses: no Neural-Fly folder (--folder or ${NEURALFLY_ENV}); Experiment 13 "
-                  f"is skipped")
-            return 0
-        real = real_flight_rows(folder, profile=args.profile)  # read from the cache
-        sim = sim_rows(real, profile=args.profile)
-    except (ValueError, TypeError) as exc:
-        print(f"python -m uavwind analyses: error: {exc}", file=sys.stderr)
-        return 2
-    print(f"analyses: Exp 13, {len(real)} real rows, {len(sim)} simulated rows (the twin's "
-          f"drag scale {calibration_of(sim).drag_scale:.3f})")
     return 0
 
 

@@ -44,7 +44,7 @@ from ..sim.observation import rotorpy_imu_noise
 from ..sim.setting import Setting
 from ..sim.wind import ConstantWind
 from ..study.profiles import DEFAULT_SEED
-from ..study.registry import EXPERIMENTS
+from ..study.registry import EXPERIMENTS, computes
 from ..study.cache import RESULTS_VERSION
 
 __all__ = ["filter_table", "QUICK_SCENARIOS", "FILTERS", "DIVERGED", "calibrate_drag", "run_filter", "filter_comparison"]
@@ -475,6 +475,8 @@ def _one_flight(setting, i, root, probe, kinds, drag):
 QUICK_SCENARIOS = (2,)
 
 
+@computes("exp11_filter_table", long=True, title="Exp 11: RotorPy's wind filters",
+          notebook="exp11_future_work.md")
 def filter_table(profile: str = "quick", seed: int | None = None, n_jobs: int | None = None,
                  results=None) -> pd.DataFrame:
     """Experiment 11's filter table: both filters on hover probes and on the loops' actions

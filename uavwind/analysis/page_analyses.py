@@ -8,11 +8,10 @@ under the same name and arguments for the fill and the page, and the settings th
 (:data:`SATURATION_LOOPS`, :data:`DRIFT_WIND`, ...), which a page asks for here instead of
 typing them again.
 
-It also owns :data:`PAGE_ANALYSES`, what the fill computes for the pages, built by
-:func:`fills`: each task is registered where it is defined, with the experiments it reads,
-so the fill and the pages cannot drift apart. :func:`page_analyses` hands them to the fill
-as tasks (:class:`~uavwind.study.fill.Analysis`; ``make results``: ``python -m uavwind run
-all --reading all``, one pool), in the order they are defined here.
+Each is registered where it is defined, with the experiments it reads, in the one registry
+(:func:`uavwind.study.registry.computes`), so the fill and the pages cannot drift apart: the
+fill (``make results``: ``python -m uavwind run all --reading all``, one pool) runs each as a
+task once what it reads is stored, and ``python -m uavwind run ID`` runs one.
 
 An exercise's solution is the page's own executed cell (tagged ``exercise-computes``, see
 :mod:`uavwind.report.pages`), its output printed under it. Exp 12's first exercise is
@@ -22,9 +21,7 @@ stores (:func:`exp12_inferred_exercise`) and the page's cell reads back.
 
 from __future__ import annotations
 
-import inspect
-from collections.abc import Callable, Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Mapping
 
 import pandas as pd
 
@@ -32,9 +29,8 @@ from ..method.clustering import score_loop
 from ..sim.actions import PAPER_EXAMPLE
 from ..study.builders import make_setting
 from ..study.conditions import table3_setting
-from ..study.fill import Analysis
 from ..study.readings import DEFAULT_READING
-from ..study.registry import EXPERIMENTS
+from ..study.registry import EXPERIMENTS, computes
 from ..study.runner import run_experiment
 from ..core import stats
 from . import beyond, claims, inference, manoeuvres
@@ -46,79 +42,13 @@ from .memo import derived, derived_many, memo
 #: The modules whose rules make the claims' verdicts: a change in any is a new cache entry.
 _CLAIMS_CODE = (claims, beyond, stats)
 
-__all__ = ["PAGE_ANALYSES", "fills", "page_analyses",
-           "CLAIMS_READINGS", "C1_READING", "claims_inputs", "claims_verdicts", "c1_vehicles",
+__all__ = ["CLAIMS_READINGS", "C1_READING", "claims_inputs", "claims_verdicts", "c1_vehicles",
            "layout_fits", "SCALE_FACTOR", "SCALE_LAYOUTS", "SCALE_ENVIRONMENTS",
            "scale_invariance_loops", "scale_invariance_summary", "exp12_summaries",
            "SATURATION_LOOPS", "exp10_hover_settings", "saturation_split",
            "DRIFT_LOOPS", "DRIFT_WIND", "drift_offsets", "SENSITIVITY_LOOPS",
            "SENSITIVITY_WIND", "SENSITIVITY_DELTA", "zero_thrust_sensitivity",
            "exp12_inferred_exercise", "model_example"]
-
-#: What the fill computes for the pages: name -> :class:`~uavwind.study.fill.Analysis`, in
-#: the order they are defined below, each put here by :func:`fills` (never by hand).
-PAGE_ANALYSES: dict[str, Analysis] = {}
-
-#: The fill's arguments, by name: a registered function takes all three or some of them.
-_FILL_ARGS = ("profile", "seed", "results")
-
-
-@dataclass(frozen=True)
-class _Takes:
-    """The fill's task for an analysis that takes only some of ``(profile, seed, results)``:
-    calls it with those it names (a module-level function, so the task pickles by name)."""
-
-    f: Callable
-    takes: tuple
-
-    def __call__(self, profile, seed, results):
-        given = {"profile": profile, "seed": seed, "results": results}
-        return self.f(**{k: given[k] for k in self.takes})
-
-
-def fills(name: str, reads: Iterable[str] = ()):
-    """Register the decorated function as the fill's task ``name`` (:data:`PAGE_ANALYSES`),
-    reading the experiments ``reads`` (the fill completes them first); the function is
-    returned unchanged.
-
-    The function takes the fill's ``(profile, seed, results)`` or, an analysis a page calls
-    itself, some of them by name (``saturation_split(seed, results=None)``): the task passes
-    those it names. It must take ``results`` (the fill's result folder, where the page finds
-    the entry). Raises ValueError for a name registered already (naming both functions) or
-    an experiment not in the registry, TypeError for a function the fill cannot call."""
-    if not isinstance(name, str) or not name.isidentifier():
-        raise ValueError(f"a page analysis's name must be an identifier, got {name!r}")
-    reads = tuple(reads)
-    unknown = [r for r in reads if r not in EXPERIMENTS]
-    if unknown:
-        raise ValueError(f"page analysis {name!r} reads experiments not in the registry: "
-                         f"{unknown}")
-
-    def register(f):
-        if name in PAGE_ANALYSES:
-            had = PAGE_ANALYSES[name].fill
-            had = getattr(had, "f", had)
-            raise ValueError(f"page analysis {name!r} is registered twice: by "
-                             f"{had.__module__}.{had.__qualname__} and by "
-                             f"{f.__module__}.{f.__qualname__}")
-        params = inspect.signature(f).parameters
-        takes = tuple(k for k in _FILL_ARGS if k in params)
-        other = [k for k, p in params.items() if k not in _FILL_ARGS
-                 and p.default is inspect.Parameter.empty]
-        if "results" not in takes or other:
-            raise TypeError(f"page analysis {name!r}: {f.__qualname__} must take 'results' and "
-                            f"no other argument without a default than 'profile' and 'seed', "
-                            f"got {list(params)}")
-        task = f if takes == _FILL_ARGS else _Takes(f, takes)
-        PAGE_ANALYSES[name] = Analysis(name, task, reads)
-        return f
-    return register
-
-
-def page_analyses() -> list[Analysis]:
-    """:data:`PAGE_ANALYSES` as the fill's tasks, each with the experiments it reads."""
-    return list(PAGE_ANALYSES.values())
-
 
 def _read(exp_id, profile, seed, results, reading=None, n_jobs=1):
     return run_experiment(exp_id, profile=profile, seed=seed, n_jobs=n_jobs, reading=reading,
@@ -166,7 +96,8 @@ def c1_vehicles(exp10: pd.DataFrame, results=None) -> pd.DataFrame:
                    results=results, code=_CLAIMS_CODE)
 
 
-@fills("claims", reads=(*needed_experiments(), "exp10"))
+@computes("claims", reads=(*needed_experiments(), "exp10"), title="The claims' verdicts",
+          notebook="claims.md")
 def _fill_claims(profile, seed, results):
     inputs = claims_inputs(profile, seed, results=results)
     claims_verdicts(inputs, results)
@@ -214,7 +145,8 @@ def scale_invariance_summary(profile: str, seed: int, results=None) -> pd.DataFr
                 compute, results)
 
 
-@fills("inference", reads=("fit_layout",))
+@computes("inference", reads=("fit_layout",), title="Layout fits, scale invariance",
+          notebook="inference.md")
 def _fill_inference(profile, seed, results):
     layout_fits(_read("fit_layout", profile, seed, results), results)
     scale_invariance_summary(profile, seed, results)
@@ -235,7 +167,8 @@ def exp12_summaries(exp12: pd.DataFrame, results=None) -> dict[str, pd.DataFrame
     return {k: made[f"exp12_{k}"] for k in summaries}
 
 
-@fills("exp12", reads=("exp12",))
+@computes("exp12_summaries", reads=("exp12",), title="Exp 12's curves and summaries",
+          notebook="exp12_closed_loop.md")
 def _fill_exp12(profile, seed, results):
     exp12_summaries(_read("exp12", profile, seed, results, EXPERIMENTS["exp12"].readings[0]),
                     results)
@@ -265,7 +198,8 @@ def exp10_hover_settings() -> list:
             and c.labels["noise"] == "none" and c.labels["scenario_id"] > 0]
 
 
-@fills("exp10_saturation_split")
+@computes("exp10_saturation_split", title="Exp 10: where the motors saturate",
+          notebook="exp10_multirotor.md")
 def saturation_split(seed: int, results=None) -> pd.DataFrame:
     """Exp 10's saturation split (:func:`uavwind.analysis.manoeuvres.saturation_split` on
     :func:`exp10_hover_settings`, :data:`SATURATION_LOOPS` loops each), cached."""
@@ -275,7 +209,7 @@ def saturation_split(seed: int, results=None) -> pd.DataFrame:
                 results)
 
 
-@fills("exp10_drift_offsets")
+@computes("exp10_drift_offsets", title="Exp 10: the drift check", notebook="exp10_multirotor.md")
 def drift_offsets(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.drift_offsets` over :data:`DRIFT_LOOPS` sequences
     in :data:`DRIFT_WIND`, cached."""
@@ -285,7 +219,8 @@ def drift_offsets(seed: int, results=None) -> pd.DataFrame:
                 results)
 
 
-@fills("exp10_zero_thrust_sensitivity")
+@computes("exp10_zero_thrust_sensitivity", title="Exp 10: zero-thrust sensitivity",
+          notebook="exp10_multirotor.md")
 def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
     """:func:`uavwind.analysis.manoeuvres.zero_thrust_sensitivity` over
     :data:`SENSITIVITY_LOOPS` sequences in :data:`SENSITIVITY_WIND`, changed by
@@ -299,7 +234,8 @@ def zero_thrust_sensitivity(seed: int, results=None) -> pd.DataFrame:
 
 
 # ---- the exercises' small runs: the code each solution shows, run by the fill ----------- #
-@fills("exp12_inferred_exercise", reads=("exp12",))
+@computes("exp12_inferred_exercise", reads=("exp12",), title="Exp 12's exercise",
+          notebook="exp12_closed_loop.md")
 def exp12_inferred_exercise(seed: int, results=None) -> pd.DataFrame:
     """Exp 12's exercise: its first two cases under the inferred reading, quick profile
     (cache entries of the experiment itself)."""
@@ -307,7 +243,7 @@ def exp12_inferred_exercise(seed: int, results=None) -> pd.DataFrame:
                           cases=[0, 1], results=results, progress=False)
 
 
-@fills("model_example")
+@computes("model_example", title="The worked example's one loop", notebook="model.md")
 def model_example(results=None) -> pd.DataFrame:
     """The model page's worked example: one loop of the paper's example thrust in Table 3's
     setting, as :meth:`uavwind.LoopResult.to_table` (the paper's one-loop table), cached."""

@@ -27,6 +27,7 @@ from ..sim.actions import PAPER_EXAMPLE, ThrustSequence, sample_paper
 from ..study.builders import make_setting
 from ..study.cache import RESULTS_VERSION
 from ..study.readings import get_reading
+from ..study.registry import computes
 from .display import group_name
 from .plotting import fig3_loop
 
@@ -236,9 +237,10 @@ def _loop_problem(loop) -> str:
     return ""
 
 
-def fill_grid(profile: str, seed: int, results=None) -> None:
-    """The fill's task for this page (``python -m uavwind analyses``): :func:`cached_grid`
-    into ``results`` (the grid is the same at every profile and seed)."""
+@computes("explore_grid", long=True, title="The explorer's grid", notebook="explore.md")
+def fill_grid(results=None) -> None:
+    """The registry's entry for this page (``python -m uavwind run explore_grid``):
+    :func:`cached_grid` into ``results`` (the grid is the same at every profile and seed)."""
     cached_grid(results)
 
 

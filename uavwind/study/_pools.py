@@ -3,8 +3,9 @@
 This module owns the two pools :func:`uavwind.study.fill.fill_cache` hands its tasks to,
 behind one interface (``put`` a task with a priority, ``wait`` for the tasks that finished,
 ``busy``, ``cancel`` the ones not started): :class:`_LocalPool`, joblib's reusable loky
-workers with the pending tasks queued here in priority order, and :class:`_ClusterPool`, a
-``dask.distributed`` client whose scheduler orders them; and :class:`_Watcher`, the thread
+workers with the pending tasks queued here in priority order, :class:`_ClusterPool`, a
+``dask.distributed`` client whose scheduler orders them, and :class:`_SplitPool`, the two
+side by side (a cluster's fill runs its analyses on the local workers); and :class:`_Watcher`, the thread
 that stops the local workers as soon as a stop is requested. Which tasks there are, their
 priorities and what is done with their results are the fill's.
 """
@@ -117,6 +118,34 @@ class _ClusterPool:
     def cancel(self):
         if self.futures:
             self.client.cancel(list(self.futures), force=True)
+
+
+class _SplitPool:
+    """A cluster's pool for the experiments' tasks beside a local one for the analyses' (a key
+    ``("analysis", id)``): an analysis reads and writes the result folder, which the
+    cluster's workers need not see, so it runs on this machine's workers -- as soon as what
+    it reads is stored, while the cluster computes the rest -- instead of after the cluster,
+    one after the other. The interface is the pools'."""
+
+    def __init__(self, cluster: _ClusterPool, local: _LocalPool):
+        self.cluster, self.local = cluster, local
+
+    def _pool(self, key):
+        return self.local if isinstance(key, tuple) and key[0] == "analysis" else self.cluster
+
+    def put(self, key, priority, fn, *args):
+        self._pool(key).put(key, priority, fn, *args)
+
+    def busy(self) -> bool:
+        return self.cluster.busy() or self.local.busy()
+
+    def wait(self, timeout: float, dispatch: bool = True) -> list:
+        out = self.local.wait(0, dispatch) if self.local.busy() else []
+        return out + self.cluster.wait(0 if out else timeout, dispatch)
+
+    def cancel(self):
+        self.local.cancel()
+        self.cluster.cancel()
 
 
 class _Watcher:

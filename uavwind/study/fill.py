@@ -1,13 +1,15 @@
-"""The fill: every missing result of many experiments, under both readings, in one pool.
+"""The fill: every missing result of the registry's entries, under both readings, in one pool.
 
-This module owns how the book's results are computed in one go (``make results``,
-``python -m uavwind run all``): :func:`needed_entries` lists the cache entries
-(:class:`~uavwind.study.runner.Entry`) the experiments need, each once, however many
-experiments and readings share it; :func:`fill_cache` computes the missing ones as
-tasks -- one per chunk, longest first, and one per sample of a CEM run, ahead of the
+This module owns how the book's results are computed in one go (``make results``, ``python
+-m uavwind run all --reading all``, ``fill_cache("all")``: the same call):
+:func:`needed_entries` lists the cache entries (:class:`~uavwind.study.runner.Entry`) the
+experiments need -- those asked for, and those the asked-for analyses read -- each once,
+however many experiments and readings share it; :func:`fill_cache` computes the missing ones
+as tasks -- one per chunk, longest first, and one per sample of a CEM run, ahead of the
 chunks, each iteration put as the last one returns -- over a pool of local workers or on
-a ``dask.distributed`` cluster (``scheduler=``), and records the CPU seconds of each
-entry; :func:`time_by_experiment` sums those records per experiment and reading. Where the
+a ``dask.distributed`` cluster (``scheduler=``), with each asked-for
+:class:`~uavwind.study.registry.Analysis` a task of the same pool once what it reads is
+stored, and records the CPU seconds of each entry; :func:`time_by_experiment` sums those records per experiment and reading. Where the
 tasks run (the local and the cluster pool, ``uavwind.study._pools``), how a scheduler address
 is checked before it is trusted (``uavwind.study._dask_probe``) and the CPU accounting behind
 the records (``uavwind.study._timing``) are modules of their own.
@@ -30,21 +32,20 @@ import os
 import sys
 import threading
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ..core.checks import check_instance
 from ..core.parallel import check_jobs, pin_threads, stop_workers
 from ..method.clustering import ClusteringParams, softdtw_engine
 from ..method.search import CEMRun, evaluate
 from ._dask_probe import _check_scheduler
-from ._pools import _ClusterPool, _LocalPool, _Watcher
+from ._pools import _ClusterPool, _LocalPool, _SplitPool, _Watcher
 from ._timing import _analysis_record, _cpu_seconds, _entry_record, time_by_experiment
 from .cache import check_writable, results_dir
 from .profiles import DEFAULT_SEED, get_profile
 from .readings import DEFAULT_READING, READINGS, get_reading
-from .registry import EXPERIMENTS, get_experiment
+from .registry import REGISTRY, Analysis, Experiment, get_experiment
 from .runner import check_seed_engine, experiment_entries
 
 if TYPE_CHECKING:
@@ -52,38 +53,16 @@ if TYPE_CHECKING:
     from .readings import Reading
     from .runner import Entry
 
-__all__ = ["Analysis", "fill_cache", "needed_entries", "time_by_experiment"]
+__all__ = ["fill_cache", "needed_entries", "time_by_experiment"]
 
 
-@dataclass(frozen=True)
-class Analysis:
-    """Something a page reads that is not an experiment's entry (a page's summary of
-    results, an exercise's small run, Experiment 13's real flights): ``fill(profile, seed,
-    results)`` computes it into the result cache (and does nothing when it is there);
-    ``reads`` names the experiments whose results it reads, which the fill completes
-    first. A fill (:func:`fill_cache`) runs each as one task in its pool, as soon as what
-    it reads is complete, beside the experiments' own tasks; ``long`` puts it ahead of
-    the experiments' chunks (a long task started last would leave a core idle at the end)."""
-
-    name: str
-    fill: Any
-    reads: tuple = ()
-    long: bool = False
-
-    def __post_init__(self):
-        if not callable(self.fill):
-            raise TypeError(f"Analysis {self.name!r}: fill must be callable, got "
-                            f"{type(self.fill).__name__}")
-        object.__setattr__(self, "reads", tuple(self.reads))
-
-
-def _run_analysis(analysis, profile, seed, results, pin=True):
-    """A task: ``analysis`` computed (``pin``: in a worker process, on one thread), and the
-    CPU seconds it took."""
+def _run_analysis(analysis, profile, seed, results, pin=True, n_jobs=1):
+    """A task: ``analysis`` computed (``pin``: in a worker process, on one thread; else over
+    ``n_jobs`` workers), and the CPU seconds it took."""
     if pin:
         pin_threads()
     cpu0 = time.process_time()
-    analysis.fill(profile, seed, results)
+    analysis.run(profile, seed, results, n_jobs=n_jobs)
     return None, time.process_time() - cpu0
 
 
@@ -93,25 +72,38 @@ def needed_entries(exp_ids: str | Iterable[str] = "all",
                    seed: int = DEFAULT_SEED, engine: str | None = None,
                    results: os.PathLike | str | None = None,
                    **params: float | str) -> list[Entry]:
-    """The cache entries ``exp_ids`` need under ``readings`` (default
-    :data:`~uavwind.study.readings.DEFAULT_READING`; ``"all"``: each experiment under the
-    readings the book shows it under, its ``readings``), each once: a setting that two
-    experiments or two readings share is one entry. Computes nothing. The arguments are
-    :func:`fill_cache`'s; bad ones raise ``ValueError`` here."""
-    return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))
+    """The cache entries ``exp_ids`` need, each once: a setting that two experiments or two
+    readings share is one entry. Computes nothing. The arguments are :func:`fill_cache`'s;
+    bad ones raise ``ValueError`` here. An analysis needs the entries of the experiments it
+    reads (``needed_entries(["exp13"])`` is empty: it reads flights, not experiments)."""
+    return list(_plan(exp_ids, profile, readings, seed, engine, results, **params)[0])
 
 
 def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     """:func:`needed_entries` as a dict: entry -> the (experiment, reading) pairs that need
     it, in the order they ask (readings first, then experiments in registry order)."""
+    return _plan(exp_ids, profile, readings, seed, engine, results, **params)[0]
+
+
+def _plan(exp_ids, profile, readings, seed, engine, results, check_data=False, **params):
+    """``(entries, analyses, skipped)``: :func:`_needed`'s dict, the analyses asked for, in
+    registry order, and the ids of those ``"all"`` leaves out for want of their data
+    (:attr:`Analysis.data <uavwind.study.registry.Analysis.data>`; asked for by id, such an
+    analysis is a ``ValueError`` naming the variable when ``check_data``: a fill)."""
     if isinstance(exp_ids, str) and exp_ids != "all":
         exp_ids = [exp_ids]
-    ids = list(EXPERIMENTS) if exp_ids == "all" else list(exp_ids)
-    exps = [get_experiment(i) for i in ids]
+    everything = isinstance(exp_ids, str)
+    items = [get_experiment(i) for i in (list(REGISTRY) if everything else list(exp_ids))]
+    analyses = [a for a in items if isinstance(a, Analysis)]
+    skipped = [a.id for a in analyses if everything and not a.available]
+    analyses = [a for a in analyses if a.id not in skipped]
+    for a in analyses if check_data else ():  # asked for by id without its data: before any work
+        a.check_data()
+    exps = [e for e in items if isinstance(e, Experiment)]
     all_readings = False
-    if readings is None:
-        readings = [DEFAULT_READING]
-    elif readings == "all":
+    if readings is None:  # "all" is the book (make results); an id, as run_experiment reads it
+        readings = "all" if everything else [DEFAULT_READING]
+    if readings == "all":
         readings = list(READINGS)
         all_readings = True
     elif isinstance(readings, str):
@@ -121,11 +113,19 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
     seed, engine = check_seed_engine(seed, engine)
     params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict() if params else {}
     folder = results_dir(results)
+    # what the analyses read, under the readings the book shows each under (what they read)
+    asked = {(e.id, rd.name) for rd in rds for e in exps
+             if not all_readings or rd.name in e.readings}
+    for a in analyses:
+        asked |= {(i, r) for i in a.reads for r in REGISTRY[i].readings}
+    order = exps + [REGISTRY[i] for i in dict.fromkeys(i for a in analyses for i in a.reads)
+                    if i not in [e.id for e in exps]]
+    rds += [get_reading(r) for r in READINGS if r not in [x.name for x in rds]]
     first, users = {}, {}
-    for rd in rds:
-        for exp in exps:
-            if all_readings and rd.name not in exp.readings:
-                continue  # the book runs it under its own readings only
+    for rd in rds:  # the asked readings first, then those only the analyses need
+        for exp in order:
+            if (exp.id, rd.name) not in asked:
+                continue
             cases = exp.cases(rd)
             for e in experiment_entries(exp, prof, rd, seed, engine, folder, params,
                                         range(len(cases))):
@@ -133,7 +133,7 @@ def _needed(exp_ids, profile, readings, seed, engine, results, **params):
                 pair = (exp.id, rd.name)
                 if pair not in users.setdefault(e.path, []):
                     users[e.path].append(pair)
-    return {e: users[path] for path, e in first.items()}
+    return {e: users[path] for path, e in first.items()}, analyses, skipped
 
 
 def _fill_one(entry, pin=True, n_jobs=1):
@@ -260,7 +260,7 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None, analyses=()
             if not w[2]:
                 waiting.remove(w)
                 a = w[0]
-                put(("analysis", a.name), ANALYSIS_PRIORITY if a.long else 0, _run_analysis,
+                put(("analysis", a.id), ANALYSIS_PRIORITY if a.long else 0, _run_analysis,
                     a, *w[1])
 
     def take(finished):
@@ -344,10 +344,13 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
                results: os.PathLike | str | None = None,
                readings: str | Iterable[str | Reading] | None = None, progress: bool = True,
                times: list[dict] | None = None, stop: threading.Event | None = None,
-               scheduler: Any = None, analyses: Sequence[Analysis] = (),
-               **params: float | str) -> dict:
-    """Compute every missing result of ``exp_ids`` under ``readings`` in one pool, and the
-    ``analyses`` the pages read.
+               scheduler: Any = None, **params: float | str) -> dict:
+    """Compute every missing result of ``exp_ids`` (ids of the registry) in one pool.
+
+    ``fill_cache("all")`` is ``make results`` (``python -m uavwind run all --reading all``):
+    every experiment under the readings the book shows it under, and every analysis, each
+    once what it reads is stored (Exp 13 only when ``$UAVWIND_NEURALFLY`` names its flights;
+    else it is left out, its id in the result's ``skipped``).
 
     :func:`~uavwind.study.runner.run_experiment` runs one experiment's entries one after the other, each spread
     over the workers, so a worker idles at the end of every chunk and every CEM iteration.
@@ -362,14 +365,25 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
 
     Parameters
     ----------
-    exp_ids : "all" or list of str
-        Ids of :data:`~uavwind.study.registry.EXPERIMENTS`.
+    exp_ids : "all", str or list of str
+        Ids of :data:`~uavwind.study.registry.REGISTRY`: an experiment's entries under
+        ``readings``; an analysis (:class:`~uavwind.study.registry.Analysis`), computed in the
+        same pool as one task once the entries of the experiments it reads (under the readings
+        the book shows each under, computed here too) are stored, recorded in ``times`` with
+        ``search`` = ``"analysis"``. ``"all"``: every id (an analysis whose data is not
+        there left out). An analysis asked for by id without its data is a ``ValueError``
+        naming the variable, before any work.
     profile, seed, engine, results, **params
         As :func:`~uavwind.study.runner.run_experiment`.
     n_jobs : int, optional
-        Local worker processes (-1/None = all cores); unused with ``scheduler``.
+        Local worker processes (-1/None = all cores); with ``scheduler``, those of the
+        analyses.
     readings : "all", str or list of str, optional
-        Readings (:data:`~uavwind.study.readings.READINGS`); default :data:`~uavwind.study.readings.DEFAULT_READING`.
+        The experiments' readings (:data:`~uavwind.study.readings.READINGS`); ``"all"``:
+        each experiment under the readings the book shows it under (its ``readings``). The
+        default is the book's: ``"all"`` for ``exp_ids="all"`` (``make results``), else
+        :data:`~uavwind.study.readings.DEFAULT_READING` (the reading
+        :func:`~uavwind.study.runner.run_experiment` reads by default).
     progress : bool
         A progress bar over rows (stderr).
     times : list, optional
@@ -389,12 +403,10 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         ``uavwind.study._dask_probe.PROBE_SECONDS``. Each worker computes one task (a chunk, or
         one CEM sample) at a time per thread and returns its rows; this process steps the
         CEM runs, verifies and writes every entry (the workers need no access to
-        ``results``). The rows equal a local fill's, bit for bit.
-    analyses : sequence of Analysis
-        Computed in the same pool, each as one task once the entries of the experiments it
-        reads are stored (with a ``scheduler``, in this process after the cluster's
-        entries: they write to ``results``); each is recorded in ``times`` with
-        ``search`` = ``"analysis"``.
+        ``results``). The rows equal a local fill's, bit for bit. The analyses run on
+        ``n_jobs`` local workers (they read and write ``results``, which the cluster's
+        workers need not see), each as soon as what it reads is stored, while the cluster
+        computes the rest.
 
     Returns
     -------
@@ -406,37 +418,34 @@ def fill_cache(exp_ids: str | Iterable[str] = "all",
         need it), ``shared_with`` (the other experiments that need it), ``case``, ``search``,
         ``n_env``, ``rows``, ``tasks`` (1 for a chunk or an entry computed in this process, a
         CEM run's samples when they were tasks) and ``cpu_seconds`` (of the processes that
-        computed it).
+        computed it); ``skipped``: the analyses ``"all"`` left out for want of their data.
         :func:`time_by_experiment` sums them.
     """
     n_jobs = check_jobs(n_jobs)
-    analyses = list(analyses)
-    for a in analyses:
-        check_instance(a, "analyses[...]", Analysis)
+    plan = _plan(exp_ids, profile, readings, seed, engine, results, check_data=True, **params)
     client, owned = (None, False) if scheduler is None else _check_scheduler(scheduler, stop)
     try:
-        return _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress,
-                     times, stop, client, analyses, **params)
+        return _fill(plan, profile, seed, n_jobs, results, progress, times, stop, client)
     finally:
         if owned:
             client.close()
 
 
-def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, times, stop,
-          client, analyses=(), **params):
-    """:func:`fill_cache` once its pool is chosen (``client``: a cluster, or ``None``)."""
+def _fill(plan, profile, seed, n_jobs, results, progress, times, stop, client):
+    """:func:`fill_cache` once its work is planned (``plan``: :func:`_plan`'s) and its pool
+    chosen (``client``: a cluster, or ``None``)."""
     from joblib import Parallel, delayed, effective_n_jobs
     from joblib._parallel_backends import LokyBackend
     from joblib.parallel import get_active_backend
 
-    users = _needed(exp_ids, profile, readings, seed, engine, results, **params)
+    users, analyses, skipped = plan
     unique = list(users)
     missing = sorted((e for e in unique if not e.present()),
                      key=lambda e: (-e.cost, str(e.path)))
     if missing:  # before any work: keep what is computed (a complete cache is only read)
         check_writable(results_dir(results))
     out = {"entries": len(unique), "cached": len(unique) - len(missing), "computed": 0,
-           "rows_computed": 0, "times": [] if times is None else times}
+           "rows_computed": 0, "times": [] if times is None else times, "skipped": skipped}
     by_path = {e.path: e for e in missing}
     if not missing and not analyses:
         return out
@@ -451,12 +460,19 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
                    file=sys.stderr)
     watcher = done = None
     try:
-        if client is not None:  # the analyses write here: in this process, after
-            done = _then(_run_tasks(missing, _ClusterPool(client), False, stop, bar), tasks)
+        if client is not None:
+            # the analyses read and write the result folder here: on the local workers, each
+            # as soon as what it reads is stored, while the cluster computes the rest
+            pool = _ClusterPool(client)
+            if tasks:
+                pool = _SplitPool(pool, _LocalPool(effective_n_jobs(n_jobs)))
+                if stop is not None:
+                    watcher = _Watcher(stop)
+            done = _run_tasks(missing, pool, False, stop, bar, analyses=tasks)
         elif effective_n_jobs(n_jobs) == 1 or len(missing) + len(tasks) == 1:
             # in this process; a lone entry still gets every worker
             done = _then(((*_fill_one(e, pin=False, n_jobs=n_jobs), 0, 1) for e in missing),
-                         tasks)
+                         tasks, n_jobs)
         else:
             # the loop kernels compiled (or loaded from numba's cache) once, first: on a fresh
             # checkout, workers that each compiled them at once would spend a core-minute on
@@ -491,7 +507,7 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
             if stop is not None and stop.is_set():
                 raise KeyboardInterrupt
     except BaseException:  # interrupted or failed: finished entries are on disk
-        if client is None:
+        if client is None or tasks:  # local workers (a cluster's fill: its analyses')
             stop_workers()
         if stop is not None and stop.is_set():
             raise KeyboardInterrupt from None  # the workers were stopped on request
@@ -506,9 +522,11 @@ def _fill(exp_ids, profile, seed, n_jobs, engine, results, readings, progress, t
     return out
 
 
-def _then(done, tasks):
+def _then(done, tasks, n_jobs=1):
     """What ``done`` yields, then the analyses of ``tasks`` in this process, one after the
-    other, as :func:`_run_tasks` yields them (a generator: closing it closes ``done``)."""
+    other (each over ``n_jobs`` workers), as :func:`_run_tasks` yields them (a generator:
+    closing it closes ``done``)."""
     yield from done
     for a, args, _ in tasks:
-        yield ("analysis", a.name), 0, False, _run_analysis(a, *args, pin=False)[1], 0, 1
+        cpu = _run_analysis(a, *args, pin=False, n_jobs=n_jobs)[1]
+        yield ("analysis", a.id), 0, False, cpu, 0, 1

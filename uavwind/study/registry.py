@@ -1,18 +1,39 @@
-"""The experiments as data: the paper's six, three beyond it, and the two fits of the
-inferred reading.
+"""THE registry: everything the book computes, by id, each registered where it is defined.
 
-This module owns :class:`Experiment` (id, title, question, notebook, the paper's table it
-regenerates, how its loops are searched, how it is summarised) and the registry
-:data:`EXPERIMENTS`, with the look-ups on it, and beside them the experiments on measured
-flights (:class:`MeasuredExperiment`, :data:`MEASURED`: Exp 13), whose rows the analysis
-layer computes and the package's face registers (:func:`register_measured`). What each
-experiment flies -- :class:`Case` (one row of an experiment: a
+This module owns :data:`REGISTRY` (id -> entry, in the order they register) and the two kinds
+of entry, both small frozen dataclasses:
+
+* :class:`Experiment` -- loops flown in simulation, case by case (id, title, question,
+  notebook, the paper's table it regenerates, how its loops are searched, how it is
+  summarised); its cache entries are the runner's. The experiments are the list below
+  (:data:`EXPERIMENTS` is the registry's view of them);
+* :class:`Analysis` -- anything else a page reads: a summary of results (the claims'
+  verdicts), a measurement of its own (Exp 10's saturation split), Exp 11's filter table,
+  the explorer's grid, Exp 13 on Neural-Fly's real flights. Its ``fill`` computes it into the
+  result cache; ``reads`` names the experiments it reads (a fill completes them first);
+  ``data`` the environment variable naming the data it needs, if any. An analysis joins
+  the registry where its function is defined, with the decorator :func:`computes`
+  (:data:`ANALYSES` is the registry's view of them).
+
+Adding an experiment is one entry in the list below and its builder (in
+:mod:`uavwind.study.cases`), one notebook and one line in the book's ``_toc.yml``; adding
+anything else the book computes is ``@computes("id", reads=(...))`` on the function that
+computes it. ``python -m uavwind list`` prints the registry, ``python -m uavwind run ID``
+runs any entry, and :func:`uavwind.study.fill.fill_cache` (``make results``) fills them all
+in one pool.
+
+Layers: the analyses are defined above this layer (:mod:`uavwind.analysis`,
+:mod:`uavwind.report`), which imports this module and registers them here; this layer never
+imports them. The package's face imports the modules that register, so the registry is
+complete in every process that imports uavwind (``tests/test_registry.py`` checks that every
+module calling :func:`computes` is among them).
+
+What each experiment flies -- :class:`Case` (one row of an experiment: a
 :class:`~uavwind.sim.setting.Setting` and its labels in the paper's table), the case
 builders and the constants they use (the vehicles, channels and noise levels of the
 experiments beyond the paper) -- is :mod:`uavwind.study.cases`' (import them from there).
 Running an experiment is :mod:`uavwind.study.runner`'s; summarising it,
-:mod:`uavwind.analysis.tables`'. Adding an experiment is one entry here and
-its builder, one notebook and one line in the book's ``_toc.yml``.
+:mod:`uavwind.analysis.tables`'.
 
 Every experiment is built under a *reading* (:data:`~uavwind.study.readings.READINGS`),
 which fixes the group layout and the turbulence variant. Common random numbers: every case
@@ -23,13 +44,13 @@ stream, not their shape); cases are compared pairwise, loop by loop.
 
 from __future__ import annotations
 
+import inspect
 import os
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..core.checks import check_choice, check_kwargs
-from ..data.neuralfly import ENV_VAR as NEURALFLY_ENV
 from .cases import (CLOSED_LOOP_POLICIES, FLYABLE_CEM_SCALE, FUTURE_CEM_SCALE, Case, example_cases,
                     exp1_cases, exp2_cases, exp3_cases, exp4_cases, exp5_cases, exp6_cases,
                     exp7_cases, exp8_cases, exp10_cases, exp11_cases, exp11_cem_cases, exp12_cases,
@@ -38,12 +59,10 @@ from .cases import (CLOSED_LOOP_POLICIES, FLYABLE_CEM_SCALE, FUTURE_CEM_SCALE, C
 from .readings import DEFAULT_READING, get_reading
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from .readings import Reading
 
-__all__ = ["Experiment", "EXPERIMENTS", "get_experiment", "label_columns", "column_names",
-           "MeasuredExperiment", "MEASURED", "register_measured"]
+__all__ = ["REGISTRY", "Experiment", "Analysis", "register", "computes", "get_experiment",
+           "EXPERIMENTS", "ANALYSES", "label_columns", "column_names"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -124,12 +143,210 @@ class Experiment:
             raise ValueError(f"experiment {self.id!r}: a closed-loop search needs "
                              f"search_options['policies']")
 
+    #: What kind of registry entry it is (an :class:`Analysis`'s is ``"analysis"``).
+    kind = "experiment"
+    #: An experiment reads no other entry: it flies its cases.
+    reads = ()
+
     def cases(self, reading: str | Reading | None = None) -> list[Case]:
         """The cases under ``reading`` (a name or a :class:`~uavwind.study.readings.Reading`)."""
         return self.build(get_reading(DEFAULT_READING if reading is None else reading))
 
 
-EXPERIMENTS = {e.id: e for e in [
+#: The arguments an analysis's function may take, by name: the fill passes those it names.
+FILL_ARGS = ("profile", "seed", "results", "n_jobs")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Analysis:
+    """Something the book computes that is not an experiment's loops, as data: a page's
+    summary of results, a measurement of its own, an exercise's small run, Exp 11's filter
+    table, the explorer's grid, Exp 13's real flights.
+
+    :func:`computes` makes one from the function that computes it, where that function is
+    defined, and registers it.
+
+    Attributes
+    ----------
+    id : str
+        Its id in :data:`REGISTRY` (an identifier; ``python -m uavwind run ID``).
+    fill : callable
+        Computes it into the result cache (and only reads it when it is there), called with
+        those of ``(profile, seed, results, n_jobs)`` it takes, by name (:attr:`takes`):
+        ``profile`` a profile's name, ``seed`` the root seed, ``results`` the result folder,
+        ``n_jobs`` its workers (1 in a fill's pool). It must take ``results``. What it
+        returns is what :func:`~uavwind.study.runner.run_experiment` returns for it (Exp 13:
+        its real-flight rows).
+    reads : tuple of str
+        The experiments whose results it reads: a fill completes their entries (under the
+        readings the book shows each under) before it starts this.
+    long : bool
+        A long task: a fill puts it ahead of the experiments' chunks (a long task started
+        last would leave a core idle at the end).
+    title, notebook : str
+        For ``python -m uavwind list``: what it is, and the page that shows it.
+    data : str
+        The environment variable naming the folder of the data it reads (Exp 13:
+        ``UAVWIND_NEURALFLY``), or ``""``. Without it, ``run all`` (and ``fill_cache("all")``)
+        leaves it out, saying so, and asking for it by id is a ``ValueError`` before any
+        work (:meth:`check_data`).
+    show : callable, optional
+        ``show(profile, seed, results) -> str``: what ``python -m uavwind run`` prints for it
+        once it is computed (read back from the cache).
+    takes : tuple of str
+        Set from ``fill``'s signature: the arguments of :data:`FILL_ARGS` it takes.
+    """
+
+    id: str
+    fill: Callable = field(repr=False)
+    reads: tuple = ()
+    long: bool = False
+    title: str = ""
+    notebook: str = ""
+    data: str = ""
+    show: Callable | None = field(default=None, repr=False, compare=False)
+    takes: tuple = field(init=False, repr=False, compare=False)
+
+    #: What kind of registry entry it is.
+    kind = "analysis"
+
+    def __post_init__(self):
+        if not isinstance(self.id, str) or not self.id.isidentifier():
+            raise ValueError(f"an analysis's id must be an identifier, got {self.id!r}")
+        if not callable(self.fill):
+            raise TypeError(f"analysis {self.id!r}: fill must be callable, got "
+                            f"{type(self.fill).__name__}")
+        if self.show is not None and not callable(self.show):
+            raise TypeError(f"analysis {self.id!r}: show must be callable or None, got "
+                            f"{type(self.show).__name__}")
+        params = inspect.signature(self.fill).parameters
+        takes = tuple(k for k in FILL_ARGS if k in params)
+        other = [k for k, p in params.items() if k not in FILL_ARGS
+                 and p.default is inspect.Parameter.empty
+                 and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
+        if "results" not in takes or other:
+            raise TypeError(f"analysis {self.id!r}: {_name(self.fill)} must take 'results' and "
+                            f"no other argument without a default than "
+                            f"{', '.join(repr(k) for k in FILL_ARGS if k != 'results')}, got "
+                            f"{list(params)}")
+        object.__setattr__(self, "reads", tuple(self.reads))
+        object.__setattr__(self, "takes", takes)
+
+    @property
+    def available(self) -> bool:
+        """Whether the data it needs is named (always, for an analysis of results)."""
+        return not self.data or bool(os.environ.get(self.data))
+
+    def check_data(self) -> None:
+        """``ValueError`` naming :attr:`data` if that variable is not set, or does not name an
+        existing folder (before any work: a run asked for it computes nothing first)."""
+        if not self.data:
+            return
+        folder = os.environ.get(self.data)
+        what = f"{self.id!r}, {self.title}," if self.title else f"{self.id!r}"
+        if not folder:
+            raise ValueError(f"{what} reads the folder ${self.data} names, and ${self.data} is "
+                             f"not set: set it to the folder of the data")
+        if not os.path.isdir(os.path.expanduser(folder)):
+            raise ValueError(f"{what} reads the folder ${self.data} names, and ${self.data} = "
+                             f"{folder!r} is not an existing folder: set it to the folder of "
+                             f"the data")
+
+    def run(self, profile: str, seed: int, results: Any = None, n_jobs: int | None = 1):
+        """Compute it (or read it) into ``results``: :attr:`fill` called with the arguments
+        it takes; returns what it returns."""
+        given = {"profile": profile, "seed": seed, "results": results, "n_jobs": n_jobs}
+        return self.fill(**{k: given[k] for k in self.takes})
+
+
+def _name(f) -> str:
+    return f"{getattr(f, '__module__', '?')}.{getattr(f, '__qualname__', repr(f))}"
+
+
+#: THE registry: every computed thing of the book by id, in the order it registered (the
+#: experiments of this module first, then the analyses as their modules are imported).
+REGISTRY: dict[str, Experiment | Analysis] = {}
+
+
+class _Kind(Mapping):
+    """A live, read-only view of the :data:`REGISTRY` entries of one kind."""
+
+    def __init__(self, cls):
+        self._cls = cls
+
+    def __getitem__(self, key):
+        item = REGISTRY[key]
+        if not isinstance(item, self._cls):
+            raise KeyError(key)
+        return item
+
+    def __iter__(self) -> Iterator[str]:
+        return iter([k for k, v in REGISTRY.items() if isinstance(v, self._cls)])
+
+    def __len__(self) -> int:
+        return sum(isinstance(v, self._cls) for v in REGISTRY.values())
+
+    def __repr__(self) -> str:
+        return f"<{self._cls.__name__} entries of the registry: {', '.join(self)}>"
+
+
+#: The experiments of :data:`REGISTRY`, by id (a live view).
+EXPERIMENTS: Mapping[str, Experiment] = _Kind(Experiment)
+#: The analyses of :data:`REGISTRY`, by id (a live view).
+ANALYSES: Mapping[str, Analysis] = _Kind(Analysis)
+
+
+def _where(item) -> str:
+    return (_name(item.fill) if isinstance(item, Analysis)
+            else f"the experiments of {__name__}")
+
+
+def register(item: Experiment | Analysis) -> Experiment | Analysis:
+    """Add ``item`` to :data:`REGISTRY` and return it. ``ValueError`` for an id registered
+    already (naming both) or an analysis reading an id that is not an experiment of the
+    registry (it would start before what it reads is stored); ``TypeError`` for anything
+    but an :class:`Experiment` or :class:`Analysis`."""
+    if not isinstance(item, (Experiment, Analysis)):
+        raise TypeError(f"the registry holds Experiment and Analysis entries, got "
+                        f"{type(item).__name__}")
+    if item.id in REGISTRY:
+        raise ValueError(f"{item.id!r} is registered twice: by {_where(REGISTRY[item.id])} and "
+                         f"by {_where(item)}")
+    unknown = [r for r in item.reads if r not in EXPERIMENTS]
+    if unknown:
+        raise ValueError(f"analysis {item.id!r} reads experiments not in the registry: "
+                         f"{unknown}")
+    REGISTRY[item.id] = item
+    return item
+
+
+def computes(id: str, reads: Iterable[str] = (), *, long: bool = False, title: str = "",
+             notebook: str = "", data: str = "", show: Callable | None = None):
+    """Register the decorated function as the :class:`Analysis` ``id`` (see its attributes
+    for the arguments) and return the function unchanged::
+
+        @computes("exp10_drift_offsets", title="Exp 10: drift offsets")
+        def drift_offsets(seed, results=None):
+            return memo("exp10_drift_offsets", {"seed": seed}, lambda: ..., results)
+
+    ``ValueError`` for an id that is not an identifier or is registered already, or for
+    ``reads`` naming something that is not an experiment of the registry; ``TypeError`` for
+    a function a fill cannot call (:class:`Analysis`)."""
+    if not isinstance(id, str) or not id.isidentifier():
+        raise ValueError(f"an analysis's id must be an identifier, got {id!r}")
+    reads = tuple(reads)
+    unknown = [r for r in reads if r not in EXPERIMENTS]
+    if unknown:
+        raise ValueError(f"analysis {id!r} reads experiments not in the registry: {unknown}")
+
+    def decorate(f):
+        register(Analysis(id=id, fill=f, reads=reads, long=long, title=title,
+                          notebook=notebook, data=data, show=show))
+        return f
+    return decorate
+
+
+for _exp in [
     Experiment(
         id="example", title="Worked example", notebook="model.md",
         question="How does one loop look, and how do 50 random loops score, for strong shear "
@@ -252,107 +469,20 @@ EXPERIMENTS = {e.id: e for e in [
         question="Which reading of the cited Dryden implementation gives Table 4's turbulence "
                  "row?",
         paper_table="Table 4 (scenario 7)", build=fit_turbulence_cases, group_by=("candidate",)),
-]}
+]:
+    register(_exp)
+del _exp
 
 
-@dataclass(frozen=True, kw_only=True)
-class MeasuredExperiment:
-    """An experiment on measured flights instead of simulated settings, as data.
-
-    It has no cases and no loops of its own, so no cache entries of the runner's: the fill
-    of :data:`EXPERIMENTS` does not plan it, and :func:`get_experiment` does not return it.
-    Its rows are an analysis of the flights in the folder the environment variable ``data``
-    names, computed by the layer that reads them (:mod:`uavwind.analysis`, above this one);
-    the package's face hands the registry that computation with :func:`register_measured`
-    when uavwind is imported. :meth:`run` runs it, and
-    :func:`~uavwind.study.runner.run_experiment` runs it by name.
-
-    Attributes
-    ----------
-    id, title, question, notebook, paper_table : str
-        As :class:`Experiment`'s.
-    source : str
-        What the flights are, for the messages.
-    data : str
-        The environment variable that names the folder of the flights.
-    """
-
-    id: str
-    title: str
-    question: str
-    notebook: str
-    paper_table: str
-    source: str
-    data: str
-
-    def check_data(self) -> None:
-        """``ValueError`` naming :attr:`data` if that variable is not set, or does not name an
-        existing folder (before any work: a run asked for it computes nothing first)."""
-        folder = os.environ.get(self.data)
-        if not folder:
-            raise ValueError(f"experiment {self.id!r}, {self.title}, reads {self.source}, and "
-                             f"${self.data} is not set: set it to the folder of the flights")
-        if not os.path.isdir(os.path.expanduser(folder)):
-            raise ValueError(f"experiment {self.id!r}, {self.title}, reads {self.source}, and "
-                             f"${self.data} = {folder!r} is not an existing folder: set it to "
-                             f"the folder of the flights")
-
-    def run(self, profile: str, results: os.PathLike | str | None = None,
-            n_jobs: int | None = None) -> pd.DataFrame:
-        """The experiment's rows under ``profile`` (a profile's name), read from the result
-        cache ``results`` or computed there over ``n_jobs`` workers, as the function
-        registered for it computes them. ``ValueError`` naming :attr:`data` when that
-        variable is not set (before any work, :meth:`check_data`); ``RuntimeError`` if
-        nothing registered it."""
-        self.check_data()
-        run = _MEASURED_RUNS.get(self.id)
-        if run is None:
-            raise RuntimeError(f"experiment {self.id!r}: nothing registered how its rows are "
-                               f"computed (the package's face does, when uavwind is "
-                               f"imported)")
-        return run(profile, results=results, n_jobs=n_jobs)
-
-
-#: The experiments on measured flights, by id (beside :data:`EXPERIMENTS`, the simulated
-#: ones): Experiment 13, Neural-Fly's wind-tunnel flights.
-MEASURED = {m.id: m for m in [
-    MeasuredExperiment(
-        id="exp13", title="Real flights (Neural-Fly)", notebook="exp13_real_flights.md",
-        question="Does causal curiosity's clustering tell the winds apart on Neural-Fly's "
-                 "wind-tunnel flights, and through which channel?",
-        paper_table="beyond the paper", source="Neural-Fly's wind-tunnel flights",
-        data=NEURALFLY_ENV),
-]}
-#: How each measured experiment's rows are computed: ``run(profile, results=, n_jobs=)``,
-#: registered by the layer that reads its flights.
-_MEASURED_RUNS: dict = {}
-
-
-def register_measured(exp_id: str, run: Callable) -> None:
-    """Register how the rows of the measured experiment ``exp_id`` (an id of
-    :data:`MEASURED`) are computed: ``run(profile, results=None, n_jobs=None)`` returns them,
-    read from the result cache or computed and stored there. The package's face calls this
-    for the analysis layer, which this layer cannot import; a second registration replaces
-    the first."""
-    if exp_id not in MEASURED:
-        raise ValueError(f"unknown measured experiment {exp_id!r}; valid: {', '.join(MEASURED)}")
-    if not callable(run):
-        raise TypeError(f"run must be callable, got {type(run).__name__}")
-    _MEASURED_RUNS[exp_id] = run
-
-
-def get_experiment(exp_id: str) -> Experiment:
-    """The :class:`Experiment` called ``exp_id``; ``ValueError`` naming the valid ids (and
-    saying so when ``exp_id`` is a :class:`MeasuredExperiment`, which has no cases)."""
+def get_experiment(exp_id: str) -> Experiment | Analysis:
+    """The registry's entry called ``exp_id`` (an :class:`Experiment` or an
+    :class:`Analysis`, ``.kind`` says which); ``ValueError`` naming the valid ids."""
     if not isinstance(exp_id, str):
         raise TypeError(f"experiment id must be a string, got {type(exp_id).__name__}")
-    if exp_id in MEASURED:
-        raise ValueError(f"experiment {exp_id!r} runs on measured flights: it has no cases "
-                         f"or cache entries to plan (run it with run_experiment({exp_id!r}))")
-    if exp_id not in EXPERIMENTS:
-        raise ValueError(f"unknown experiment {exp_id!r}; valid: {', '.join(EXPERIMENTS)}, "
-                         f"and on measured flights {', '.join(MEASURED)}")
-    return EXPERIMENTS[exp_id]
+    if exp_id not in REGISTRY:
+        raise ValueError(f"unknown experiment {exp_id!r} (no id of the registry); valid: "
+                         f"experiments {', '.join(EXPERIMENTS)}; analyses {', '.join(ANALYSES)}")
+    return REGISTRY[exp_id]
 
 
 def column_names() -> dict:

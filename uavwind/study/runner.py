@@ -37,12 +37,12 @@ from .cache import (RESULTS_VERSION, Expected, cache_key, cached, check_writable
                     read_verified, results_dir)
 from .profiles import CHUNK, DEFAULT_SEED, EPISODE_CHUNK, CEMSize, get_profile
 from .readings import DEFAULT_READING, get_reading
-from .registry import EXPERIMENTS, MEASURED, get_experiment
+from .registry import EXPERIMENTS, Analysis, get_experiment
 
 if TYPE_CHECKING:
     from .profiles import Profile
     from .readings import Reading
-    from .registry import Case, Experiment, MeasuredExperiment
+    from .registry import Case, Experiment
 
 #: The engine stamp of closed-loop entries (no clustering: the run's engine does not matter).
 CLOSED_LOOP_ENGINE = "none"
@@ -77,17 +77,18 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
                    progress: bool = True, cases: Iterable[int] | None = None,
                    reading: str | Reading | None = None,
                    **params: float | str) -> pd.DataFrame:
-    """Run (or load from the cache) one experiment.
+    """Run (or load from the cache) one entry of the registry: an experiment, or an analysis.
 
     Parameters
     ----------
     exp_id : str
-        An id of :data:`~uavwind.study.registry.EXPERIMENTS` (``"example"``, ``"exp1"`` ...
-        ``"exp14_cem"``, ``"fit_layout"``, ...), or of
-        :data:`~uavwind.study.registry.MEASURED`: ``"exp13"``, Neural-Fly's real flights,
-        read from the folder ``$UAVWIND_NEURALFLY`` names (a ``ValueError`` naming the
-        variable when it is not set); it takes ``profile`` (``"quick"`` or ``"paper"``),
-        ``n_jobs`` and ``results`` only, and returns the real-flight rows
+        An id of :data:`~uavwind.study.registry.REGISTRY`: an experiment (``"example"``,
+        ``"exp1"`` ... ``"exp14_cem"``, ``"fit_layout"``, ...), or an analysis
+        (:class:`~uavwind.study.registry.Analysis`), computed into the cache or read from it
+        with ``profile``, ``seed`` (if it takes one), ``n_jobs`` and ``results``, and what it
+        returns returned. ``"exp13"``, Neural-Fly's real flights, read from the folder
+        ``$UAVWIND_NEURALFLY`` names (a ``ValueError`` naming the variable when it is not
+        set), returns the real-flight rows
         (:func:`uavwind.analysis.real_flights.real_flight_rows`), the simulated twin's
         computed and cached beside them (:func:`uavwind.analysis.figure8.sim_rows`).
     profile : {"quick", "paper"}, Profile or dict
@@ -115,10 +116,10 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
         ``iteration`` and ``sample``. ``df.attrs["cached"]`` counts the chunks
         loaded rather than computed.
     """
-    if isinstance(exp_id, str) and exp_id in MEASURED:
-        return _run_measured(MEASURED[exp_id], profile, seed, n_jobs, engine, results, cases,
-                             reading, params)
     exp = get_experiment(exp_id)
+    if isinstance(exp, Analysis):
+        return _run_analysis(exp, profile, seed, n_jobs, engine, results, cases, reading,
+                             params)
     prof = get_profile(profile)
     seed, engine = check_seed_engine(seed, engine)
     params = ClusteringParams.from_kwargs(params, "clustering parameters").to_dict() if params else {}
@@ -148,24 +149,27 @@ def run_experiment(exp_id: str, profile: str | Profile | Mapping[str, Any] = "qu
     return out
 
 
-def _run_measured(exp: MeasuredExperiment, profile, seed, n_jobs, engine, results, cases,
-                  reading, params) -> pd.DataFrame:
-    """:func:`run_experiment` of an experiment on measured flights: its rows as the layer that
-    reads the flights computes them (:meth:`MeasuredExperiment.run
-    <uavwind.study.registry.MeasuredExperiment.run>`), ``attrs["experiment"]`` its id. Its
-    rows are the flights': no seed, engine, cases, reading or clustering parameters to
-    choose, and giving one is an error, not ignored."""
-    given = [name for name, value, default in (("seed", seed, DEFAULT_SEED),
-                                               ("engine", engine, None), ("cases", cases, None),
-                                               ("reading", reading, None))
+def _run_analysis(item: Analysis, profile, seed, n_jobs, engine, results, cases, reading,
+                  params):
+    """:func:`run_experiment` of an analysis: computed (or read) by its function, with the
+    data it needs checked first; a table it returns has ``attrs["experiment"]`` its id. It
+    has no engine, cases, reading or clustering parameters to choose (nor a seed, unless its
+    function takes one), and giving one is an error, not ignored."""
+    checks = [("seed", seed, DEFAULT_SEED)] if "seed" not in item.takes else []
+    checks += [("engine", engine, None), ("cases", cases, None), ("reading", reading, None)]
+    given = [name for name, value, default in checks
              if not (value is default or (default is not None and value == default))]
     if given or params:
-        raise ValueError(f"experiment {exp.id!r}, {exp.title}, runs on measured flights: it "
-                         f"takes no {', '.join(given + sorted(params))}")
+        what = f"{item.id!r}, {item.title}," if item.title else f"{item.id!r}"
+        raise ValueError(f"{what} is an analysis: it takes no {', '.join(given + sorted(params))}")
+    item.check_data()
     prof = get_profile(profile)
-    rows = exp.run(prof.name, results=results, n_jobs=n_jobs)
-    out = rows.copy()
-    out.attrs = {**rows.attrs, "experiment": exp.id, "profile": prof.name}
+    seed, _ = check_seed_engine(seed, None)
+    got = item.run(prof.name, seed, results, n_jobs=n_jobs)
+    if not isinstance(got, pd.DataFrame):
+        return got
+    out = got.copy()
+    out.attrs = {**got.attrs, "experiment": item.id, "profile": prof.name}
     return out
 
 
