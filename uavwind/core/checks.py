@@ -149,12 +149,13 @@ class Range:
 
 
 def check_fields(obj: Any, ranges: Mapping[str, Range | Callable[[Any], Range]],
-                 prefix: str = "") -> None:
+                 label: str = "{}") -> None:
     """Check the number fields of the frozen dataclass ``obj`` named in ``ranges`` and store
     each coerced (a float, or an int where the range says ``integer``), in the table's order;
     a range may be a function of ``obj`` (``lambda s: Range(1, s.n_samples)``), which then
-    sees the fields checked before it. A message names the field as ``prefix + name``."""
+    sees the fields checked before it. A message names the field as ``label.format(name)``
+    (``"profile[{!r}]"``: ``profile['loops']``)."""
     for name, rng in ranges.items():
         if not isinstance(rng, Range):
             rng = rng(obj)
-        object.__setattr__(obj, name, rng.check(getattr(obj, name), prefix + name))
+        object.__setattr__(obj, name, rng.check(getattr(obj, name), label.format(name)))

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.checks import check_choice, check_scalar
+from ..core.checks import Range, check_choice, check_fields, check_scalar
 from .conditions import HORIZONTAL, WindCondition
 
 #: Where a mixed-strength group sits in its class range.
@@ -83,22 +83,18 @@ class Layout:
     def __post_init__(self):
         if not isinstance(self.name, str):
             raise TypeError(f"name must be a string, got {type(self.name).__name__}")
-        object.__setattr__(self, "gap", check_scalar(self.gap, "gap", low=0.0, high=1.0,
-                                                     high_inclusive=False))
+        check_fields(self, {"gap": Range(0.0, 1.0, high_inclusive=False)})
         if self.gap_ratio is not None:
             if self.gap:
                 raise ValueError(f"gap applies to cell layouts, gap_ratio to lattice layouts: "
                                  f"give one, got gap={self.gap:g} and gap_ratio={self.gap_ratio!r}")
-            object.__setattr__(self, "gap_ratio", check_scalar(
-                self.gap_ratio, "gap_ratio", low=0.0, low_inclusive=False, high=1e4))
+            check_fields(self, {"gap_ratio": Range(0.0, 1e4, low_inclusive=False)})
         if self.spacing is not None:
             if self.gap_ratio is None:
                 raise ValueError("spacing applies to lattice layouts only: give gap_ratio too")
-            object.__setattr__(self, "spacing", check_scalar(
-                self.spacing, "spacing", low=0.0, low_inclusive=False, high=100.0))
+            check_fields(self, {"spacing": Range(0.0, 100.0, low_inclusive=False)})
         if self.mixed_spacing is not None:
-            object.__setattr__(self, "mixed_spacing", check_scalar(
-                self.mixed_spacing, "mixed_spacing", low=0.0, low_inclusive=False, high=100.0))
+            check_fields(self, {"mixed_spacing": Range(0.0, 100.0, low_inclusive=False)})
         check_choice(self.mixed_placement, "mixed_placement", PLACEMENTS)
         d = np.asarray(self.direction, dtype=float)
         if d.shape != (3,) or not np.all(np.isfinite(d)) or not np.linalg.norm(d) > 0:

@@ -16,7 +16,7 @@ from dataclasses import asdict, dataclass, field
 from types import MappingProxyType
 from typing import Any
 
-from ..core.checks import check_instance, check_scalar
+from ..core.checks import Range, check_fields, check_instance, check_scalar
 from .registry import EXPERIMENTS
 from .sizing import SIZINGS
 
@@ -41,13 +41,9 @@ class CEMSize:
     max_iter: int
 
     def __post_init__(self):
-        n = check_scalar(self.n_samples, "profile['cem']['n_samples']", low=1, high=10 ** 5,
-                         integer=True)
-        object.__setattr__(self, "n_samples", n)
-        object.__setattr__(self, "n_elite", check_scalar(
-            self.n_elite, "profile['cem']['n_elite']", low=1, high=n, integer=True))
-        object.__setattr__(self, "max_iter", check_scalar(
-            self.max_iter, "profile['cem']['max_iter']", low=1, high=10 ** 4, integer=True))
+        check_fields(self, {"n_samples": Range(1, 10 ** 5, integer=True),
+                            "n_elite": lambda s: Range(1, s.n_samples, integer=True),
+                            "max_iter": Range(1, 10 ** 4, integer=True)}, "profile['cem'][{!r}]")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -98,9 +94,9 @@ class Profile:
             object.__setattr__(self, "side_loops", self.fit_loops)
         if self.flyable_loops is None:
             object.__setattr__(self, "flyable_loops", self.side_loops)
-        for k in ("loops", "long_loops", "fit_loops", "side_loops", "episodes", "flyable_loops"):
-            object.__setattr__(self, k, check_scalar(getattr(self, k), f"profile[{k!r}]",
-                                                     low=1, high=10 ** 6, integer=True))
+        counts = ("loops", "long_loops", "fit_loops", "side_loops", "episodes", "flyable_loops")
+        check_fields(self, dict.fromkeys(counts, Range(1, 10 ** 6, integer=True)),
+                     "profile[{!r}]")
         sized = check_instance(self.sized_loops, "profile['sized_loops']", Mapping)
         for exp_id, n in sized.items():
             if exp_id not in EXPERIMENTS:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from ..core.checks import check_scalar
+from ..core.checks import Range, check_fields
 from ..sim.cited_dryden import CitedDryden
 from ..sim.dryden import VARIANTS
 from .conditions import HORIZONTAL
@@ -82,8 +82,7 @@ class Reading:
         turbulence_fields(self.turbulence)
         if not isinstance(self.layout, Layout):
             resolve_layout(self.layout, "light constant", "light constant")
-        object.__setattr__(self, "long_run_per_group", check_scalar(
-            self.long_run_per_group, "long_run_per_group", low=2, high=1000, integer=True))
+        check_fields(self, {"long_run_per_group": Range(2, 1000, integer=True)})
 
     @property
     def builder_kwargs(self) -> dict[str, str | Layout | CitedDryden]:
