@@ -96,7 +96,7 @@ bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds t
 # every result the book shows, under the readings its pages show, and every analysis its pages read (Exp 13
 # with $$UAVWIND_NEURALFLY), in one process and one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
-results: $(STAMP)  ## run every experiment under the readings its pages show into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
+results: $(STAMP)  ## compute every registered entry (experiments under the readings their pages show, and the analyses) into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
