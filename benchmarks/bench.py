@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench_common import host_cpu
+from bench_common import host_cpu, load_snapshot, machine_load
 from bench_engine import (bench_agreement, bench_cold_compile, bench_heldout, bench_loops,
                           bench_spread, bench_threads, bench_where_time_goes)
 from bench_study import (bench_builds, bench_closed_loop, bench_cluster, bench_exp13,
@@ -42,6 +42,21 @@ ON_REQUEST = {"builds": bench_builds}
 #: model -> record, with the date it was measured): this machine kind comes as an AMD EPYC or
 #: an Intel Xeon, so measuring a section again on one host keeps the other hosts' records.
 BY_HOST = ("heldout", "builds", "paper_profile", "threads", "cold_compile")
+
+
+def _measured(section, report):
+    """Run ``section`` into ``report``; each record it writes also says what else the
+    machine ran meanwhile (``machine_load``: quiet or not)."""
+    before_keys = {k: id(v) for k, v in report.items()}
+    before = load_snapshot()
+    section(report)
+    load = machine_load(before, load_snapshot())
+    for key, value in report.items():
+        if isinstance(value, dict) and before_keys.get(key) != id(value):
+            value["machine_load"] = load
+    if load.get("quiet") is False:
+        print(f"  (not quiet: other processes used {load['others_cores']} cores on average "
+              f"beside this section; its wall times are not this host's)")
 
 
 def merged(old, fresh, stamp, host=None):
@@ -71,13 +86,13 @@ def main():
         if only not in every:
             raise ValueError(f"ONLY must be one of {sorted(every)}, got {only!r}")
         fresh = {}
-        every[only](fresh)
+        _measured(every[only], fresh)
         report = merged(on_file or report, fresh, stamp, host_cpu())
         report.setdefault("sections_measured_later", {})[only] = stamp
         report.setdefault("sections_host", {})[only] = host_cpu()  # this host kind varies
     else:
         for section in SECTIONS.values():  # the paper profile last
-            section(report)
+            _measured(section, report)
         kept = {f"{k}_hosts": on_file[f"{k}_hosts"] for k in BY_HOST if f"{k}_hosts" in on_file}
         report = merged(kept, report, stamp, host_cpu())
     OUT.parent.mkdir(parents=True, exist_ok=True)

@@ -4,12 +4,15 @@ engines compared and the host measured on.
 ``timeit`` is the median wall time of a call; ``loop_inputs`` flies one random loop of a
 Table 2 scenario (the trajectories and groups every engine section clusters);
 ``compared_engines`` are the clustering engines installed; ``host_cpu`` names the CPU a
-figure was measured on (an engine's figures are one host's). ``bench.py`` runs the
+figure was measured on (an engine's figures are one host's); ``load_snapshot`` and
+``machine_load`` say whether anything else ran beside a section (a wall time counts only
+from a quiet machine). ``bench.py`` runs the
 sections; ``bench_engine.py`` and ``bench_study.py`` hold them.
 """
 
 from __future__ import annotations
 
+import os
 import platform
 import statistics
 import time
@@ -65,3 +68,51 @@ def host_cpu():
     except OSError:
         pass
     return {"model": model, "llvm_cpu": binding.get_host_cpu_name(), "lanes": int(LANES)}
+
+
+#: A section ran on a quiet machine when the other processes used at most this many cores on
+#: average beside it [cores].
+QUIET_CORES = 0.1
+
+
+def _busy_cpu_seconds():
+    """CPU seconds the whole machine has been busy (``/proc/stat``: user, nice, system, irq,
+    softirq, steal), or None where there is no such file."""
+    try:
+        fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]
+    except OSError:
+        return None
+    user, nice, system, _idle, _iowait, irq, softirq, steal = (int(x) for x in fields[:8])
+    return (user + nice + system + irq + softirq + steal) / os.sysconf("SC_CLK_TCK")
+
+
+def _own_cpu_seconds():
+    """CPU seconds of this process, its reaped children and its live descendants."""
+    import psutil
+
+    t = os.times()
+    own = t.user + t.system + t.children_user + t.children_system
+    for child in psutil.Process().children(recursive=True):
+        try:
+            c = child.cpu_times()
+            own += c.user + c.system
+        except psutil.Error:  # ended between the listing and the reading
+            pass
+    return own
+
+
+def load_snapshot():
+    """(wall [s], the machine's busy CPU [s], this process tree's CPU [s]) now."""
+    return time.monotonic(), _busy_cpu_seconds(), _own_cpu_seconds()
+
+
+def machine_load(before, after):
+    """What ran beside a section between two :func:`load_snapshot`: ``others_cores``, the
+    average cores the machine spent on other processes; ``quiet``, at most
+    :data:`QUIET_CORES`; ``load_1min``, the load average at the end."""
+    wall = after[0] - before[0]
+    if before[1] is None or after[1] is None or wall <= 0:
+        return {"quiet": None, "note": "no /proc/stat: load not measured"}
+    others = max(0.0, (after[1] - before[1]) - (after[2] - before[2])) / wall
+    return {"seconds": round(wall, 1), "others_cores": round(others, 2),
+            "quiet": others <= QUIET_CORES, "load_1min": round(os.getloadavg()[0], 2)}

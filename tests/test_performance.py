@@ -383,7 +383,8 @@ def test_each_hosts_record_stands_in_its_own_column_with_its_date_and_commit():
     x = {"model": "Xeon", "llvm_cpu": "rocketlake", "lanes": 8}
     report = {
         "heldout_hosts": {"AMD EPYC": {"measured": "2026-12-07 06:07 UTC", "host": a,
-                                       "speedup": 28.49, "commit": "79de3a5"},
+                                       "speedup": 28.49, "commit": "79de3a5",
+                                       "machine_load": {"quiet": True}},
                           "Xeon": {"measured": "2026-12-04 05:03 UTC", "host": x,
                                    "speedup": 26.9, "commit": "5329418"}},
         "paper_profile": {"measured_seconds": 1208.7, "measured_commit": "accaeb1", "host": x},
@@ -394,8 +395,33 @@ def test_each_hosts_record_stands_in_its_own_column_with_its_date_and_commit():
     assert list(t.columns) == ["AMD EPYC (znver3, 4 lanes)", "Xeon (rocketlake, 8 lanes)"]
     assert list(t.index) == list(HOST_FIGURES)
     held = "engine against tslearn, held-out loops [x]"
-    assert t.loc[held, "AMD EPYC (znver3, 4 lanes)"] == "28.5 (2026-12-07, 79de3a5)"
+    assert t.loc[held, "AMD EPYC (znver3, 4 lanes)"] == "28.5 (2026-12-07, 79de3a5, quiet)"
+    assert t.loc[held, "Xeon (rocketlake, 8 lanes)"] == "26.9 (2026-12-04, 5329418)"
     paper = "make book (paper), empty cache [min]"
     assert t.loc[paper, "Xeon (rocketlake, 8 lanes)"] == "20.1 (2026-12-04, accaeb1)"
     assert t.loc[paper, "AMD EPYC (znver3, 4 lanes)"] == "not measured"
     assert (t.loc["cold numba compile, one process [s]"] == "not measured").all()
+
+
+def test_a_section_says_whether_anything_else_ran_beside_it(monkeypatch):
+    """bench_common.machine_load: the machine's busy CPU minus this process tree's, over the
+    wall time, in cores; quiet at most QUIET_CORES; bench._measured files it with every
+    record the section writes."""
+    import importlib
+    import sys
+    from pathlib import Path
+
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.modules.pop("bench", None)
+    common = importlib.import_module("bench_common")
+    bench = importlib.import_module("bench")
+    busy = common.machine_load((0.0, 100.0, 10.0), (10.0, 118.0, 20.0))  # 8 CPU-s of others
+    assert busy == {"seconds": 10.0, "others_cores": 0.8, "quiet": False,
+                    "load_1min": busy["load_1min"]}
+    assert common.machine_load((0.0, 100.0, 10.0), (10.0, 110.5, 20.0))["quiet"] is True
+    assert common.machine_load((0.0, None, 1.0), (1.0, None, 2.0))["quiet"] is None
+    snaps = iter([(0.0, 50.0, 5.0), (4.0, 54.0, 9.0)])
+    monkeypatch.setattr(bench, "load_snapshot", lambda: next(snaps))
+    report = {"old": {"kept": 1}}
+    bench._measured(lambda r: r.update(new={"x": 1}), report)
+    assert report["new"]["machine_load"]["quiet"] is True and "machine_load" not in report["old"]

@@ -125,3 +125,26 @@ def test_channel_names_read_as_words():
     assert channel_name("position") == "position" and channel_name("a_b") == "a b"
     with pytest.raises(ValueError, match="name must be"):
         channel_name(None)
+
+
+def test_the_baseline_table_names_its_loops_so_two_show_no_interval():
+    """Exp 9's wind RMSE interval is a bootstrap over loops: with 2 loops a case it is the
+    two loops' range, so the table carries n_loops and pretty() shows no interval (issue 67);
+    with 5 loops the interval stays."""
+    import numpy as np
+    import pandas as pd
+
+    import uavwind as uw
+    from uavwind.analysis.beyond import baseline_table
+
+    def loops(n):
+        rng = np.random.default_rng(n)
+        cols = ("baseline_rmse", "baseline_rmse_mass", "baseline_rmse_drag", "score")
+        return pd.DataFrame({"scenario": 1, "noise_sigma": 0.1, "noise_bias": 0.0,
+                             **{c: rng.uniform(0.1, 1.0, n) for c in cols},
+                             **{c: rng.uniform(size=n) > 0.5 for c in (
+                                 "baseline_correct", "correct", "baseline_correct_mass",
+                                 "baseline_correct_drag")}})
+    two, five = uw.pretty(baseline_table(loops(2))), uw.pretty(baseline_table(loops(5)))
+    assert (two[["RMSE CI low", "RMSE CI high"]] == "–").all(axis=None)
+    assert (five[["RMSE CI low", "RMSE CI high"]] != "–").all(axis=None)

@@ -94,7 +94,8 @@ def _host_label(host: Mapping[str, Any]) -> str:
 def host_records(report: Mapping[str, Any]) -> pd.DataFrame:
     """Each host's latest record side by side: one row per figure of :data:`HOST_FIGURES`,
     one column per host (CPU model, LLVM CPU, float64 lanes), each cell the figure with the
-    date and commit it was measured at; a host without that figure says so. Read from the
+    date and commit it was measured at, and ``quiet`` or ``not quiet`` where ``make bench``
+    measured what else ran beside it; a host without that figure says so. Read from the
     sections' ``<section>_hosts`` records (``make bench`` keeps each host's latest), and
     from a section's own record where it names its host; a figure whose host was never
     recorded is left out (no figure without its host)."""
@@ -120,8 +121,10 @@ def host_records(report: Mapping[str, Any]) -> pd.DataFrame:
                 continue
             when = str(rec.get("measured", "date not recorded"))[:10]
             commit = rec.get("commit") or rec.get("measured_commit")
+            quiet = (rec.get("machine_load") or {}).get("quiet")
             cells.setdefault(label, {})[key] = (
-                f"{value} ({when}" + (f", {commit}" if commit else "") + ")")
+                f"{value} ({when}" + (f", {commit}" if commit else "")
+                + {True: ", quiet", False: ", not quiet"}.get(quiet, "") + ")")
     columns = sorted(hosts)
     return pd.DataFrame([[cells.get(label, {}).get(h, "not measured") for h in columns]
                          for label in HOST_FIGURES],
