@@ -93,6 +93,17 @@ def test_the_inferred_turbulence_is_the_closest_candidate(tmp_path):
         inf.check_turbulence(turb.assign(in_use=turb.index == far))
 
 
+def test_the_rival_of_the_reading_in_use_is_never_itself():
+    # sorted by distance, as compare_turbulence returns it
+    turb = pd.DataFrame({"distance": [1.74, 1.89, 9.0], "in_use": [False, True, False]},
+                        index=["closest", "in use", "far"])
+    assert inf.rival(turb) == "closest"  # the reading flies the runner-up: compare with the closest
+    turb = turb.assign(in_use=[True, False, False])
+    assert inf.rival(turb) == "in use"  # it flies the closest: compare with the runner-up
+    with pytest.raises(ValueError, match="besides"):
+        inf.rival(turb.iloc[:1])
+
+
 def test_miss_reasons_tell_the_clustering_from_the_geometry():
     idx = pd.MultiIndex.from_tuples([("Table 6", "a"), ("Table 6", "b"), ("Table 5", "c")],
                                     names=["table", "row"])

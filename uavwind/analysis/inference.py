@@ -212,6 +212,18 @@ def check_turbulence(turbulence: pd.DataFrame) -> str:
     return used[0]
 
 
+def rival(turbulence: pd.DataFrame) -> str:
+    """The candidate the one in use is measured against: the closest of ``turbulence``
+    (:func:`compare_turbulence`, sorted by distance) other than the one in use. That is the
+    closest candidate when the reading flies another one, and the runner-up when it flies the
+    closest; never the candidate in use itself, so a page cannot name a reading its own
+    runner-up."""
+    others = turbulence.index[~turbulence["in_use"].astype(bool)]
+    if len(others) == 0:
+        raise ValueError("no candidate besides the one in use to compare it with")
+    return str(others[0])
+
+
 def compare_mixed(mixed_results: pd.DataFrame) -> pd.DataFrame:
     """Table 4's mixed-strength rows (S2, S5) under each spacing and placement of
     ``fit_mixed``: ``mean`` (CI), ``max``, ``correct_rate``, the paper's values and
