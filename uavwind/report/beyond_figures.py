@@ -190,7 +190,7 @@ def future_grid(table) -> Figure:
     scen = list(dict.fromkeys(table["scenario"]))
     obs = list(dict.fromkeys(table["observation"]))
     fig, axes = plt.subplots(len(noises), len(actions), squeeze=False,
-                             figsize=(5.2 * len(actions), 2.8 * len(noises) + 0.8),
+                             figsize=(4.4 * len(actions) + 1.0, 3.0 * len(noises) + 1.2),
                              constrained_layout=True)
     for i, noise in enumerate(noises):
         for j, action in enumerate(actions):
@@ -203,10 +203,11 @@ def future_grid(table) -> Figure:
                 ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
             # wrapped narrower than a column: "light constant vs light shear" and "vs strong
-            # turbulence" ran into each other on one line each (issue 44)
-            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 13) for s in scen], fontsize=7.5)
-            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
-            ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
+            # turbulence" ran into each other on one line each (issue 44); at 7.5 pt they
+            # were about 6 px on the page (issue 67): a figure nearer the page's width, larger
+            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 12) for s in scen], fontsize=9)
+            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=10)
+            ax.set_title(f"{action} actions, noise: {noise}", fontsize=10)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
     return fig
 
