@@ -52,6 +52,7 @@ PRETTY = {
     "correct_high": "correct, CI high (%)", "n_loops": "loops",
     "paper_max": "paper maximum", "paper_mean": "paper mean", "elite_mean": "elite mean",
     "best_so_far": "best so far", "difference": "difference", "paper_in_ci": "paper in CI",
+    "mean_difference": "mean - paper mean", "max_difference": "maximum - paper maximum",
     "geometry_alone": "geometry alone",
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
