@@ -305,11 +305,18 @@ def reliability_diagram(table) -> Figure:
         ax = axes[0, j]
         ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls="--", label="calibrated")
         sub = table[table["vehicle"] == v]
-        for pol, d in sub.groupby("policy", sort=False):
+        pols = list(dict.fromkeys(sub["policy"]))
+        for i, (pol, d) in enumerate(sub.groupby("policy", sort=False)):
             colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-            marker, z = POLICY_MARKERS.get(pol, ("o", 2))  # as the curves: coinciding lines
-            ax.plot(d["predicted"], d["observed"], color=colour, ls=ls, marker=marker, ms=4,
-                    lw=1.2, zorder=z, label=POLICY_NAMES.get(pol, pol))  # stay visible
+            marker, z = POLICY_MARKERS.get(pol, ("o", 2))
+            # policies whose beliefs fall in the same bins coincide point for point: each is
+            # shifted a little along the reported axis and drawn open, the lower-drawn ones
+            # larger, so a policy under another still shows (issue 67: receding CEM vanished
+            # under open-loop best)
+            dodge = (i - (len(pols) - 1) / 2) * 0.012
+            ax.plot(d["predicted"] + dodge, d["observed"], color=colour, ls=ls, marker=marker,
+                    ms=4 + 1.5 * (max(POLICY_MARKERS.values(), key=lambda m: m[1])[1] - z),
+                    mfc="none", mew=1.2, lw=1.2, zorder=z, label=POLICY_NAMES.get(pol, pol))
         counts = sub.groupby(["bin_low", "bin_high"])["count"].sum().reset_index()
         ax2 = ax.twinx()
         ax2.bar((counts["bin_low"] + counts["bin_high"]) / 2, counts["count"],
