@@ -233,7 +233,7 @@ def flyable_scores(table) -> Figure:
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))
-        ax.set(title=o, xlabel="mean score (blank: not run)", xlim=(0, 100))
+        ax.set(title=channel_name(o), xlabel="mean score (blank: not run)", xlim=(0, 100))
     axes[0, 0].set_yticks(y, scen, fontsize=8)
     axes[0, 0].invert_yaxis()
     # above the panels: inside the last one it covered the bottom scenario's bars
