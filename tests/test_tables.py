@@ -93,7 +93,9 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
     df = pd.DataFrame({"mean": [1.0, 2.0], "motor_limited": [np.nan, 0.25]})
     out = uw.pretty(df)
     col = [c for c in out.columns if c != "mean"][0]
-    assert out[col].tolist() == [MISSING, 0.25] and out["mean"].tolist() == [1.0, 2.0]
+    # a share, shown as the prose quotes it: a percentage (issue 67: 0.02 beside "3.1%")
+    assert col == "motor limited (%)"
+    assert out[col].tolist() == [MISSING, 25.0] and out["mean"].tolist() == [1.0, 2.0]
 
 
 def test_pretty_shows_no_interval_for_one_loop():

@@ -52,6 +52,7 @@ PRETTY = {
     "correct_high": "correct, CI high (%)", "n_loops": "loops",
     "paper_max": "paper maximum", "paper_mean": "paper mean", "elite_mean": "elite mean",
     "best_so_far": "best so far", "difference": "difference", "paper_in_ci": "paper in CI",
+    "motor_limited": "motor limited (%)", "tilt_limited": "tilt limited (%)",
     "mean_difference": "mean - paper mean", "max_difference": "maximum - paper maximum",
     "geometry_alone": "geometry alone",
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
@@ -61,7 +62,7 @@ PRETTY = {
 }
 #: Columns holding shares in [0, 1], shown as percentages.
 SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate",
-          "cc_correct_rate")
+          "cc_correct_rate", "motor_limited", "tilt_limited")
 
 
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
