@@ -49,7 +49,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "check_fits", "score_matrix",
-           "silhouette_curves", "compare_turbulence", "check_turbulence", "out_of_sample",
+           "silhouette_curves", "compare_turbulence", "check_turbulence", "rival", "out_of_sample",
            "miss_reasons", "CLOSE", "compare_mixed", "closer_mixed", "scale_invariance", "scaled_setting", "line_silhouette"]
 
 
