@@ -93,10 +93,33 @@ def test_the_inferred_turbulence_is_the_closest_candidate(tmp_path):
         inf.check_turbulence(turb.assign(in_use=turb.index == far))
 
 
+def test_the_rival_of_the_reading_in_use_is_never_itself():
+    # sorted by distance, as compare_turbulence returns it
+    turb = pd.DataFrame({"distance": [1.74, 1.89, 9.0], "in_use": [False, True, False]},
+                        index=["closest", "in use", "far"])
+    assert inf.rival(turb) == "closest"  # the reading flies the runner-up: compare with the closest
+    turb = turb.assign(in_use=[True, False, False])
+    assert inf.rival(turb) == "in use"  # it flies the closest: compare with the runner-up
+    with pytest.raises(ValueError, match="besides"):
+        inf.rival(turb.iloc[:1])
+
+
+def test_out_of_sample_puts_each_difference_beside_its_own_quantity(monkeypatch):
+    # the maxima table showed a "difference" that was the difference of the means
+    table = pd.DataFrame({"row": ["r"], "case": [0], "paper_max": [90.0], "max": [80.0],
+                          "paper_mean": [50.0], "mean": [53.0], "ci_low": [49.0],
+                          "ci_high": [57.0], "correct_rate": [1.0], "n_loops": [20]})
+    monkeypatch.setattr(inf, "comparison_table", lambda df: table.set_index("row"))
+    oos = inf.out_of_sample({"exp3": pd.DataFrame({"reading": ["inferred"]})}).iloc[0]
+    assert oos["mean_difference"] == pytest.approx(3.0)
+    assert oos["max_difference"] == pytest.approx(-10.0)
+    assert oos["paper_in_ci"] and "difference" not in oos.index
+
+
 def test_miss_reasons_tell_the_clustering_from_the_geometry():
     idx = pd.MultiIndex.from_tuples([("Table 6", "a"), ("Table 6", "b"), ("Table 5", "c")],
                                     names=["table", "row"])
-    oos = pd.DataFrame({"difference": [-40.0, 5.0, 1.0], "correct_rate": [0.2, 0.9, 1.0],
+    oos = pd.DataFrame({"mean_difference": [-40.0, 5.0, 1.0], "correct_rate": [0.2, 0.9, 1.0],
                         "geometry_alone": [55.0, 80.0, 90.0]}, index=idx)
     m = inf.miss_reasons(oos)
     assert list(m.index.get_level_values("row")) == ["a", "b"]  # within CLOSE points: no miss

@@ -305,7 +305,9 @@ def test_no_bare_decimal_in_a_pages_prose(path):
 # in its own cells (issue 44: eleven solutions used the page's hidden `np`, `uw`, ...)
 # --------------------------------------------------------------------------- #
 #: Names a solution may take from its page, each saying so in a comment where it is used.
-PAGE_NAMES = {("inference.md", "ex-fit-target"): {"fit_results"}}
+PAGE_NAMES = {("inference.md", "ex-fit-target"): {"fit_results"},
+              # the inference page's scale check at the page's own profile and seed
+              ("exp1_wind_speed.md", "ex-scale-invariance"): {"profile", "seed"}}
 
 
 def _undefined_names(code: str) -> set[str]:

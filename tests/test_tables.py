@@ -93,7 +93,10 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
     df = pd.DataFrame({"mean": [1.0, 2.0], "motor_limited": [np.nan, 0.25]})
     out = uw.pretty(df)
     col = [c for c in out.columns if c != "mean"][0]
-    assert out[col].tolist() == [MISSING, 0.25] and out["mean"].tolist() == [1.0, 2.0]
+    # a share, shown as the prose quotes it: a percentage (issue 67: 0.02 beside "3.1%")
+    assert col == "motor limited (%)"
+    # and with the table's decimals, though the dash makes the column text ("2.0" beside "2.09")
+    assert out[col].tolist() == [MISSING, "25.00"] and out["mean"].tolist() == [1.0, 2.0]
 
 
 def test_pretty_shows_no_interval_for_one_loop():
@@ -112,8 +115,10 @@ def test_pretty_shows_no_interval_for_one_loop():
     one, two, three = out.iloc[0], out.iloc[1], out.iloc[2]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
     assert [two[c] for c in ("95% CI low", "95% CI high", "runner up high")] == ["–"] * 3, two
-    assert three["95% CI low"] == 70.0 and three["95% CI high"] == 90.0 and one["mean"] == 85.0
-    assert three["runner up high"] == 3.0  # a paired difference's CI
+    # a column with a dash is text: its numbers keep the table's two decimals
+    assert three["95% CI low"] == "70.00" and three["95% CI high"] == "90.00"
+    assert one["mean"] == 85.0
+    assert three["runner up high"] == "3.00"  # a paired difference's CI
     assert three["correct, CI low (%)"] == "–"  # 100% [100, 100]: zero width, not shown
 
 

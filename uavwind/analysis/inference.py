@@ -49,7 +49,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
 __all__ = ["TURBULENCE_CANDIDATES", "fit_ratio", "fit_layouts", "check_fits", "score_matrix",
-           "silhouette_curves", "compare_turbulence", "check_turbulence", "out_of_sample",
+           "silhouette_curves", "compare_turbulence", "check_turbulence", "rival", "out_of_sample",
            "miss_reasons", "CLOSE", "compare_mixed", "closer_mixed", "scale_invariance", "scaled_setting", "line_silhouette"]
 
 
@@ -212,6 +212,18 @@ def check_turbulence(turbulence: pd.DataFrame) -> str:
     return used[0]
 
 
+def rival(turbulence: pd.DataFrame) -> str:
+    """The candidate the one in use is measured against: the closest of ``turbulence``
+    (:func:`compare_turbulence`, sorted by distance) other than the one in use. That is the
+    closest candidate when the reading flies another one, and the runner-up when it flies the
+    closest; never the candidate in use itself, so a page cannot name a reading its own
+    runner-up."""
+    others = turbulence.index[~turbulence["in_use"].astype(bool)]
+    if len(others) == 0:
+        raise ValueError("no candidate besides the one in use to compare it with")
+    return str(others[0])
+
+
 def compare_mixed(mixed_results: pd.DataFrame) -> pd.DataFrame:
     """Table 4's mixed-strength rows (S2, S5) under each spacing and placement of
     ``fit_mixed``: ``mean`` (CI), ``max``, ``correct_rate``, the paper's values and
@@ -255,7 +267,7 @@ def miss_reasons(oos: pd.DataFrame, close: float = CLOSE) -> pd.DataFrame:
     (inside each group the environments spread wider than the gap between the groups, and
     the k-means++ start falls into another partition); otherwise it is a residual of the
     layout, and ``geometry_alone`` says how much the speeds as points on a line predict."""
-    misses = oos[(oos["difference"].abs() > close)].copy()
+    misses = oos[(oos["mean_difference"].abs() > close)].copy()
     why = []
     for _, m in misses.iterrows():
         if m["correct_rate"] < 0.5:
@@ -284,8 +296,10 @@ def out_of_sample(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
     -------
     pandas.DataFrame
         One row per paper row: ``paper_mean``, ``mean`` (predicted) with
-        ``ci_low``/``ci_high``, ``paper_max``, ``max``, ``difference`` (predicted minus
-        paper mean), ``paper_in_ci``, ``correct_rate``, ``pair`` (``"mixed"`` strengths or
+        ``ci_low``/``ci_high``, ``paper_max``, ``max``, ``mean_difference`` (predicted
+        minus paper mean), ``max_difference`` (predicted minus paper maximum: each beside
+        the quantity it is the difference of), ``paper_in_ci`` (the paper's mean inside the
+        prediction's 95% interval), ``correct_rate``, ``pair`` (``"mixed"`` strengths or
         ``"same strength"``) and ``geometry_alone``
         (:func:`line_silhouette` x 100: the score the layout's speeds would get as
         points on a line).
@@ -307,7 +321,8 @@ def out_of_sample(results: Mapping[str, pd.DataFrame]) -> pd.DataFrame:
         frames.append(pd.DataFrame({
             "table": label, "row": c["row"], "paper_mean": c["paper_mean"], "mean": c["mean"],
             "ci_low": c["ci_low"], "ci_high": c["ci_high"], "paper_max": c["paper_max"],
-            "max": c["max"], "difference": c["mean"] - c["paper_mean"],
+            "max": c["max"], "mean_difference": c["mean"] - c["paper_mean"],
+            "max_difference": c["max"] - c["paper_max"],
             "paper_in_ci": (c["ci_low"] <= c["paper_mean"]) & (c["paper_mean"] <= c["ci_high"]),
             "correct_rate": c["correct_rate"],
             "geometry_alone": [100 * g for g in geometry],

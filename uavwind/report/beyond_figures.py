@@ -190,7 +190,7 @@ def future_grid(table) -> Figure:
     scen = list(dict.fromkeys(table["scenario"]))
     obs = list(dict.fromkeys(table["observation"]))
     fig, axes = plt.subplots(len(noises), len(actions), squeeze=False,
-                             figsize=(5.2 * len(actions), 2.8 * len(noises) + 0.8),
+                             figsize=(4.4 * len(actions) + 1.0, 3.0 * len(noises) + 1.2),
                              constrained_layout=True)
     for i, noise in enumerate(noises):
         for j, action in enumerate(actions):
@@ -203,10 +203,11 @@ def future_grid(table) -> Figure:
                 ax.text(c, r, f"{v:.0f}", ha="center", va="center", fontsize=10,
                         color="white" if v < 60 else "black")
             # wrapped narrower than a column: "light constant vs light shear" and "vs strong
-            # turbulence" ran into each other on one line each (issue 44)
-            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 13) for s in scen], fontsize=7.5)
-            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=9)
-            ax.set_title(f"{action} actions, noise: {noise}", fontsize=9)
+            # turbulence" ran into each other on one line each (issue 44); at 7.5 pt they
+            # were about 6 px on the page (issue 67): a figure nearer the page's width, larger
+            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 12) for s in scen], fontsize=9)
+            ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=10)
+            ax.set_title(f"{action} actions, noise: {noise}", fontsize=10)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
     return fig
 
@@ -232,7 +233,7 @@ def flyable_scores(table) -> Figure:
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))
-        ax.set(title=o, xlabel="mean score (blank: not run)", xlim=(0, 100))
+        ax.set(title=channel_name(o), xlabel="mean score (blank: not run)", xlim=(0, 100))
     axes[0, 0].set_yticks(y, scen, fontsize=8)
     axes[0, 0].invert_yaxis()
     # above the panels: inside the last one it covered the bottom scenario's bars
@@ -304,11 +305,18 @@ def reliability_diagram(table) -> Figure:
         ax = axes[0, j]
         ax.plot([0, 1], [0, 1], color="0.6", lw=0.8, ls="--", label="calibrated")
         sub = table[table["vehicle"] == v]
-        for pol, d in sub.groupby("policy", sort=False):
+        pols = list(dict.fromkeys(sub["policy"]))
+        for i, (pol, d) in enumerate(sub.groupby("policy", sort=False)):
             colour, ls = POLICY_STYLES.get(pol, ("k", "-"))
-            marker, z = POLICY_MARKERS.get(pol, ("o", 2))  # as the curves: coinciding lines
-            ax.plot(d["predicted"], d["observed"], color=colour, ls=ls, marker=marker, ms=4,
-                    lw=1.2, zorder=z, label=POLICY_NAMES.get(pol, pol))  # stay visible
+            marker, z = POLICY_MARKERS.get(pol, ("o", 2))
+            # policies whose beliefs fall in the same bins coincide point for point: each is
+            # shifted a little along the reported axis and drawn open, the lower-drawn ones
+            # larger, so a policy under another still shows (issue 67: receding CEM vanished
+            # under open-loop best)
+            dodge = (i - (len(pols) - 1) / 2) * 0.012
+            ax.plot(d["predicted"] + dodge, d["observed"], color=colour, ls=ls, marker=marker,
+                    ms=4 + 1.5 * (max(POLICY_MARKERS.values(), key=lambda m: m[1])[1] - z),
+                    mfc="none", mew=1.2, lw=1.2, zorder=z, label=POLICY_NAMES.get(pol, pol))
         counts = sub.groupby(["bin_low", "bin_high"])["count"].sum().reset_index()
         ax2 = ax.twinx()
         ax2.bar((counts["bin_low"] + counts["bin_high"]) / 2, counts["count"],

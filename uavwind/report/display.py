@@ -52,6 +52,8 @@ PRETTY = {
     "correct_high": "correct, CI high (%)", "n_loops": "loops",
     "paper_max": "paper maximum", "paper_mean": "paper mean", "elite_mean": "elite mean",
     "best_so_far": "best so far", "difference": "difference", "paper_in_ci": "paper in CI",
+    "motor_limited": "motor limited (%)", "tilt_limited": "tilt limited (%)",
+    "mean_difference": "mean - paper mean", "max_difference": "maximum - paper maximum",
     "geometry_alone": "geometry alone",
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
@@ -60,7 +62,7 @@ PRETTY = {
 }
 #: Columns holding shares in [0, 1], shown as percentages.
 SHARES = ("correct_rate", "correct_low", "correct_high", "baseline_correct_rate",
-          "cc_correct_rate")
+          "cc_correct_rate", "motor_limited", "tilt_limited")
 
 
 def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
@@ -94,7 +96,7 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
-    return show_missing(out.round(precision))
+    return show_missing(out.round(precision), precision)
 
 
 #: The columns holding a 95% interval's bounds.
@@ -105,13 +107,17 @@ _INTERVAL_BOUNDS = ("ci_low", "ci_high", "correct_low", "correct_high")
 MISSING = "–"
 
 
-def show_missing(df: pd.DataFrame) -> pd.DataFrame:
+def show_missing(df: pd.DataFrame, precision: int | None = None) -> pd.DataFrame:
     """``df`` with every missing value shown as :data:`MISSING` (only the columns that have
-    one change; the others keep their numbers)."""
+    one change; the others keep their numbers). Such a column holds text, which pandas shows
+    as each float's shortest form ("2.0" beside "2.09"); with ``precision``, its floats are
+    written with that many decimals, as the table's other columns show theirs."""
     out = df.copy()
     for col in out.columns:
         if out[col].isna().any():
-            out[col] = [MISSING if pd.isna(v) else v for v in out[col]]
+            out[col] = [MISSING if pd.isna(v) else
+                        f"{v:.{precision}f}" if precision is not None and isinstance(v, float)
+                        else v for v in out[col]]
     return out
 
 

@@ -307,8 +307,13 @@ def explorer_html(grid: Mapping[str, Any], plotly_src: str = "../_static/plotly/
     root.querySelector(".uw-score").textContent = "score " + loop.score.toFixed(2) +
       (loop.correct ? " (the clusters are the two groups)" : " (misgrouped: score 0)");
     Plotly.react(root.querySelector(".uw-plot"), traces, {{
-      margin: {{l: 0, r: 0, t: 10, b: 0}}, legend: {{x: 0, y: 1}},
-      scene: {{xaxis: {{title: "x [m]"}}, yaxis: {{title: "y [m]"}}, zaxis: {{title: "z [m]"}}}}
+      // room round the scene and the camera further out than plotly's default (1.25): with
+      // no margin and the default eye the axis titles were cut at the box's edges (issue 67)
+      margin: {{l: 10, r: 10, t: 10, b: 10}}, legend: {{x: 0, y: 1}},
+      // a title as an object: plotly.js 3 drops a bare string, and the units went with it
+      scene: {{xaxis: {{title: {{text: "x [m]"}}}}, yaxis: {{title: {{text: "y [m]"}}}},
+               zaxis: {{title: {{text: "z [m]"}}}},
+               camera: {{eye: {{x: 1.6, y: 1.6, z: 1.1}}}}}}
     }}, {{responsive: true}});
   }}
   var preset = new URLSearchParams(location.hash.slice(1));
