@@ -69,16 +69,20 @@ def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monk
     assert [p.name for p in tmp_path.iterdir()] == ["times.json"]  # no temporary file left
 
 
-def test_a_signal_during_a_serial_run_stops_between_entries_and_keeps_the_record(tmp_path):
+@pytest.mark.parametrize("experiment", ["exp2", "exp10", "exp12"])
+def test_a_signal_during_a_serial_run_stops_between_entries_and_keeps_the_record(tmp_path,
+                                                                                  experiment):
     """SIGTERM while a kernel runs: the entry under way finishes, is stored and recorded,
-    then the run stops (no SystemError from inside numba), with complete: false."""
+    then the run stops (no SystemError from inside numba), with complete: false. For each
+    kind of kernel a fill runs: the point mass and the soft-DTW engine (Exp 2), the
+    multirotor (Exp 10), the closed loop's episodes (Exp 12)."""
     import signal
     import subprocess
     import sys
 
     env = {**os.environ, "UAVWIND_RESULTS": str(tmp_path / "r")}
     out = tmp_path / "t.json"
-    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", "exp2", "--profile",
+    proc = subprocess.Popen([sys.executable, "-m", "uavwind", "run", experiment, "--profile",
                              "quick", "--jobs", "1", "--no-tables", "--no-progress",
                              "--times", str(out)], env=env, stderr=subprocess.PIPE, text=True)
     deadline = time.time() + 120

@@ -70,3 +70,16 @@ def test_the_drift_check_catches_a_wrong_number():
     typed = _typed_numbers("the fit gives 11.3 and {glue:text}`x.ipynb::k:.1f` and `dt=0.3`")
     assert typed == {11.3}
     assert 11.3 not in _allowed()
+
+
+def test_a_glued_number_from_another_page_names_its_format():
+    """``{glue:text}`page.ipynb::key:fmt``` splits its format at the last colon, so a
+    role from another page without one reads the key as part of the path and the book
+    build fails ("No key 'page.ipynb:' found"): every such role names its format."""
+    root = NOTES.parents[1]
+    bad = []
+    for path in sorted([*root.glob("book/*.md"), *root.glob("notebooks/*.md")]):
+        for role in re.findall(r"\{glue:text\}`([^`]*)`", path.read_text()):
+            if "::" in role and ":" not in role.split("::", 1)[1]:
+                bad.append(f"{path.name}: {role}")
+    assert not bad, bad
