@@ -278,7 +278,8 @@ FLYABLE_CEM_SCALE = {"n_samples": 1 / 3, "max_iter": 1 / 4}
 #: run's best score answers, and that best had settled by iteration 10: in a paper build with
 #: 20 (at 1ef99a8, seed 20240101) each case's best at 10 was within 0.7 points of its best at
 #: 20 (attitude/IMU 96.1 vs 96.8, attitude/position 40.5 vs 40.5, thrust/IMU 99.2 vs 99.0,
-#: thrust/position 0 throughout), for half of its 1,624 CPU-s, the paper book's largest entry.
+#: thrust/position 0 throughout), for half of its CPU time (1,624 CPU-s at 1ef99a8, then the
+#: paper book's largest entry; the performance page gives its cost at the last paper build).
 FUTURE_CEM_SCALE = {"max_iter": 1 / 2}
 
 
