@@ -304,6 +304,15 @@ def pytest_collection_modifyitems(session, config, items):
     _start_book_build()
 
 
+def _build_running(pid):
+    """Whether a process of the build's group ``pid`` is left (its leader reaped first when
+    it is this process's child, or it would linger as a zombie)."""
+    proc = _book_build.get("proc")
+    if proc is not None:
+        proc.poll()
+    return _alive(pid)
+
+
 def _alive(pid):
     try:
         os.killpg(pid, 0)
@@ -328,18 +337,16 @@ def built_book():
     rc_file = tmp / "rc"
     t0 = time.monotonic()
     done = rc_file.exists()
-    rc = None
-    while rc is None:
-        if rc_file.exists():
-            rc = int(rc_file.read_text())
-        elif "proc" in _book_build and _book_build["proc"].poll() is not None \
-                or "proc" not in _book_build and not _alive(pid):
-            rc = int(rc_file.read_text()) if rc_file.exists() else "ended without a status"
-        elif time.monotonic() - t0 > BOOK_BUILD_TIMEOUT:
+    rc = "ended without a status"
+    # the build writes `rc` before its last process ends
+    while not rc_file.exists() and _build_running(pid):
+        if time.monotonic() - t0 > BOOK_BUILD_TIMEOUT:
             os.killpg(pid, signal.SIGTERM)
             rc = "timed out"
-        else:
-            time.sleep(0.5)
+            break
+        time.sleep(0.5)
+    if rc != "timed out" and rc_file.exists():
+        rc = int(rc_file.read_text())
     _book_build["waited"] = time.monotonic() - t0
     if not done and "took" not in _book_build and "started" in _book_build:
         _book_build["took"] = time.monotonic() - _book_build["started"]
@@ -353,12 +360,11 @@ def _stop_book_build():
     """Stop the build's whole process group (the fill writes its record as it stops: wait
     for every process of it, not only the first, before its folder is removed)."""
     proc = _book_build.get("proc")
-    if proc is None or not _alive(proc.pid):
+    if proc is None or not _build_running(proc.pid):
         return
     os.killpg(proc.pid, signal.SIGTERM)
     deadline = time.monotonic() + 30
-    while _alive(proc.pid) and time.monotonic() < deadline:
-        proc.poll()  # reaps the group's leader once it ends
+    while _build_running(proc.pid) and time.monotonic() < deadline:
         time.sleep(0.2)
     if _alive(proc.pid):
         os.killpg(proc.pid, signal.SIGKILL)
