@@ -55,9 +55,9 @@ from .memo import memo
 from .wind_estimates import estimation_rows
 
 __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "SPREADS", "real_flight_rows",
-           "compute_rows", "pair_table", "channel_table", "controlled_table", "flight_table", "flights_digest",
-           "decided_orders",
-           "NOISE_CHANNELS", "noise_columns", "flight_summaries"]
+           "compute_rows", "pair_table", "channel_table", "controlled_table", "flight_table",
+           "flights_digest", "decided_orders", "NOISE_CHANNELS", "noise_columns",
+           "flight_summaries"]
 
 #: Bump when a change alters the rows (part of the cache digest), including a change to how
 #: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are

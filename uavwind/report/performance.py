@@ -87,6 +87,7 @@ _ONLY_NAME = {"paper_profile": "paper", "cold_compile": "compile"}
 
 
 def _host_label(host: Mapping[str, Any]) -> str:
+    """``model (llvm_cpu, N lanes)``: how every table of this page names a host."""
     return (f"{host.get('model', '?')} ({host.get('llvm_cpu', '?')}, "
             f"{host.get('lanes', '?')} lanes)")
 
@@ -193,8 +194,7 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
              "identical": [f"{r[3]}/{h['loops']}" for r in rows]}).set_index("vectors")
     if report.get("heldout_hosts"):
         out["heldout_hosts"] = pd.DataFrame(
-            [{"host": f"{model} ({h['host'].get('llvm_cpu', '?')}, "
-                      f"{h['host'].get('lanes', '?')} lanes)",
+            [{"host": _host_label({**h["host"], "model": model}),
               "measured": h.get("measured", "?"), "commit": h.get("commit", "?"),
               "fast (s)": h["fast_seconds"], "tslearn (s)": h["tslearn_seconds"],
               "speed-up": h["speedup"],
@@ -286,9 +286,7 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
                                           if "FRESH=1" in p["measured_how"] else
                                           "the working tree, its numba cache as it was")
             if "host" in p:  # the machine kind comes as an AMD EPYC or an Intel Xeon
-                rows["measured on"] = (f"{p['host'].get('model', '?')} "
-                                       f"({p['host'].get('llvm_cpu', '?')}, "
-                                       f"{p['host'].get('lanes', '?')} lanes)")
+                rows["measured on"] = _host_label(p["host"])
             if "fill_seconds" in p:
                 rows["of which filling the result cache (min)"] = f"{p['fill_seconds'] / 60:.1f}"
             if "cpu_percent" in p:

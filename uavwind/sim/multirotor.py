@@ -371,7 +371,7 @@ class Multirotor:
         whole number of control steps."""
         dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False, high=1e6)
         per = dt * self.control_rate
-        k = int(round(per))
+        k = self.steps_per_sample(dt)
         if k < 1 or abs(per - k) > 1e-9 * max(1.0, per):
             raise ValueError(f"dt = {dt:g} s must be a whole number of the multirotor's "
                              f"control steps (1/{self.control_rate:g} s)")
