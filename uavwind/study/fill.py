@@ -76,7 +76,7 @@ def needed_entries(exp_ids: str | Iterable[str] = "all",
     readings share is one entry. Computes nothing. The arguments are :func:`fill_cache`'s;
     bad ones raise ``ValueError`` here. An analysis needs the entries of the experiments it
     reads (``needed_entries(["exp13"])`` is empty: it reads flights, not experiments)."""
-    return list(_plan(exp_ids, profile, readings, seed, engine, results, **params)[0])
+    return list(_needed(exp_ids, profile, readings, seed, engine, results, **params))
 
 
 def _needed(exp_ids, profile, readings, seed, engine, results, **params):
