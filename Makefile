@@ -68,8 +68,8 @@ help:  ## list the targets
 
 # the venv: the pins, then the package itself, editable (a script outside the checkout imports
 # this checkout), then every numba kernel compiled once into numba's cache, the engine beside
-# the multirotor (python -m uavwind.warmup): later processes (pages, tests, a newcomer's first
-# loop) load them instead of compiling
+# the multirotor and tslearn's reference kernels (python -m uavwind.warmup): later processes
+# (pages, tests, a newcomer's first loop) load them instead of compiling
 $(STAMP): environment.txt
 	$(PYTHON) -c 'import sys; assert sys.version_info[:2] == (3, 11), "uavwind pins need Python 3.11, got " + sys.version'
 	$(PYTHON) -m venv $(VENV)
@@ -81,7 +81,7 @@ $(STAMP): environment.txt
 	PIP_NO_INDEX=1 $(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps \
 	  --no-build-isolation --no-compile -e .
 	$(TIMEOUT) $(WARMUP_TIMEOUT) sh -c '$(BIN)/python -m uavwind.warmup engine & a=$$!; \
-	  $(BIN)/python -m uavwind.warmup sim || { wait $$a; exit 1; }; wait $$a'
+	  $(BIN)/python -m uavwind.warmup sim reference || { wait $$a; exit 1; }; wait $$a'
 	touch $@
 
 venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)

@@ -44,8 +44,12 @@ def compiled_kernels():
     any test starts worker processes: they then load the on-disk cache instead of each
     compiling the same kernels at the same time."""
     from uavwind.method import softdtw
+    from uavwind.method.clustering import cache_tslearn_kernels
 
     softdtw.warmup(parallel=True, every=True)
+    # the test modules import tslearn anyway (its references): its kernels then load from
+    # numba's cache (make venv compiled them) instead of compiling in every worker
+    cache_tslearn_kernels()
 
 
 # ---- the result store's tests (tests/test_cache.py, test_store.py, test_future_work.py,

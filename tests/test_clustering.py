@@ -174,3 +174,31 @@ def test_loops_side_by_side_refuse_bad_input(call, err, match):
     X, g = _short("light constant", "strong shear", seed=0)
     with pytest.raises(err, match=match):
         call(X, g)
+
+
+def test_tslearns_kernels_load_from_the_cache_and_give_the_same_doubles():
+    """cache_tslearn_kernels lets tslearn's kernels use numba's cache: after this process ran
+    tslearn (its kernels compiled into the cache, or loaded from make venv's), a new process
+    loads them from there and gives this process's labels and silhouette to the last bit."""
+    import json
+    import subprocess
+    import sys
+
+    X, groups = _short("light constant", "strong shear", seed=0)
+    res = score_loop(X, groups, engine="tslearn")
+    code = ("import json, numpy as np, uavwind as uw\n"
+            "from uavwind.method.clustering import score_loop, cache_tslearn_kernels\n"
+            "import tslearn.barycenters.softdtw as b\n"
+            "s = uw.make_setting('light constant', 'strong shear', 3, dt=0.2, duration=4.0,"
+            " n_changes=3)\n"
+            "X = s.simulate(s.sample_thrust(np.random.default_rng(0)), seed=0)\n"
+            "r = score_loop(X, s.groups, engine='tslearn')\n"
+            "f = b._njit_softdtw_func_from_distance_matrix\n"
+            "print(json.dumps([r.labels.tolist(), r.silhouette.hex(),"
+            " type(f._cache).__name__, f._cache_hits.total(), cache_tslearn_kernels()]))\n")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True,
+                         text=True, timeout=600).stdout.strip().splitlines()[-1]
+    labels, sil, cache, hits, again = json.loads(out)
+    assert labels == res.labels.tolist() and float.fromhex(sil) == res.silhouette
+    assert cache == "FunctionCache" and hits > 0  # loaded, not compiled
+    assert again == 0  # switched on once, where the engine was made

@@ -114,5 +114,7 @@ def test_the_venv_holds_the_checkout_editable_and_warmup_names_its_parts(tmp_pat
     assert Path(out.stdout.strip()) == ROOT / "uavwind" / "__init__.py"
     from uavwind import warmup
     assert warmup.main(["bogus"]) == 2
+    assert warmup.PARTS == ("engine", "sim", "reference")
+    assert warmup.warm("reference") > 0  # tslearn's kernels, cached where numba can
     with pytest.raises(ValueError, match="part must be one of"):
         warmup.warm("bogus")

@@ -9,7 +9,10 @@ can compile them side by side on two cores:
 * ``"engine"`` -- the soft-DTW engine (:func:`uavwind.method.softdtw.warmup`): k-means, the
   barycentres, the silhouettes, serial and threaded (about a minute on one core);
 * ``"sim"`` -- the multirotor (RotorPy's physics in :mod:`uavwind.sim._rotor_kernels`): an
-  open-loop flight and a figure-8 flown under the position controller (the real-flight twin).
+  open-loop flight and a figure-8 flown under the position controller (the real-flight twin);
+* ``"reference"`` -- tslearn's own kernels, the ``"tslearn"`` engine the fast one is checked
+  against (:func:`uavwind.method.clustering.cache_tslearn_kernels` lets them use numba's cache;
+  a few of its kernels, made inside factory functions, are compiled again by every process).
 """
 
 from __future__ import annotations
@@ -17,14 +20,14 @@ from __future__ import annotations
 import sys
 import time
 
-from . import PAPER_EXAMPLE, ConstantWind, Multirotor, simulate
+from . import PAPER_EXAMPLE, ConstantWind, Multirotor, make_setting, simulate
 from .analysis import figure8
 from .method.softdtw import warmup as engine_warmup
 
 __all__ = ["warm", "PARTS"]
 
 #: What :func:`warm` compiles, by part.
-PARTS = ("engine", "sim")
+PARTS = ("engine", "sim", "reference")
 
 
 def warm(part: str) -> float:
@@ -35,6 +38,13 @@ def warm(part: str) -> float:
     t0 = time.perf_counter()
     if part == "engine":
         engine_warmup(parallel=True, every=True)
+    elif part == "reference":
+        import numpy as np
+
+        from .method.clustering import score_loop
+        s = make_setting("light constant", "strong shear", 3, dt=0.2, duration=4.0, n_changes=3)
+        score_loop(s.simulate(s.sample_thrust(np.random.default_rng(0))), s.groups,
+                   engine="tslearn")
     else:
         simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]),
                  uav=Multirotor(preset="rotorpy", start="hover"))
