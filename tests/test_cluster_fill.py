@@ -37,7 +37,16 @@ def _entries(folder):
     return sorted(p.relative_to(folder) for p in folder.rglob("*.parquet"))
 
 
-def test_a_cluster_fill_stores_what_a_local_fill_stores(tmp_path, client):
+@pytest.fixture(scope="module")
+def local_fill(tmp_path_factory):
+    """TINY filled by one local process, once for the tests that compare a cluster's fill
+    with it: ``(folder, fill_cache's summary)``."""
+    folder = tmp_path_factory.mktemp("local")
+    return folder, fill.fill_cache(IDS, profile=TINY, results=folder, readings="all",
+                                   progress=False, n_jobs=1)
+
+
+def test_a_cluster_fill_stores_what_a_local_fill_stores(tmp_path, client, local_fill):
     done = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "cluster", readings="all",
                            progress=False, scheduler=client)
     assert done["computed"] == done["entries"] > 0 and done["cached"] == 0
@@ -48,18 +57,17 @@ def test_a_cluster_fill_stores_what_a_local_fill_stores(tmp_path, client):
         -(-cem["n_samples"] // fill.SAMPLES_PER_TASK) * cem["max_iter"]}
     assert {t["tasks"] for t in done["times"] if t["search"] != "cem"} == {1}
     assert sum(t["rows"] for t in done["times"]) == done["rows_computed"]
-    local = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "local", readings="all",
-                            progress=False, n_jobs=1)
-    assert _entries(tmp_path / "cluster") == _entries(tmp_path / "local")
+    folder, local = local_fill
+    assert _entries(tmp_path / "cluster") == _entries(folder)
     assert local["rows_computed"] == done["rows_computed"]
     for reading in ("inferred", "halves"):
-        assert _rows(tmp_path / "cluster", reading) == _rows(tmp_path / "local", reading)
+        assert _rows(tmp_path / "cluster", reading) == _rows(folder, reading)
     again = fill.fill_cache(IDS, profile=TINY, results=tmp_path / "cluster", readings="all",
                             progress=False, scheduler=client)
     assert again["cached"] == again["entries"] and again["computed"] == 0
 
 
-def test_an_interrupted_cluster_fill_resumes(tmp_path, client):
+def test_an_interrupted_cluster_fill_resumes(tmp_path, client, local_fill):
     stop = threading.Event()
 
     class StopAfterFirst(list):  # the record of the first stored entry asks to stop
@@ -79,9 +87,7 @@ def test_an_interrupted_cluster_fill_resumes(tmp_path, client):
     done = fill.fill_cache(IDS, profile=TINY, results=tmp_path, readings="all",
                            progress=False, scheduler=client)
     assert done["cached"] == len(kept) and done["computed"] == total - len(kept)
-    alone = tmp_path / "alone"
-    fill.fill_cache(IDS, profile=TINY, results=alone, readings="all", progress=False, n_jobs=1)
-    assert _rows(tmp_path, "inferred") == _rows(alone, "inferred")
+    assert _rows(tmp_path, "inferred") == _rows(local_fill[0], "inferred")
 
 
 def test_a_worker_killed_mid_task_loses_nothing(tmp_path, client):
