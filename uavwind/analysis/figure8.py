@@ -544,6 +544,12 @@ def _fit_variability(cal, train, study):
       the combined twin."""
     from scipy.optimize import nnls
 
+    need = ["hover_throttle", "tracking_rms", *_ERROR_TARGETS]
+    missing = [c for c in need if c not in train.columns or train[c].isna().any()]
+    if missing:
+        raise ValueError(f"real_rows must hold the training flights' {missing} to fit the "
+                         f"twin's variability (real_flights.compute_rows gives them), or call "
+                         f"calibrate_twin(..., variability=False)")
     still = train[train["condition"] == "nowind"]
     cal = replace(cal, hover_throttle=float(train["hover_throttle"].mean()),
                   hover_throttle_sd=float(train["hover_throttle"].std(ddof=1)))
