@@ -706,6 +706,37 @@ def calibration_of(sim: pd.DataFrame) -> TwinCalibration:
     return TwinCalibration(**d)
 
 
+def variability_table(calibration: TwinCalibration) -> pd.DataFrame:
+    """The twin's sources of variability, one row each: ``source``, ``value`` (as fitted,
+    with its unit), ``fitted on`` (what of the training controllers' flights fixes it, or
+    that it is assumed) and ``acts``: between flights or within one."""
+    c = calibration
+    rows = [
+        ("controller bandwidth (log-SD)", f"{c.gain_spread:.3f}",
+         "log-SD of the tracking error in still air, through the twin's sensitivity to it",
+         "per seed (one controller at every wind)"),
+        ("integral gain (log-SD)", f"{c.integral_spread:.3f}",
+         "assumed equal to the bandwidth's (the flight rows do not tell them apart)",
+         "per seed"),
+        ("hover throttle (battery)", f"{c.hover_throttle:.3f} +- {c.hover_throttle_sd:.3f}",
+         "mean and SD of the flights' hover throttle", "per flight"),
+        ("attitude-estimate tilt error, per axis [deg]", f"{c.attitude_error:.3f}",
+         "lap-to-lap spreads of pitch, force x and vertical tracking in still air (jointly)",
+         f"within the flight (Gauss-Markov, {ERROR_TIME:g} s)"),
+        ("velocity-estimate error along x [m/s]", f"{c.velocity_error:.4f}", "(the same fit)",
+         "within the flight"),
+        ("thrust error [share of the commanded]", f"{c.thrust_error:.4f}", "(the same fit)",
+         "within the flight"),
+        ("gust W20 / mean speed (the fan's turbulence)", f"{c.gust_scale:.3f}",
+         "lap-to-lap spread of force x at 12.1 m/s, mean over the replicates",
+         "within the flight"),
+        ("motor dynamics", "RotorPy's first-order lag", "not fitted (modelled, not varied)",
+         "within the flight"),
+    ]
+    return pd.DataFrame(rows, columns=["source", "value", "fitted on (training controllers)",
+                                       "acts"]).set_index("source")
+
+
 #: What :func:`validation_table` compares: name -> (flight-row column, subtract 0 m/s, unit).
 VALIDATION = {"force along x": ("aero_force_x", True, "N"),
               "force along z": ("aero_force_z", True, "N"),
