@@ -17,7 +17,8 @@ sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability)
 print(f"twin rows: {time.process_time()-t0:.1f} CPU-s (this process), {time.time()-w0:.1f} s wall")
 val = figure8.validation_table(real, sim)
 c = figure8.calibration_of(sim); print({k: v for k, v in c.to_dict().items() if k != "noise"})
-pd.set_option("display.width", 250); pd.set_option("display.max_rows", 200)
+pd.set_option("display.width", 250)
+pd.set_option("display.max_rows", 200)
 print(val[["condition", "quantity", "sim", "sim_min", "sim_max", "held_out", "real_min", "real_max",
            "twin_error", "trivial_error", "fitted"]].round(3).to_string())
 print("score", figure8.validation_score(val))
@@ -25,4 +26,5 @@ print("score (predicted only)", figure8.validation_score(val, True))
 p = val[(val.quantity == "lap-to-lap spread of pitch")].set_index("condition")
 for c in p.index:
     r = p.loc[c]
-    print(f"pitch spread {c}: twin {r.sim:.3f} [{r.sim_min:.3f}, {r.sim_max:.3f}] real {r.real_min:.3f}-{r.real_max:.3f}")
+    print(f"pitch spread {c}: twin {r.sim:.3f} [{r.sim_min:.3f}, {r.sim_max:.3f}] "
+          f"real {r.real_min:.3f}-{r.real_max:.3f}")
