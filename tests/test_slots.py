@@ -51,7 +51,8 @@ def test_the_state_columns_tile_the_state():
 
 
 def test_the_flat_output_and_se3_output_rows_are_tiled():
-    _tiles(FLAT, _slots.N_FLAT)
+    _tiles({n: s for n, s in FLAT.items() if n != "FLAT_ERR"}, _slots.N_FLAT)
+    _tiles(FLAT, _slots.N_FLAT_ERR)  # mode 4's row: the errors after the flat output
     _tiles(CMD, _slots.N_CMD)
 
 
@@ -61,7 +62,7 @@ def test_the_blocks_have_their_shapes():
     assert length == {"INERTIA": 9, "INERTIA_INV": 9, "C_D": 3, "ROTOR_POS": 12, "ROTOR_DIR": 4,
                       "TM_TO_F": 16, "KP_POS": 3, "KD_POS": 3, "KI_POS": 3, "S_POS": 3, "S_VEL": 3,
                       "S_QUAT": 4, "S_RATES": 3, "S_WIND": 3, "S_ROTORS": 4, "S_INTEGRAL": 3,
-                      "FLAT_POS": 3, "FLAT_VEL": 3, "FLAT_ACC": 3, "CMD_MOMENT": 3, "CMD_Q": 4,
+                      "FLAT_POS": 3, "FLAT_VEL": 3, "FLAT_ACC": 3, "FLAT_ERR": 6, "CMD_MOMENT": 3, "CMD_Q": 4,
                       "CMD_ACC": 3, "CMD_W": 3}
 
 

@@ -31,8 +31,19 @@ The twin (each choice stated on the page):
   about the same offset axis and its ``fa`` as the authors compute it from that attitude.
   Every recorded channel gets white noise whose content above 2 Hz matches the training
   controllers' at the same wind.
-* *Replicates.* Five gust seeds per condition (each its own gusts and noise), labelled
-  ``seed 0`` ... ``seed 4``, as the real flights have five controllers.
+* *Replicates.* Five seeds per condition, labelled ``seed 0`` ... ``seed 4``, as the real
+  flights have five controllers. A seed is a controller and a flight (:func:`calibrate_twin`
+  fits every spread on the training controllers; ``variability`` 0 turns them all off):
+  the controller's bandwidth (``kp``, ``kd``, ``ki`` scaled together, the loop's shape kept)
+  and its integral gain each times a log-normal factor, drawn once per seed (seed ``k`` is
+  one controller at every wind, as a real controller is); per flight, the battery (the
+  hover throttle, so the rotors' full thrust, drawn from the training flights'); and within
+  the flight, the state the controller acts on: an attitude estimate tilted off the true
+  attitude, a velocity estimate off the true velocity and a thrust off the commanded, each a
+  first-order Gauss-Markov process (correlation time :data:`ERROR_TIME`) that the controller
+  flies on in the kernel (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`'s
+  ``state_errors``) and that the record carries as a real log does (the estimated attitude
+  and velocity, ``fa`` computed from them and the commanded thrust). Its own gusts and noise.
 * *Held out.* The twin is fitted on every controller but one (:func:`held_out_controller`)
   and checked on that one (:func:`validation_table`).
 """
@@ -54,7 +65,7 @@ from ..sim.dryden import DrydenWind
 from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import Multirotor
 from ..sim.references import Lemniscate
-from ..sim.rotor_params import NEURAL_FLY_CONTROL
+from ..sim.rotor_params import NEURAL_FLY_CONTROL, PositionControl
 from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
 from .real_flights import (STUDIES, compute_rows, decided_orders, flight_summaries,
@@ -64,7 +75,7 @@ __all__ = ["FIGURE8", "BARE", "SIM_SEED", "SIM_VERSION", "FIT_CONDITION", "SPREA
            "TwinCalibration", "calibrate_twin", "held_out_controller",
            "simulated_flight", "simulated_flights", "flight_duration", "sim_rows",
            "validation_table", "validation_score", "ranking_verdict", "real_force_targets",
-           "calibration_of", "VALIDATION", "PHYSICAL"]
+           "calibration_of", "VALIDATION", "PHYSICAL", "ERROR_TIME", "variability_table"]
 
 #: Neural-Fly's reference: (1.25 sin t, 0, 0.75 sin 2t) about the real flights' centre [m].
 FIGURE8 = Lemniscate(center=(0.25, 0.0, 2.15), amplitude=(1.25, 0.0, 0.75), period=2 * np.pi)
@@ -74,7 +85,8 @@ SIM_SEED = 13
 #: as long as they need (:func:`flight_duration`). 3: the calibrated twin (gusts that reach
 #: it, lift, controller with an integral and a thrust cone, sensor offset and noise). 4: the
 #: drag and lift fitted together (Broyden), to the same tolerances.
-SIM_VERSION = "5"
+#: 6: the variability (controller, battery and state-estimate draws per replicate).
+SIM_VERSION = "6"
 #: The one wind the forces (drag and lift) are fitted on: 8.5 m/s, where both are well above
 #: the still-air residual; 4.2 and 12.1 m/s are predictions.
 FIT_CONDITION = "70wind"
@@ -94,6 +106,18 @@ _FIT_LAPS = 3
 _STEPS = 12
 #: Share of a white noise's variance above the noise cutoff at the recording step.
 _ABOVE_CUTOFF = 1.0 - 2.0 * NOISE_CUTOFF * DT
+#: Correlation time [s] of the state-estimate and thrust errors (first-order Gauss-Markov):
+#: assumed, not fitted (the flight rows hold no quantity that pins it apart from the errors'
+#: sizes): slower than the 2 Hz noise cutoff, so the errors move a lap's slow part, faster
+#: than a lap (6.3 s), so they differ from lap to lap.
+ERROR_TIME = 0.2
+#: Seed addresses (under :data:`SIM_SEED` and the seed): the controller drawn once per seed,
+#: then per condition ``k`` the gusts ``(k,)``, the noise ``(k, 1)``, the battery ``(k, 2)``
+#: and the state errors ``(k, 3)``.
+_CONTROLLER_KEY = 1000
+#: Reference sizes of the state errors the fit starts from: attitude [deg], thrust [-],
+#: velocity [m/s].
+_ERROR_START = (0.5, 0.01, 0.02)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -113,8 +137,24 @@ class TwinCalibration:
         (:func:`uavwind.analysis.real_flights.noise_columns`) at each wind.
     controllers : tuple of str
         The controllers it was fitted on.
+    gain_spread, integral_spread : float
+        Log-SD of a replicate's controller bandwidth factor and of its integral gain's own
+        factor [-] (0: every replicate flies :data:`~uavwind.sim.rotor_params.NEURAL_FLY_CONTROL`).
+    hover_throttle, hover_throttle_sd : float
+        Mean and SD of a flight's hover throttle (weight over full thrust) [-] (mean 0: the
+        preset's, thrust-to-weight 2.2).
+    attitude_error : float
+        SD of the attitude estimate's tilt error about each world horizontal axis [deg].
+    thrust_error : float
+        SD of the thrust's relative error [-].
+    velocity_error : float
+        SD of the velocity estimate's error along world x [m/s].
+    variability : float
+        Factor on every spread above, and the switch of the mean hover throttle [-]: 0 flies
+        the twin whose replicates differ by gusts and noise alone (exactly, to the double).
 
-    The default is the bare twin: the preset's drag and lift, no gusts, no offset, no noise.
+    The default is the bare twin: the preset's drag and lift, no gusts, no offset, no noise,
+    no variability.
     """
 
     drag_scale: float = 1.0
@@ -123,11 +163,27 @@ class TwinCalibration:
     axis_offset: float = 0.0
     noise: tuple = ()
     controllers: tuple = ()
+    gain_spread: float = 0.0
+    integral_spread: float = 0.0
+    hover_throttle: float = 0.0
+    hover_throttle_sd: float = 0.0
+    attitude_error: float = 0.0
+    thrust_error: float = 0.0
+    velocity_error: float = 0.0
+    variability: float = 1.0
 
     def __post_init__(self):
         check_fields(self, {"drag_scale": Range(0.0, 100.0, low_inclusive=False),
                             "lift_scale": Range(0.0, 100.0), "gust_scale": Range(0.0, 10.0),
-                            "axis_offset": Range(-45.0, 45.0)})
+                            "axis_offset": Range(-45.0, 45.0),
+                            "gain_spread": Range(0.0, 2.0), "integral_spread": Range(0.0, 2.0),
+                            "hover_throttle": Range(0.0, 0.95),
+                            "hover_throttle_sd": Range(0.0, 0.2),
+                            "attitude_error": Range(0.0, 10.0), "thrust_error": Range(0.0, 0.2),
+                            "velocity_error": Range(0.0, 2.0), "variability": Range(0.0, 10.0)})
+        if 0.0 < self.hover_throttle < 0.1:
+            raise ValueError(f"hover_throttle must be 0 (the preset's) or in [0.1, 0.95], got "
+                             f"{self.hover_throttle}")
         known = set(noise_columns())
         for c, col, std in self.noise:
             if c not in CONDITIONS or col not in known:
@@ -143,6 +199,24 @@ class TwinCalibration:
         :data:`~uavwind.sim.rotor_params.NEURAL_FLY_CONTROL`."""
         return Multirotor.neural_fly(drag_scale=self.drag_scale, lift_scale=self.lift_scale,
                                      position_control=NEURAL_FLY_CONTROL)
+
+    @property
+    def varies(self) -> bool:
+        """Whether a replicate draws anything beyond its gusts and noise."""
+        return self.variability > 0 and any(
+            (self.gain_spread, self.integral_spread, self.hover_throttle, self.attitude_error,
+             self.thrust_error, self.velocity_error))
+
+    def state_error_sds(self) -> np.ndarray:
+        """The SDs of the six state errors a flight draws (tilt about x and y [rad], thrust
+        [-], velocity x, y, z [m/s]), times ``variability``. The velocity's error is drawn
+        along x only (the wind's axis and the figure-8's long one; the vertical is the
+        thrust error's): along y the twin's yaw gives way (at 12.1 m/s a lateral velocity
+        error of 0.04 m/s raised its motor-limited steps from 0.2% to 1% and moved its mean
+        force along x by 0.6 N), a drag source, not a steadiness one."""
+        a = np.radians(self.attitude_error)
+        return self.variability * np.array([a, a, self.thrust_error, self.velocity_error, 0.0,
+                                            0.0])
 
     def noise_at(self, condition: str) -> dict[str, float]:
         """{column: std} at ``condition`` (empty without noise)."""
@@ -218,16 +292,34 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
     check_instance(cal, "calibration", TwinCalibration)
     k = list(CONDITIONS).index(condition)
     wind = _wind(condition, child_seed(root_seed(SIM_SEED), seed, k), cal.gust_scale)
-    f = simulate_flight(FIGURE8, wind, uav=vehicle, dt=DT, duration=duration)
+    errors = None
+    if cal.varies:
+        vehicle = replicate_vehicle(vehicle, cal, seed, condition)
+        per = vehicle.check_grid(DT)
+        n_ctrl = int(round(duration / DT)) * per
+        errors = _state_errors(cal, child_rng(root_seed(SIM_SEED), seed, k, 3), n_ctrl,
+                               vehicle.control_rate)
+    f = simulate_flight(FIGURE8, wind, uav=vehicle, dt=DT, duration=duration,
+                        state_errors=None if errors is None else errors[None])
     t = f.times
-    q, R = _offset_attitude(f.attitudes[0], cal.axis_offset)
-    true_b3 = Rotation.from_quat(f.attitudes[0]).as_matrix()[:, :, 2]
     # the rotors' nominal thrust
     thrust = vehicle.thrust_coefficient * np.sum(f.rotor_speeds[0] ** 2, axis=1)
-    fa = f.aero_forces[0] + thrust[:, None] * (true_b3 - R[:, :, 2])
+    true_b3 = Rotation.from_quat(f.attitudes[0]).as_matrix()[:, :, 2]
+    v = f.ground_velocities[0].copy()
+    if errors is None:
+        q, R = _offset_attitude(f.attitudes[0], cal.axis_offset)
+        fa = f.aero_forces[0] + thrust[:, None] * (true_b3 - R[:, :, 2])
+    else:  # the log holds the estimates, and fa computed from them and the commanded thrust
+        e = errors[per - 1::per]  # at each sample's last control step
+        tilt = np.column_stack([e[:, 0], e[:, 1], np.zeros(len(e))])
+        est = Rotation.from_rotvec(tilt) * Rotation.from_quat(f.attitudes[0])
+        q, R = _offset_attitude(est.as_quat(), cal.axis_offset)
+        believed = thrust / (1.0 + e[:, 2])
+        fa = f.aero_forces[0] + thrust[:, None] * true_b3 - believed[:, None] * R[:, :, 2]
+        v = v + e[:, 3:]
     ref = FIGURE8.flat_output(t)
     hover = vehicle.weight / vehicle.max_thrust
-    arrays = {"t": t, "p": f.positions[0].copy(), "p_d": f.references[0], "v": f.ground_velocities[0].copy(),
+    arrays = {"t": t, "p": f.positions[0].copy(), "p_d": f.references[0], "v": v,
               "v_d": ref["x_dot"], "q": q, "R": R, "w": f.body_rates[0],
               "T_sp": f.thrust_commands[0] / vehicle.max_thrust, "q_sp": np.zeros_like(q),
               "hover_throttle": np.full(len(t), hover), "fa": fa, "pwm": f.rotor_speeds[0]}
@@ -239,6 +331,53 @@ def simulated_flight(vehicle: Multirotor, condition: str, seed: int = 0,
     return RealFlight(controller=f"seed {seed}", condition=condition,
                       wind_speed=CONDITIONS[condition], source=f"simulated, seed {seed}",
                       vehicle="simulated", trajectory="figure8", arrays=arrays)
+
+
+def replicate_vehicle(vehicle: Multirotor, calibration: TwinCalibration, seed: int,
+                      condition: str) -> Multirotor:
+    """The vehicle replicate ``seed`` flies at ``condition``: ``vehicle`` with its position
+    control's bandwidth and integral gain each times ``exp(spread x variability x z)``, ``z``
+    standard normal drawn at the seed's controller address (one controller per seed, at every
+    wind), and a hover throttle drawn per flight (``hover_throttle`` +- ``hover_throttle_sd x
+    variability``, kept in [0.3, 0.7]). ``vehicle`` itself when ``calibration`` draws
+    nothing."""
+    cal = calibration
+    if not cal.varies:
+        return vehicle
+    root = root_seed(SIM_SEED)
+    out = {}
+    if cal.gain_spread or cal.integral_spread:
+        if vehicle.position_control is None:
+            raise ValueError("vehicle must have a position_control to draw its gains (the "
+                             "calibration's gain_spread and integral_spread)")
+        z = child_rng(root, seed, _CONTROLLER_KEY).standard_normal(2)
+        out["position_control"] = vehicle.position_control.scaled(
+            float(np.exp(cal.gain_spread * cal.variability * z[0])),
+            float(np.exp(cal.integral_spread * cal.variability * z[1])))
+    if cal.hover_throttle:
+        k = list(CONDITIONS).index(condition)
+        z = child_rng(root, seed, k, 2).standard_normal()
+        out["hover_throttle"] = float(np.clip(
+            cal.hover_throttle + cal.hover_throttle_sd * cal.variability * z, 0.3, 0.7))
+    return replace(vehicle, **out)
+
+
+def _state_errors(cal, rng, n, rate):
+    """(n, 6) second-order Gauss-Markov errors at the control step (``rate`` [Hz]): white
+    noise through two first-order lags of time constant :data:`ERROR_TIME` (so almost nothing
+    above the 2 Hz noise cutoff, whose level the noise fit owns), after a burn-in of ten time
+    constants, each column with the SD :meth:`TwinCalibration.state_error_sds` (tilt x, y
+    [rad], thrust [-], velocity x, y, z [m/s])."""
+    from scipy.signal import lfilter
+
+    sd = cal.state_error_sds()
+    a = float(np.exp(-1.0 / (rate * ERROR_TIME)))
+    burn = int(np.ceil(10 * ERROR_TIME * rate))
+    z = rng.standard_normal((n + burn, 6))
+    for _ in range(2):
+        z = lfilter([1.0 - a], [1.0, -a], z, axis=0)
+    unit = np.sqrt((1.0 - a) ** 4 * (1.0 + a * a) / (1.0 - a * a) ** 3)  # the cascade's SD
+    return z[burn:] * (sd / unit)
 
 
 def _add_noise(arrays, noise, rng, hover):
@@ -326,7 +465,7 @@ def _secant(measure, target, x0, x1, low, high, tol, what):
 
 
 def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
-                   controllers=None) -> TwinCalibration:
+                   controllers=None, variability: bool = True) -> TwinCalibration:
     """Fit the twin on ``controllers``' flights (default: all but
     :func:`held_out_controller`), from their flight rows in ``real_rows``
     (:func:`uavwind.analysis.real_flights.compute_rows`).
@@ -336,7 +475,12 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     most three of the laps ``study`` keeps for the forces, over all of them for the spread):
     the drag and lift scales together (:func:`_fit_forces`: the force along x at
     :data:`FIT_CONDITION` minus at 0 m/s to 0.5%, the same along z to 0.02 N), then the gust
-    scale by secant steps (lap-to-lap spread at :data:`SPREAD_CONDITION`, to 2%)."""
+    scale by secant steps (lap-to-lap spread at :data:`SPREAD_CONDITION`, to 2%).
+
+    With ``variability`` (the default) the replicates are controllers and flights drawn from
+    the training controllers' spread (:func:`_fit_variability`), and the gust scale is fitted
+    on the mean spread over :data:`N_SEEDS` such replicates, with their noise; without it,
+    the twin of gusts and noise alone, its gusts fitted on seed 0 without noise."""
     if study.max_laps == 1:
         raise ValueError("study must keep at least two laps a flight (max_laps 0 or >= 2): the "
                          "gust fit matches a lap-to-lap spread")
@@ -358,6 +502,9 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
 
     drag, lift = _fit_forces(quiet, target, few)
     quiet = replace(quiet, drag_scale=drag, lift_scale=lift)
+    if variability:
+        cal = _fit_variability(replace(cal, drag_scale=drag, lift_scale=lift), train, study)
+        return replace(cal, gust_scale=_fit_gusts(cal, target["spread"], study))
 
     def spread(g):
         return _twin_row(replace(quiet, gust_scale=g), SPREAD_CONDITION, study)["fa_x_spread"]
@@ -365,6 +512,99 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     gust = _secant(spread, target["spread"], 0.1, 0.3, 0.0, 10.0, 0.02 * target["spread"],
                    "gust")
     return replace(cal, drag_scale=drag, lift_scale=lift, gust_scale=gust)
+
+
+def _replicate_mean(cal, condition, study, columns):
+    """The mean over :data:`N_SEEDS` replicates of the twin ``cal`` at ``condition`` of each
+    flight-row column of ``columns``."""
+    rows = [_twin_row(cal, condition, study, seed) for seed in range(N_SEEDS)]
+    return np.array([np.mean([r[c] for r in rows]) for c in columns])
+
+
+#: What the within-flight errors are fitted on: the training controllers' mean of these
+#: flight-row columns in still air, where the twin has no gusts.
+_ERROR_TARGETS = ("pitch_spread", "fa_x_spread", "z_tracking_spread")
+
+
+def _fit_variability(cal, train, study):
+    """``cal`` with the variability fitted on the training controllers' flight rows
+    ``train``:
+
+    * the battery: the mean and SD of their flights' hover throttle;
+    * the controller: the bandwidth's log-SD so that the twin's tracking error in still air
+      spreads (log-SD) as theirs does, through the twin's own sensitivity of the log
+      tracking error to the log bandwidth (two flights); the integral gain's log-SD set to
+      the same (the flight rows hold nothing that tells the two apart);
+    * within the flight: the SDs of the attitude, thrust and velocity errors so that the
+      twin's lap-to-lap spreads of pitch, force along x and vertical tracking in still air
+      (mean over :data:`N_SEEDS` replicates, with their noise) match the training mean:
+      the spreads' squares are close to linear in the errors' variances (independent
+      sources add), so one flight set per error at a reference size gives the map, a
+      non-negative least-squares solve the variances, and up to three rounds correct it on
+      the combined twin."""
+    from scipy.optimize import nnls
+
+    need = ["hover_throttle", "tracking_rms", *_ERROR_TARGETS]
+    missing = [c for c in need if c not in train.columns or train[c].isna().any()]
+    if missing:
+        raise ValueError(f"real_rows must hold the training flights' {missing} to fit the "
+                         f"twin's variability (real_flights.compute_rows gives them), or call "
+                         f"calibrate_twin(..., variability=False)")
+    still = train[train["condition"] == "nowind"]
+    cal = replace(cal, hover_throttle=float(train["hover_throttle"].mean()),
+                  hover_throttle_sd=float(train["hover_throttle"].std(ddof=1)))
+    base = replace(cal, noise=())
+    log_track = np.log(still["tracking_rms"].to_numpy())
+    step = 0.25
+    t0, t1 = (_sensitivity_row(base, 0.0, study)["tracking_rms"],
+              _sensitivity_row(base, step, study)["tracking_rms"])
+    slope = -(np.log(t1) - np.log(t0)) / step
+    if not slope > 0:
+        raise ValueError(f"the twin's tracking error does not fall as its bandwidth grows "
+                         f"(slope {slope:g}): no gain spread can be fitted from it")
+    spread = float(np.std(log_track, ddof=1) / slope)
+    cal = replace(cal, gain_spread=spread, integral_spread=spread)
+    goal = still[list(_ERROR_TARGETS)].mean().to_numpy() ** 2
+    zero = _replicate_mean(cal, "nowind", study, _ERROR_TARGETS) ** 2
+    fields = ("attitude_error", "thrust_error", "velocity_error")
+    C = np.empty((3, 3))
+    for j, (name, ref) in enumerate(zip(fields, _ERROR_START)):
+        m = _replicate_mean(replace(cal, **{name: ref}), "nowind", study, _ERROR_TARGETS) ** 2
+        C[:, j] = (m - zero) / ref ** 2
+    C = np.maximum(C, 0.0)
+    for _ in range(4):
+        var, _ = nnls(C, np.maximum(goal - zero, 0.0))
+        fitted = replace(cal, **{n: float(np.sqrt(v)) for n, v in zip(fields, var)})
+        got = _replicate_mean(fitted, "nowind", study, _ERROR_TARGETS) ** 2
+        if np.all(np.abs(np.sqrt(got) - np.sqrt(goal)) <= 0.05 * np.sqrt(goal)):
+            break
+        pred = C @ var
+        C = C * np.where(pred > 0, (got - zero) / np.where(pred > 0, pred, 1.0), 1.0)[:, None]
+        C = np.maximum(C, 0.0)
+    return fitted
+
+
+def _sensitivity_row(base, step, study):
+    """The still-air flight row of the twin ``base`` (no variability) with its controller's
+    bandwidth ``exp(step)`` times as fast."""
+    v = replace(base.vehicle(), position_control=base.vehicle().position_control.scaled(
+        float(np.exp(step))))
+    f = simulated_flight(v, "nowind", 0, flight_duration(study), replace(
+        base, hover_throttle=0.0, variability=0.0))
+    return flight_summaries([f], study)[0]
+
+
+def _fit_gusts(cal, target, study):
+    """The gust scale with which the mean over :data:`N_SEEDS` replicates of the twin
+    ``cal``'s lap-to-lap spread of the force along x at :data:`SPREAD_CONDITION` is
+    ``target`` (to 2%), by secant steps; 0 when the twin's other sources already reach it."""
+    def spread(g):
+        return float(_replicate_mean(replace(cal, gust_scale=g), SPREAD_CONDITION, study,
+                                     ("fa_x_spread",))[0])
+
+    if spread(0.0) >= target:
+        return 0.0
+    return _secant(spread, target, 0.05, 0.15, 0.0, 10.0, 0.02 * target, "gust")
 
 
 def _fit_forces(quiet, target, study, start=(1.0, 1.0)):
@@ -419,19 +659,23 @@ def simulated_flights(calibration: TwinCalibration, n_seeds: int = N_SEEDS,
 def _training_digest(real_rows, controllers):
     fl = real_rows[(real_rows["kind"] == "flight") & real_rows["controller"].isin(controllers)]
     cols = ["controller", "condition", "aero_force_x", "aero_force_z", "pitch_deg",
-            "fa_x_spread", *noise_columns()]
+            "fa_x_spread", "pitch_spread", "z_tracking_spread", "tracking_rms", "hover_throttle",
+            *noise_columns()]
     blob = fl[cols].sort_values(["controller", "condition"]).to_json(orient="values",
                                                                       double_precision=15)
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
 def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
-             n_jobs: int | None = None) -> pd.DataFrame:
+             n_jobs: int | None = None, variability: bool = True) -> pd.DataFrame:
     """Experiment 13's simulated rows (the real rows' columns; ``attrs["calibration"]`` the
     :class:`TwinCalibration` as a dict, ``attrs["held_out"]`` the controller it was not fitted
     on), kept by :func:`uavwind.analysis.memo.memo` under a digest of the training
     controllers' flight rows, the study and the version; a damaged or altered copy is
-    recomputed with a warning."""
+    recomputed with a warning. ``variability`` False: the twin whose replicates differ by
+    gusts and noise alone (:func:`calibrate_twin`'s)."""
+    if not isinstance(variability, bool):
+        raise TypeError(f"variability must be True or False, got {variability!r}")
     if profile not in STUDIES:
         raise ValueError(f"profile must be one of {list(STUDIES)}, got {profile!r}")
     study = STUDIES[profile]
@@ -442,7 +686,7 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
                        or c in (FIT_CONDITION, SPREAD_CONDITION))
 
     def compute():
-        cal = calibrate_twin(real_rows, study, train)
+        cal = calibrate_twin(real_rows, study, train, variability=variability)
         flights = simulated_flights(cal, conditions=conditions, duration=flight_duration(study))
         df = compute_rows(flights, study, n_jobs=n_jobs, estimate=False)  # the page: real only
         df.attrs.update(profile=profile, calibration=json.dumps(cal.to_dict()), held_out=held,
@@ -451,7 +695,8 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
 
     return memo("exp13_sim", {"training": _training_digest(real_rows, train), "held_out": held,
                               "study": asdict(study), "seed": SIM_SEED, "n_seeds": N_SEEDS,
-                              "version": SIM_VERSION}, compute, results)
+                              "version": SIM_VERSION, "variability": variability}, compute,
+                results)
 
 
 def calibration_of(sim: pd.DataFrame) -> TwinCalibration:
@@ -459,6 +704,37 @@ def calibration_of(sim: pd.DataFrame) -> TwinCalibration:
     d = json.loads(sim.attrs["calibration"])
     d["noise"] = tuple(tuple(x) for x in d["noise"])
     return TwinCalibration(**d)
+
+
+def variability_table(calibration: TwinCalibration) -> pd.DataFrame:
+    """The twin's sources of variability, one row each: ``source``, ``value`` (as fitted,
+    with its unit), ``fitted on`` (what of the training controllers' flights fixes it, or
+    that it is assumed) and ``acts``: between flights or within one."""
+    c = calibration
+    rows = [
+        ("controller bandwidth (log-SD)", f"{c.gain_spread:.3f}",
+         "log-SD of the tracking error in still air, through the twin's sensitivity to it",
+         "per seed (one controller at every wind)"),
+        ("integral gain (log-SD)", f"{c.integral_spread:.3f}",
+         "assumed equal to the bandwidth's (the flight rows do not tell them apart)",
+         "per seed"),
+        ("hover throttle (battery)", f"{c.hover_throttle:.3f} +- {c.hover_throttle_sd:.3f}",
+         "mean and SD of the flights' hover throttle", "per flight"),
+        ("attitude-estimate tilt error, per axis [deg]", f"{c.attitude_error:.3f}",
+         "lap-to-lap spreads of pitch, force x and vertical tracking in still air (jointly)",
+         f"within the flight (Gauss-Markov, {ERROR_TIME:g} s)"),
+        ("velocity-estimate error along x [m/s]", f"{c.velocity_error:.4f}", "(the same fit)",
+         "within the flight"),
+        ("thrust error [share of the commanded]", f"{c.thrust_error:.4f}", "(the same fit)",
+         "within the flight"),
+        ("gust W20 / mean speed (the fan's turbulence)", f"{c.gust_scale:.3f}",
+         "lap-to-lap spread of force x at 12.1 m/s, mean over the replicates",
+         "within the flight"),
+        ("motor dynamics", "RotorPy's first-order lag", "not fitted (modelled, not varied)",
+         "within the flight"),
+    ]
+    return pd.DataFrame(rows, columns=["source", "value", "fitted on (training controllers)",
+                                       "acts"]).set_index("source")
 
 
 #: What :func:`validation_table` compares: name -> (flight-row column, subtract 0 m/s, unit).
@@ -486,6 +762,10 @@ def validation_table(real_rows: pd.DataFrame, sim: pd.DataFrame) -> pd.DataFrame
     held = sim.attrs.get("held_out")
     fitted = {("force along x", FIT_CONDITION), ("force along z", FIT_CONDITION),
               ("lean", "nowind"), ("lap-to-lap spread of force x", SPREAD_CONDITION)}
+    if "calibration" in sim.attrs and calibration_of(sim).varies:  # the errors' targets
+        fitted |= {("lap-to-lap spread of pitch", "nowind"),
+                   ("lap-to-lap spread of force x", "nowind"),
+                   ("lap-to-lap spread of vertical tracking", "nowind")}
     fitted |= {(q, c) for q in ("noise of force x", "noise of the attitude x") for c in CONDITIONS}
     out = []
     real_f = real_rows[real_rows.kind == "flight"]

@@ -63,7 +63,8 @@ __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "SPREADS", "real_flight
 #: :func:`uavwind.data.neuralfly.read_columns` parses a file: rows read from a folder are
 #: kept under the files' bytes, not the parsed arrays. 2: thrust over the hover throttle,
 #: the same-wind controls, the flight rows' lean, vertical force, spread and noise.
-REAL_VERSION = "4"
+#: 5: the flight rows' hover throttle (the battery), what the twin's draws are fitted on.
+REAL_VERSION = "5"
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -286,7 +287,7 @@ def compute_rows(flights: list[RealFlight], study: RealFlightStudy = RealFlightS
     cols = ["kind", "controller", "other", "condition_a", "condition_b", "wind_a", "wind_b", "channel",
             "score", "silhouette", "correct", "accuracy", "n_windows", "condition", "wind_speed",
             "tilt_deg", "pitch_deg", "aero_force_x", "aero_force_z", "aero_force_norm",
-            "tracking_rms", "thrust_sp", *SPREADS, "n_laps", *noise_columns(),
+            "tracking_rms", "thrust_sp", "hover_throttle", *SPREADS, "n_laps", *noise_columns(),
             "method", "variant", "protocol", "estimate", "sample_rmse", "coverage", "std", "amplitude",
             "phase", "phase_ref", "lag", "t", "truth"]
     for c in cols:
@@ -324,8 +325,8 @@ def flight_summaries(flights: list[RealFlight], study: RealFlightStudy = RealFli
 
 def _flight_rows(flights, raw, study):
     """One row per flight: its kept laps' mean tilt and lean towards +x (``pitch_deg``),
-    aerodynamic force (x, z, norm), tracking error and thrust over the hover throttle,
-    unscaled (``raw``: :func:`_laps`); the lap-to-lap spreads (:data:`SPREADS`: RMS about
+    aerodynamic force (x, z, norm), tracking error, thrust over the hover throttle and the
+    hover throttle itself (the weight over the full thrust the battery gives), unscaled (``raw``: :func:`_laps`); the lap-to-lap spreads (:data:`SPREADS`: RMS about
     the mean lap of the part below the noise cutoff, what gusts and the controller do) of the
     force along x, the pitch, the vertical tracking error and the position; and each
     channel's noise (:func:`noise_columns`) over the same laps."""
@@ -354,6 +355,7 @@ def _flight_rows(flights, raw, study):
                "tracking_rms": float(np.sqrt((np.linalg.norm(w["tracking_error"],
                                                              axis=-1) ** 2).mean())),
                "thrust_sp": float(w["thrust"].mean()),
+               "hover_throttle": float(a["hover_throttle"][span].mean()),
                "fa_x_spread": spread(a["fa"][:, :1]),
                "pitch_spread": spread(pitch_degrees(a["R"])[:, None]),
                "z_tracking_spread": spread((a["p"] - a["p_d"])[:, 2:]),

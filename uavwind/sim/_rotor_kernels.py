@@ -21,7 +21,11 @@ command is RotorPy's ``cmd_ctatt`` (mode 0), ``cmd_ctbr`` (mode 1), or the motor
 ``rotorpy.controllers.quadrotor_control.SE3Control.update`` flying a flat output (mode 2,
 position control; :func:`se3_commands` gives all its outputs), or the same law with an
 integral term and a thrust cone with vertical priority (mode 3, :func:`_se3i`: PX4's position
-controller's structure, PX4 ``MPC_TILTMAX_AIR`` / ``MPC_THR_MIN`` / ``MPC_THR_MAX``).
+controller's structure, PX4 ``MPC_TILTMAX_AIR`` / ``MPC_THR_MIN`` / ``MPC_THR_MAX``), or mode
+3 flown with an imperfect state: an attitude estimate off the true attitude by a small world
+rotation, a thrust that differs from the commanded by a relative error and a velocity
+estimate off by a vector (mode 4, all given
+per control step in the flat-output row's ``FLAT_ERR`` columns; :func:`_se3i` with ``err``).
 """
 
 import math
@@ -30,9 +34,9 @@ import numpy as np
 from numba import njit
 
 from ._slots import (AERO, C_D, CMD_ACC, CMD_MOMENT, CMD_Q, CMD_THRUST, CMD_W, FLAT_ACC,
-                     FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, G, INERTIA, INERTIA_INV,
+                     FLAT_ERR, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, G, INERTIA, INERTIA_INV,
                      INTEGRAL_ACC, K_D, K_ETA, K_FLAP, K_H, K_M, K_W, K_Z, KD_ATT, KD_POS, KI_POS,
-                     KP_ATT, KP_POS, LAYOUT, MASS, N_CMD, N_STATE, ROTOR_DIR, ROTOR_POS,
+                     KP_ATT, KP_POS, LAYOUT, MASS, N_CMD, N_FLAT, N_STATE, ROTOR_DIR, ROTOR_POS,
                      S_INTEGRAL, S_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
                      SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
                      TM_TO_F)
@@ -296,7 +300,7 @@ def _se3(P, s, f, u, R, Rd, aux):
     F0 = m * ((-(kp[0] * (x[0] - x_ref[0])) - kd[0] * (v[0] - v_ref[0])) + a_ref[0])
     F1 = m * ((-(kp[1] * (x[1] - x_ref[1])) - kd[1] * (v[1] - v_ref[1])) + a_ref[1])
     F2 = m * (((-(kp[2] * (x[2] - x_ref[2])) - kd[2] * (v[2] - v_ref[2])) + a_ref[2]) + g)
-    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, False)
+    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, False, False)
 
 
 @njit(**_NB)
@@ -331,8 +335,10 @@ def _yaw_share(P, T, M0, M1, M2):
 
 
 @njit(**_NB)
-def _se3i(P, s, f, h, u, R, Rd, aux):
-    """SE3 with an integral term and a thrust cone (mode 3), for one environment.
+def _se3i(P, s, f, h, u, R, Rd, aux, err):
+    """SE3 with an integral term and a thrust cone (mode 3), for one environment; with
+    ``err`` (mode 4) flown on the imperfect state of ``f[FLAT_ERR]``: its velocity read off by
+    the last three columns [m/s], the attitude and thrust as :func:`_se3_force` says.
 
     The desired force is SE3's plus ``-m ki I``, ``I = s[S_INTEGRAL]`` the integral of the
     position error [m s]; then, as PX4's position controller limits its thrust set-point
@@ -355,9 +361,16 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
     e0 = x[0] - x_ref[0]
     e1 = x[1] - x_ref[1]
     e2 = x[2] - x_ref[2]
-    F0 = m * (-kp[0] * e0 - kd[0] * (v[0] - v_ref[0]) - ki[0] * integral[0] + a_ref[0])
-    F1 = m * (-kp[1] * e1 - kd[1] * (v[1] - v_ref[1]) - ki[1] * integral[1] + a_ref[1])
-    F2 = m * (-kp[2] * e2 - kd[2] * (v[2] - v_ref[2]) - ki[2] * integral[2] + a_ref[2] + g)
+    d0 = v[0] - v_ref[0]
+    d1 = v[1] - v_ref[1]
+    d2 = v[2] - v_ref[2]
+    if err:  # the velocity as estimated
+        d0 = d0 + f[FLAT_ERR.start + 3]
+        d1 = d1 + f[FLAT_ERR.start + 4]
+        d2 = d2 + f[FLAT_ERR.start + 5]
+    F0 = m * (-kp[0] * e0 - kd[0] * d0 - ki[0] * integral[0] + a_ref[0])
+    F1 = m * (-kp[1] * e1 - kd[1] * d1 - ki[1] * integral[1] + a_ref[1])
+    F2 = m * (-kp[2] * e2 - kd[2] * d2 - ki[2] * integral[2] + a_ref[2] + g)
     limited = False
     lo, hi = P[THRUST_LOW], P[THRUST_HIGH]
     if F2 < lo:
@@ -379,17 +392,54 @@ def _se3i(P, s, f, h, u, R, Rd, aux):
                 lim = P[INTEGRAL_ACC] / ki[k]
                 i_k = integral[k] + h * (x[k] - x_ref[k])
                 integral[k] = min(max(i_k, -lim), lim)
-    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, True)
+    _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, True, err)
 
 
 @njit(**_NB)
-def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
+def _tilt_error(R, ex, ey):
+    """R (3, 3) replaced, in place, by ``E R`` with ``E`` the rotation by the rotation vector
+    ``(ex, ey, 0)`` [rad] (world frame, Rodrigues' formula): an attitude estimate tilted off
+    the true attitude."""
+    th = math.sqrt(ex * ex + ey * ey)
+    if th == 0.0:
+        return
+    kx = ex / th
+    ky = ey / th
+    c = math.cos(th)
+    sn = math.sin(th)
+    v = 1.0 - c
+    E00 = c + kx * kx * v
+    E01 = kx * ky * v
+    E02 = ky * sn
+    E10 = kx * ky * v
+    E11 = c + ky * ky * v
+    E12 = -kx * sn
+    E20 = -ky * sn
+    E21 = kx * sn
+    E22 = c
+    for j in range(3):
+        a0 = R[0, j]
+        a1 = R[1, j]
+        a2 = R[2, j]
+        R[0, j] = E00 * a0 + E01 * a1 + E02 * a2
+        R[1, j] = E10 * a0 + E11 * a1 + E12 * a2
+        R[2, j] = E20 * a0 + E21 * a1 + E22 * a2
+
+
+@njit(**_NB)
+def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last, err):
     """The rest of ``SE3Control.update`` from the desired force ``F`` [N] (world frame): the
     desired attitude (body z along ``F``, yaw ``f[FLAT_YAW]``), the collective thrust ``F . b3``,
     the attitude law and the motor speeds u; aux as :func:`_se3`. With ``yaw_last`` the yaw
-    moment is shortened first when the rotors cannot make all four (:func:`_yaw_share`)."""
+    moment is shortened first when the rotors cannot make all four (:func:`_yaw_share`).
+    With ``err`` (mode 4) the law reads the attitude estimate ``E R``, ``E`` the rotation of
+    ``f[FLAT_ERR]``'s first two columns (:func:`_tilt_error`; the body rates are read true),
+    and the rotors make ``1 + f[FLAT_ERR][2]`` times the commanded thrust (``aux`` keeps the
+    commanded)."""
     m = P[MASS]
     _rotmat(s[S_QUAT], R)
+    if err:
+        _tilt_error(R, f[FLAT_ERR.start], f[FLAT_ERR.start + 1])
     u1 = F0 * R[0, 2] + F1 * R[1, 2] + F2 * R[2, 2]          # F_des . b3
     nF = math.sqrt(F0 * F0 + F1 * F1 + F2 * F2)
     b30 = F0 / nF
@@ -417,7 +467,10 @@ def _se3_force(P, s, f, F0, F1, F2, u, R, Rd, aux, yaw_last):
                                              f[FLAT_YAW_RATE])
     if yaw_last:
         M2 = M2 * _yaw_share(P, u1, M0, M1, M2)
-    _speeds(P, u1, M0, M1, M2, u)
+    if err:
+        _speeds(P, u1 * (1.0 + f[FLAT_ERR.start + 2]), M0, M1, M2, u)
+    else:
+        _speeds(P, u1, M0, M1, M2, u)
     aux[CMD_THRUST] = u1
     moment = aux[CMD_MOMENT]
     moment[0] = M0
@@ -443,7 +496,8 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
     rates (``mode`` 1, ``cmd_ctbr``) or (n, 11) flat-output rows (``mode`` 2, ``SE3Control``:
     then ``T`` is an output, the commanded collective thrust ``cmd_thrust`` of the step;
     ``mode`` 3, the same law with an integral term and a thrust cone, :func:`_se3i`: then
-    ``S`` is (n, 23), its last three columns the integral of the position error);
+    ``S`` is (n, 23), its last three columns the integral of the position error; ``mode`` 4,
+    mode 3 on an imperfect state, ``C`` (n, 17) with the errors in ``FLAT_ERR``);
     ``clipped`` (n,) counts the steps in which a motor command was clipped to the motors'
     range.
     """
@@ -467,7 +521,7 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
             _se3(P, s, C[i], u, R, Rd, aux)
             T[i] = aux[CMD_THRUST]
         else:
-            _se3i(P, s, C[i], n_sub * h, u, R, Rd, aux)
+            _se3i(P, s, C[i], n_sub * h, u, R, Rd, aux, mode == 4)
             T[i] = aux[CMD_THRUST]
         hit = False
         for k in range(4):                                   # np.clip(cmd, min, max)
@@ -524,7 +578,9 @@ def motor_commands(P, S, T, C, mode):
 @njit(**_NB)
 def se3i_commands(P, S, F):
     """The motor speeds (n, 4) [rad/s] (unclipped) and collective thrusts (n,) [N] of mode 3
-    (:func:`_se3i`) at the states S (n, 23), without advancing the integral."""
+    (:func:`_se3i`) at the states S (n, 23), without advancing the integral; mode 4 when the
+    rows F carry the errors (``FLAT_ERR``: F (n, 17))."""
+    err = F.shape[1] > N_FLAT
     n = S.shape[0]
     u = np.empty((n, 4))
     aux = np.empty((n, N_CMD))
@@ -533,7 +589,7 @@ def se3i_commands(P, S, F):
     s = np.empty(S.shape[1])
     for i in range(n):
         s[:] = S[i]
-        _se3i(P, s, F[i], 0.0, u[i], R, Rd, aux[i])
+        _se3i(P, s, F[i], 0.0, u[i], R, Rd, aux[i], err)
     return u, aux[:, CMD_THRUST].copy()
 
 

@@ -65,7 +65,8 @@ def _recompiled(module, reload=importlib.reload):
 
 
 @lru_cache(maxsize=32)
-def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None):  # mass resolved
+def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None,
+            hover_throttle=None):  # mass resolved
     """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
     qp = rotorpy_params(preset, mass)
     if drag_scale != 1.0:
@@ -100,8 +101,11 @@ def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None):  # mass
     P[KP_POS] = SE3_KP_POS  # SE3Control.__init__'s gains (its attitude gains from quad_params,
     P[KD_POS] = SE3_KD_POS  # with its own defaults)
     P[SE3_KP_ATT], P[SE3_KD_ATT] = qp.get("kp_att", 310.0), qp.get("kd_att", 57.0)
+    if hover_throttle is not None:  # the rotors' top speed: full thrust = weight / throttle
+        P[SPEED_MAX] = math.sqrt(qp["mass"] * GRAVITY / (4 * P[K_ETA] * hover_throttle))
     if control is not None:
         full = 4 * P[K_ETA] * P[SPEED_MAX] ** 2
+        P[KP_POS], P[KD_POS] = control.kp, control.kd
         P[KI_POS] = control.ki
         P[TAN_TILT] = math.tan(math.radians(control.max_tilt))
         P[THRUST_LOW] = control.min_thrust * full

@@ -75,6 +75,10 @@ FLAT_ACC = slice(6, 9)     # reference acceleration x_ddot, world frame [m/s^2]
 FLAT_YAW = 9               # reference yaw [rad]
 FLAT_YAW_RATE = 10         # reference yaw rate yaw_dot [rad/s]
 N_FLAT = 11                # length of f
+FLAT_ERR = slice(11, 17)   # mode 4 only: the attitude estimate's error, a rotation about world x
+#                            and y [rad]; the thrust's relative error (made / commanded - 1) [-];
+#                            the velocity estimate's error, world x, y, z [m/s]
+N_FLAT_ERR = 17            # length of f in mode 4
 
 # -- SE3Control's outputs besides the motor speeds (aux, one environment) -------------- #
 CMD_THRUST = 0             # commanded collective thrust cmd_thrust [N]

@@ -256,15 +256,22 @@ def simulate_flight(thrust: ThrustSequence | AttitudeSequence | Reference, wind:
                     uav: UAV | Multirotor | None = None, dt: float = 0.1,
                     duration: float = 12.0, start_altitude: float = 10.0,
                     start_position: ArrayLike | None = None,
-                    vehicle: UAV | Multirotor | None = None) -> Flight:
+                    vehicle: UAV | Multirotor | None = None,
+                    state_errors: ArrayLike | None = None) -> Flight:
     """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too (and,
     for a multirotor, its attitudes, body rates, rotor speeds and specific forces; for a
     reference flight, the reference positions, the commanded thrusts and the aerodynamic
-    forces)."""
+    forces). ``state_errors``: a reference flight's imperfect attitude estimate and thrust
+    (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`; a multirotor with a position
+    control only)."""
     uav = _vehicle(uav, vehicle)
     if isinstance(thrust, Reference):
         n, dt = _prepare_reference(thrust, wind, uav, dt, duration, start_position)
-        return uav.fly_reference(thrust, wind, dt, n, record_all=True)
+        return uav.fly_reference(thrust, wind, dt, n, record_all=True,
+                                 state_errors=state_errors)
+    if state_errors is not None:
+        raise ValueError("state_errors applies to a reference flight (a position controller "
+                         "reads the state); this action is flown open loop")
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
     if isinstance(uav, Multirotor):

@@ -66,8 +66,8 @@ from ..core.checks import (Range, check_array, check_choice, check_fields, check
                            check_scalar)
 from ._rotor_layout import (_body_z, _body_z_batch, _clipped_commands, _clipped_se3, _kernels,
                             _packed, _recorded)
-from ._slots import (FLAT_ACC, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA, N_FLAT,
-                     N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND, SPEED_MAX,
+from ._slots import (FLAT_ACC, FLAT_ERR, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_RATE, K_ETA,
+                     N_FLAT, N_FLAT_ERR, N_STATE, N_STATE_PI, S_POS, S_QUAT, S_ROTORS, S_VEL, S_WIND, SPEED_MAX,
                      SPEED_MIN)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
@@ -150,7 +150,8 @@ _RANGES = {"mass": Range(0.0, 1e3, low_inclusive=False),
            "control_rate": Range(10.0, 1e4),
            "substeps": Range(1, 100, integer=True),
            "drag_scale": Range(0.0, 100.0, low_inclusive=False),
-           "lift_scale": Range(0.0, 100.0)}
+           "lift_scale": Range(0.0, 100.0),
+           "hover_throttle": Range(0.01, 1.0)}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -187,6 +188,10 @@ class Multirotor:
         How reference flights are flown: None (default) RotorPy's ``SE3Control`` as it is;
         a :class:`~uavwind.sim.rotor_params.PositionControl` adds an integral term and a
         thrust cone (:data:`~uavwind.sim.rotor_params.PX4_LIKE`).
+    hover_throttle : float, optional
+        The weight over the rotors' full thrust [-], in [0.01, 1] (the reciprocal of the
+        thrust-to-weight ratio; a battery's charge moves it): sets the rotors' top speed.
+        Default None, the preset's (1 / 2.2 = 0.455 for ``"neuralfly"``).
 
     Examples
     --------
@@ -204,13 +209,15 @@ class Multirotor:
     drag_scale: float = 1.0
     lift_scale: float = 1.0
     position_control: PositionControl | None = None
+    hover_throttle: float | None = None
 
     def __post_init__(self):
         check_choice(self.preset, "preset", PRESETS)
         check_choice(self.start, "start", STARTS)
         mass = default_mass(self.preset) if self.mass is None else self.mass
         object.__setattr__(self, "mass", mass)
-        check_fields(self, _RANGES)
+        check_fields(self, {k: r for k, r in _RANGES.items()
+                            if k != "hover_throttle" or self.hover_throttle is not None})
         if self.position_control is not None:
             check_instance(self.position_control, "position_control", PositionControl)
         self.packed  # needs RotorPy: fail here, with the extra named, not mid-flight
@@ -247,7 +254,7 @@ class Multirotor:
     def packed(self) -> np.ndarray:
         """The kernels' parameter vector (read-only)."""
         return _packed(self.preset, self.mass, self.drag_scale, self.lift_scale,
-                       self.position_control)
+                       self.position_control, self.hover_throttle)
 
     @property
     def gravity(self) -> float:
@@ -348,6 +355,9 @@ class Multirotor:
             qp.update({k: qp.get(k, 0.0) * self.drag_scale for k in DRAG_KEYS})
         if self.lift_scale != 1.0:
             qp["k_h"] = qp.get("k_h", 0.0) * self.lift_scale
+        if self.hover_throttle is not None:
+            qp["rotor_speed_max"] = math.sqrt(self.weight / (4 * qp["k_eta"]
+                                                             * self.hover_throttle))
         return qp
 
     # -- flying -------------------------------------------------------------- #
@@ -484,7 +494,8 @@ class Multirotor:
                       motor_limited=float(clipped.sum()) / (n_ctrl * n_env))
 
     def fly_reference(self, reference: Reference, wind: WindModel, dt: float, n: int,
-                      record_all: bool = False) -> np.ndarray | Flight:
+                      record_all: bool = False,
+                      state_errors: np.ndarray | None = None) -> np.ndarray | Flight:
         """Fly the position ``reference`` with RotorPy's ``SE3Control`` through every
         environment of ``wind`` for ``n`` samples of ``dt`` [s]: positions (n_env, n, 3) [m],
         or with ``record_all`` a :class:`~uavwind.sim.flight.Flight` that also carries the
@@ -497,6 +508,14 @@ class Multirotor:
         record's ``tilt_limited`` is 0, ``motor_limited`` counts clipped motor commands).
         ``ValueError`` if the reference goes below the ground (z < 0)
         within the flight (before flying), or if an environment does (naming it and when).
+
+        ``state_errors`` (n_env, n * control steps per sample, 6), with a
+        :class:`~uavwind.sim.rotor_params.PositionControl` only: at each control step the
+        controller reads an attitude estimate off the true attitude by the world rotation
+        ``(e_x, e_y, 0)`` [rad] (columns 0, 1), the rotors make ``1 + e_t`` times the thrust it
+        commands (column 2) and it reads the velocity off by columns 3-5 [m/s] (the kernels'
+        mode 4); the record keeps the true state and the commanded thrust.
+        None (default) or all zeros: a perfect state.
         (Checked inputs: call it through :func:`uavwind.simulate` /
         :func:`uavwind.simulate_flight`.)"""
         control_step = _kernels().control_step
@@ -527,6 +546,18 @@ class Multirotor:
         if self.position_control is not None:  # the integral of the position error, from 0
             S = np.hstack([S, np.zeros((n_env, N_STATE_PI - N_STATE))])
             mode = 3
+        if state_errors is not None:
+            if self.position_control is None:
+                raise ValueError("state_errors needs a vehicle with position_control (the "
+                                 "integral law flies them); this one flies RotorPy's SE3")
+            state_errors = check_array(state_errors, "state_errors", shape=(n_env, n_ctrl, 6))
+            if not np.all(np.abs(state_errors[..., :3]) < 0.5):
+                raise ValueError("state_errors must have small attitude and thrust errors: each "
+                                 "|error| of columns 0-2 below 0.5 (rad, or a share of the "
+                                 "thrust)")
+            mode = 4
+        width = N_FLAT_ERR if mode == 4 else N_FLAT
+        C = np.empty((n_env, width))
         T = np.empty(n_env)
         clipped = np.zeros(n_env, dtype=np.int64)
         positions = np.empty((n_env, n, 3))
@@ -535,7 +566,9 @@ class Multirotor:
             before = np.empty((n_env, n, S.shape[1]))
             commands = np.empty((n_env, n))
         for k in range(n_ctrl):
-            C = np.ascontiguousarray(np.broadcast_to(F[k], (n_env, N_FLAT)))
+            C[:, :N_FLAT] = F[k]
+            if mode == 4:
+                C[:, FLAT_ERR] = state_errors[:, k]
             S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
             last = (k + 1) % per == 0
             j = (k + 1) // per - 1
@@ -566,8 +599,11 @@ class Multirotor:
             return positions
         last_steps = np.arange(per - 1, n_ctrl, per)  # each sample's last control step
         held_from = before.reshape(n_env * n, -1)
-        u_held = _clipped_se3(P, held_from, np.ascontiguousarray(
-            np.broadcast_to(F[last_steps], (n_env, n, N_FLAT)).reshape(-1, N_FLAT)), mode)
+        rows = np.empty((n_env, n, width))
+        rows[:, :, :N_FLAT] = F[last_steps]
+        if mode == 4:
+            rows[:, :, FLAT_ERR] = state_errors[:, last_steps]
+        u_held = _clipped_se3(P, held_from, rows.reshape(-1, width), mode)
         rec = _recorded(P, states, u_held.reshape(n_env, n, 4), aero=True)
         rec["thrust"] = commands[:, :, None] * _body_z_batch(
             held_from[:, S_QUAT]).reshape(n_env, n, 3)

@@ -16,7 +16,7 @@ vector, and flying, is :mod:`uavwind.sim.multirotor`'s.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -67,6 +67,10 @@ class PositionControl:
         Integral gains on x, y, z [1/s^3], each in [0, 100]; default (2, 2, 4): per axis the
         loop ``s^3 + kd s^2 + kp s + ki`` with SE3's gains (kp 6.5, kd 4 on x, y; 15 and 9 on
         z) has every root's real part below -0.35 1/s.
+    kp, kd : tuple of 3 float
+        Position [1/s^2] and velocity [1/s] gains on x, y, z, each in (0, 1000]; default
+        SE3's (:data:`SE3_KP_POS`, :data:`SE3_KD_POS`). Experiment 13's twin draws them per
+        replicate (:meth:`scaled`).
     max_tilt : float
         Largest tilt of the desired force from up [deg], in (0, 89]; PX4's default 45.
     min_thrust, max_thrust : float
@@ -77,6 +81,8 @@ class PositionControl:
     """
 
     ki: tuple = (2.0, 2.0, 4.0)
+    kp: tuple = SE3_KP_POS
+    kd: tuple = SE3_KD_POS
     max_tilt: float = 45.0
     min_thrust: float = 0.12
     max_thrust: float = 1.0
@@ -87,11 +93,27 @@ class PositionControl:
         if np.any(ki < 0) or np.any(ki > 100):
             raise ValueError(f"ki must have every gain in [0, 100] [1/s^3], got {ki.tolist()}")
         object.__setattr__(self, "ki", tuple(float(k) for k in ki))
+        for name in ("kp", "kd"):
+            g = check_array(getattr(self, name), name, shape=(3,))
+            if np.any(g <= 0) or np.any(g > 1000):
+                raise ValueError(f"{name} must have every gain in (0, 1000], got {g.tolist()}")
+            object.__setattr__(self, name, tuple(float(k) for k in g))
         check_fields(self, {
             "max_tilt": Range(0.0, 89.0, low_inclusive=False),
             "min_thrust": Range(0.0, 1.0),
             "max_thrust": lambda s: Range(s.min_thrust, 1.0, low_inclusive=False),
             "max_integral_acceleration": Range(0.0, 100.0, low_inclusive=False)})
+
+    def scaled(self, bandwidth: float = 1.0, integral: float = 1.0) -> PositionControl:
+        """The same law ``bandwidth`` times as fast: ``kp`` times its square, ``kd`` times it
+        and ``ki`` times its cube (every root of ``s^3 + kd s^2 + kp s + ki`` times
+        ``bandwidth``, the loop's shape kept), and ``ki`` also times ``integral``. Each factor
+        in (0, 100]; ``scaled(1, 1)`` is this law."""
+        b = check_scalar(bandwidth, "bandwidth", low=0.0, low_inclusive=False, high=100.0)
+        i = check_scalar(integral, "integral", low=0.0, low_inclusive=False, high=100.0)
+        return replace(self, kp=tuple(k * b * b for k in self.kp),
+                       kd=tuple(k * b for k in self.kd),
+                       ki=tuple(k * b ** 3 * i for k in self.ki))
 
 
 #: PX4's defaults on RotorPy's SE3 gains.

@@ -1,0 +1,30 @@
+"""The twin against the held-out controller (Exp 13, issue 66): its validation table, its
+mean scaled error over the physical quantities beside the training mean's, and its pitch
+lap-to-lap spread per wind. `python benchmarks/twin_score.py [quick|paper] [on|off]` (off:
+the twin of gusts and noise alone); reads and fills $UAVWIND_RESULTS."""
+import sys
+import time
+
+import pandas as pd
+
+from uavwind.analysis import figure8, real_flights as rf
+
+profile = sys.argv[1] if len(sys.argv) > 1 else "quick"
+variability = (sys.argv[2] != "off") if len(sys.argv) > 2 else True
+real = rf.real_flight_rows(profile=profile, n_jobs=1)
+t0 = time.process_time(); w0 = time.time()
+sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability)
+print(f"twin rows: {time.process_time()-t0:.1f} CPU-s (this process), {time.time()-w0:.1f} s wall")
+val = figure8.validation_table(real, sim)
+c = figure8.calibration_of(sim); print({k: v for k, v in c.to_dict().items() if k != "noise"})
+pd.set_option("display.width", 250)
+pd.set_option("display.max_rows", 200)
+print(val[["condition", "quantity", "sim", "sim_min", "sim_max", "held_out", "real_min", "real_max",
+           "twin_error", "trivial_error", "fitted"]].round(3).to_string())
+print("score", figure8.validation_score(val))
+print("score (predicted only)", figure8.validation_score(val, True))
+p = val[(val.quantity == "lap-to-lap spread of pitch")].set_index("condition")
+for c in p.index:
+    r = p.loc[c]
+    print(f"pitch spread {c}: twin {r.sim:.3f} [{r.sim_min:.3f}, {r.sim_max:.3f}] "
+          f"real {r.real_min:.3f}-{r.real_max:.3f}")
