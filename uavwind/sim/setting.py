@@ -32,6 +32,7 @@ from .mil_dryden import dryden_parameters
 from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
 from .multirotor import Multirotor
+from .rotor_params import SE3_KD_POS, SE3_KP_POS
 from .vehicle import UAV
 from .wind import ConstantWind, RampedWind, ShearWind, WindGroups
 
@@ -349,9 +350,14 @@ class Setting:
         if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
             for k, default in (("drag_scale", 1.0), ("lift_scale", 1.0),
-                               ("position_control", None)):
+                               ("position_control", None), ("hover_throttle", None)):
                 if fields["uav"].get(k, default) == default:  # added later: earlier keys kept
                     fields["uav"].pop(k, None)
+            control = fields["uav"].get("position_control")
+            if control is not None:  # gains added later: SE3's keep earlier keys
+                for k, default in (("kp", SE3_KP_POS), ("kd", SE3_KD_POS)):
+                    if tuple(control.get(k, default)) == tuple(default):
+                        control.pop(k, None)
         if self.sampler == "waypoints":  # the sampler's limits are part of what it flies
             fields["waypoint_limits"] = self.waypoint_limits().to_dict()
         blob = json.dumps(fields, sort_keys=True, default=str)
