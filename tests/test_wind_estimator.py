@@ -375,3 +375,48 @@ def test_the_names_of_the_interface():
     assert ESTIMATORS == ("drag", "ekf", "clusters")
     assert repr(WindEstimator("ekf")) == "WindEstimator(method='ekf')"
     assert isinstance(uw.WindEstimator("drag"), WindEstimator)
+
+
+# -- where the error comes from; the filter's noise chosen on training controllers ------ #
+def test_the_error_splits_into_the_means_bias_and_the_scatter(twin_flights):
+    dec = wind_estimates.error_decomposition(twin_flights, "drag")
+    assert len(dec) == len(twin_flights)  # every steady flight held out once
+    # closed form: the mean square about zero is the squared mean plus the variance
+    np.testing.assert_allclose(dec.sample_rmse ** 2, dec.bias ** 2 + dec.scatter ** 2,
+                               rtol=1e-10)
+    assert ((dec.lap_share >= -1e-12) & (dec.lap_share <= 1 + 1e-12)).all()
+
+
+def test_an_exact_model_leaves_no_bias_and_no_scatter(model_flights):
+    dec = wind_estimates.error_decomposition(model_flights, "ekf")
+    assert dec.bias.max() < 0.05
+    assert dec.sample_rmse.max() < 0.1
+
+
+def test_a_lap_locked_error_is_the_lap_share(model_flights):
+    # the force made by a model with a different jet: the estimate's error follows the lap
+    other = DragModel(offset=TRUTH.offset, gain=TRUTH.gain, jet=(0.3, 0.0, 0.3))
+    flights = model_flights + [model_flight(w, "d", model=other, phase=3)
+                               for w in (0.0, 4.2, 8.5, 12.1)]
+    dec = wind_estimates.error_decomposition(flights, "ekf", jet=False)
+    windy = dec[(dec.controller == "d") & (dec.wind_speed > 0)]
+    assert (windy.scatter > 0.05).all() and (windy.lap_share > 0.5).all()
+
+
+def test_the_filter_is_chosen_on_the_flights_it_is_given(twin_flights):
+    grid = [(0.03, 0.5), (3.0, 0.5)]
+    params, scores = wind_estimates.choose_filter(twin_flights, grid)
+    assert len(scores) == 2 and (params["sigma_wind_rate"], params["update_period"]) in grid
+    assert scores.sample_rmse.min() == pytest.approx(
+        scores.set_index(["sigma_wind_rate", "update_period"]).loc[
+            (params["sigma_wind_rate"], params["update_period"]), "sample_rmse"])
+    # a grid of one is that one; and the scores depend on the grid's settings
+    one, s1 = wind_estimates.choose_filter(twin_flights, [(3.0, 0.5)])
+    assert one == {"sigma_wind_rate": 3.0, "update_period": 0.5}
+    assert s1.sample_rmse.iloc[0] == scores.sample_rmse.iloc[1]
+    assert scores.sample_rmse.iloc[0] != scores.sample_rmse.iloc[1]
+    with pytest.raises(ValueError, match="grid"):
+        wind_estimates.choose_filter(twin_flights, [])
+    with pytest.raises(ValueError, match="three controllers"):
+        wind_estimates.choose_filter([f for f in twin_flights
+                                      if f.controller in ("seed 0", "seed 1")], grid)

@@ -7,7 +7,10 @@ wind out -- fit on the other controllers' flights at the other winds, predict th
 controller's flight at the held-out wind; one row per prediction, plus a decimated time
 series of one controller's flights for the figure), :func:`estimation_table` (per method,
 protocol and wind) and :func:`summary_table` (per method and protocol, with intervals over
-the controllers). ``"clusters"`` is a classifier: it is scored by the share of laps that name
+the controllers), :func:`error_decomposition` (where a held-out flight's per-sample error
+comes from: its mean's bias, the scatter about it, the lap-locked share of that scatter) and
+:func:`choose_filter` (the ekf's noise chosen by leave one controller out on the flights it
+is given: the inner loop of a nested protocol). ``"clusters"`` is a classifier: it is scored by the share of laps that name
 the right wind (``accuracy``), under leave one controller out only (a wind it was not trained
 on it cannot name: its accuracy there is 0 by construction), never by an RMSE.
 
@@ -35,7 +38,8 @@ from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
 __all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
-           "TARGETS", "PROTOCOLS", "PROTOCOL_NAMES", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE", "estimates"]
+           "TARGETS", "PROTOCOLS", "PROTOCOL_NAMES", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE", "estimates",
+           "error_decomposition", "choose_filter", "FILTER_GRID"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
 SINUSOID = ("70p20sint", 2.4, 1.0)
@@ -329,3 +333,100 @@ def summary_table(rows: pd.DataFrame) -> pd.DataFrame:
     if not len(df):
         return df
     return df.sort_values(["method", "variant", "protocol"], key=_rank, ignore_index=True)
+
+
+#: The ekf's noise settings :func:`choose_filter` compares: (``sigma_wind_rate`` [m/s per
+#: sqrt(s)], ``update_period`` [s]).
+FILTER_GRID = tuple((s, p) for s in (0.03, 0.1, 0.3, 1.0) for p in (0.25, 0.5, 1.0, 2.0))
+
+
+def _lap_harmonics(t):
+    """Columns of a lap-locked fit: a constant and the first three harmonics of the
+    figure-8's period (2 pi s)."""
+    return np.column_stack([np.ones_like(t)] + [fn(k * t) for k in (1, 2, 3)
+                                                 for fn in (np.sin, np.cos)])
+
+
+def error_decomposition(flights: list[RealFlight], method: str = "ekf",
+                        direction=(-1.0, 0.0, 0.0), **params) -> pd.DataFrame:
+    """Where the per-sample error of ``method`` comes from, with each controller held out in
+    turn (fitted on the others, ``params`` passed to :class:`WindEstimator`): one row per
+    held-out steady flight (``controller``, ``condition``, ``wind_speed``) with, after
+    :data:`SETTLE`, its vector ``sample_rmse`` [m/s], the norm of its mean error ``bias``
+    and the RMS ``scatter`` about that mean (``sample_rmse**2 = bias**2 + scatter**2``:
+    the vertical wind is 0 in the labels and in the estimate, so it adds nothing), and
+    ``lap_share``, the share of the scatter's mean square a fit of the lap's first three
+    harmonics removes (fitted on the flight itself: an upper bound on what a lap-locked term
+    could remove)."""
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    controllers = sorted({f.controller for f in flights})
+    if len(controllers) < 2:
+        raise ValueError(f"flights must come from at least two controllers to hold one out, "
+                         f"got {controllers}")
+    rows = []
+    for held in controllers:
+        est = WindEstimator(method, direction=d, **params).fit(
+            [f for f in flights if f.controller != held])
+        for f in flights:
+            if f.controller != held or f.condition in UNRECORDED:
+                continue
+            t = f.arrays["t"]
+            late = t >= SETTLE
+            e = (est.predict(f) - f.wind_speed * d)[late]
+            mu = e.mean(axis=0)
+            r = e - mu
+            fit = _lap_harmonics(t[late])
+            resid = r - fit @ np.linalg.lstsq(fit, r, rcond=None)[0]
+            scatter2 = float(np.mean(np.sum(r ** 2, axis=1)))
+            rows.append({"controller": held, "condition": f.condition,
+                         "wind_speed": f.wind_speed,
+                         "sample_rmse": float(np.sqrt(np.mean(np.sum(e ** 2, axis=1)))),
+                         "bias": float(np.linalg.norm(mu)), "scatter": float(np.sqrt(scatter2)),
+                         "lap_share": (1.0 - float(np.mean(np.sum(resid ** 2, axis=1)))
+                                       / scatter2 if scatter2 > 0 else 0.0)})
+    return pd.DataFrame(rows)
+
+
+def choose_filter(flights: list[RealFlight], grid=FILTER_GRID, direction=(-1.0, 0.0, 0.0),
+                  steady: bool = True) -> tuple[dict, pd.DataFrame]:
+    """The ekf's noise (``sigma_wind_rate``, ``update_period``) chosen by leave one
+    controller out on ``flights`` alone (each of their controllers held out in turn, the
+    estimator fitted on the others): the setting of ``grid`` with the least per-sample
+    vector RMSE after :data:`SETTLE` over the held-out flights -- the steady ones with
+    ``steady`` (the target's), else the sinusoid's too (scored against the sinusoid at the
+    force's phase, :func:`force_phase`). Returns ``(params, scores)``: the chosen keyword
+    arguments of :class:`WindEstimator` and one row per setting (``sample_rmse``). Called on
+    the training controllers only, it is the inner loop of a nested protocol: the flight it
+    will predict has no say."""
+    grid = [tuple(g) for g in grid]
+    if not grid:
+        raise ValueError("grid must hold at least one (sigma_wind_rate, update_period)")
+    d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    controllers = sorted({f.controller for f in flights})
+    if len(controllers) < 3:
+        raise ValueError(f"flights must come from at least three controllers (each fit "
+                         f"holding one out needs two), got {controllers}")
+    by = {(f.controller, f.condition): f for f in flights}
+    ref = {c: (force_phase(by[(c, SINUSOID[0])], by[(c, "70wind")])
+               if (c, SINUSOID[0]) in by and (c, "70wind") in by else np.nan)
+           for c in controllers}
+    scores = []
+    for sigma, period in grid:
+        se = []
+        for held in controllers:
+            est = WindEstimator("ekf", direction=d, sigma_wind_rate=sigma,
+                                update_period=period).fit(
+                [f for f in flights if f.controller != held])
+            for f in flights:
+                if f.controller != held or (steady and f.condition in UNRECORDED):
+                    continue
+                t = f.arrays["t"]
+                late = t >= SETTLE
+                truth = _truth(f, ref[held], t)[late, None] * d
+                se.append(float(np.mean(np.sum((est.predict(f)[late] - truth) ** 2, axis=1))))
+        scores.append({"sigma_wind_rate": sigma, "update_period": period,
+                       "sample_rmse": float(np.sqrt(np.mean(se)))})
+    scores = pd.DataFrame(scores)
+    best = scores.iloc[int(np.argmin(scores["sample_rmse"].to_numpy()))]
+    return ({"sigma_wind_rate": float(best["sigma_wind_rate"]),
+             "update_period": float(best["update_period"])}, scores)
