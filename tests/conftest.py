@@ -1,5 +1,6 @@
 """Shared fixtures: small, fast settings; the quick book built in the background."""
 import contextlib
+import json
 import os
 import shutil
 import signal
@@ -400,6 +401,42 @@ def pytest_terminal_summary(terminalreporter):
         took = rc_file.stat().st_mtime - _book_build["started_at"]
         terminalreporter.write_line(f"quick book: built in the background in {took:.0f} s "
                                     f"(exit {rc_file.read_text().strip()})")
+    for line in _time_by_module(terminalreporter.stats) + _fill_by_experiment():
+        terminalreporter.write_line(line)
+
+
+def _time_by_module(stats, top=12):
+    """The suite's wall time summed over each module's tests (setup, call and teardown), the
+    largest ``top`` modules: where a cut would count (``--durations`` names single tests)."""
+    by = {}
+    for reports in stats.values():
+        for r in reports:
+            if getattr(r, "when", None) in ("setup", "call", "teardown") and hasattr(r, "nodeid"):
+                module = r.nodeid.split("::")[0]
+                by[module] = by.get(module, 0.0) + r.duration
+    if not by:
+        return []
+    ranked = sorted(by.items(), key=lambda kv: -kv[1])
+    return ([f"test time by module (wall s, {sum(by.values()):.0f} s over {len(by)} modules; "
+             f"under xdist the workers' times add up):"]
+            + [f"  {t:7.1f}  {m}" for m, t in ranked[:top]])
+
+
+def _fill_by_experiment(top=8):
+    """The background book's fill: CPU seconds by experiment, from its ``--times`` record."""
+    if not _book_build:
+        return []
+    times = _book_build["tmp"] / "times.json"
+    try:
+        entries = json.loads(times.read_text())["entries"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    by = {}
+    for e in entries:
+        by[e["experiment"]] = by.get(e["experiment"], 0.0) + e["cpu_seconds"]
+    ranked = sorted(by.items(), key=lambda kv: -kv[1])
+    return ([f"quick book's fill: {sum(by.values()):.0f} CPU-s, by experiment:"]
+            + [f"  {t:7.1f}  {m}" for m, t in ranked[:top]])
 
 
 def pytest_unconfigure(config):

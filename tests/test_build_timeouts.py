@@ -1,6 +1,7 @@
 """The book's build never hangs: every page runs under a cell timeout and a page timeout,
 a page that exceeds either fails the build naming the page and the cell, and no cell that
 needs a live kernel (a widget) runs in the build."""
+import json
 import os
 import re
 import subprocess
@@ -229,3 +230,28 @@ def test_a_page_that_reads_the_flights_reruns_when_they_arrive(tmp_path):
     needs = {line.split(":")[0].rsplit("/", 1)[-1] for line in db.splitlines()
              if line.startswith(str(gen)) and ".ipynb:" in line and ".neuralfly" in line}
     assert needs == {"exp13_real_flights.ipynb", "exp14_flyable.ipynb"}
+
+
+def test_the_suite_says_where_its_time_went(tmp_path, monkeypatch):
+    """make test's summary adds up each module's test time (largest first) and the background
+    book's fill CPU by experiment, from the fill's --times record."""
+    from types import SimpleNamespace
+
+    import conftest
+
+    reports = [SimpleNamespace(nodeid=f"tests/test_{m}.py::t{i}", when=w, duration=d)
+               for m, i, w, d in (("a", 0, "call", 2.0), ("a", 1, "setup", 0.5),
+                                  ("b", 0, "call", 9.0), ("b", 0, "teardown", 1.0))]
+    lines = conftest._time_by_module({"passed": reports})
+    assert lines[0].startswith("test time by module (wall s, 12 s over 2 modules")
+    assert [line.split()[1] for line in lines[1:]] == ["tests/test_b.py", "tests/test_a.py"]
+    assert [float(line.split()[0]) for line in lines[1:]] == [10.0, 2.5]
+    (tmp_path / "times.json").write_text(json.dumps({"entries": [
+        {"experiment": "exp2", "cpu_seconds": 1.5}, {"experiment": "exp11", "cpu_seconds": 4.0},
+        {"experiment": "exp2", "cpu_seconds": 1.0}]}))
+    monkeypatch.setattr(conftest, "_book_build", {"tmp": tmp_path})
+    fill = conftest._fill_by_experiment()
+    assert fill[0] == "quick book's fill: 6 CPU-s, by experiment:"
+    assert [line.split() for line in fill[1:]] == [["4.0", "exp11"], ["2.5", "exp2"]]
+    (tmp_path / "times.json").write_text("{not json")
+    assert conftest._fill_by_experiment() == []  # a half-written record: nothing, no error
