@@ -24,6 +24,9 @@ def _setting():
 
 #: qualified name -> a call with valid arguments and ``**BAD``
 CALLS = {
+    "uavwind.analysis.wind_estimates.error_decomposition": lambda: __import__(
+        "uavwind.analysis.wind_estimates", fromlist=["error_decomposition"]).error_decomposition(
+        [], **BAD),
     "uavwind.analysis.real_flights.compute_rows": lambda: __import__(
         "uavwind.analysis.real_flights", fromlist=["compute_rows"]).compute_rows(
         [object()], **BAD),

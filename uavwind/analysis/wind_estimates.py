@@ -359,6 +359,7 @@ def error_decomposition(flights: list[RealFlight], method: str = "ekf",
     harmonics removes (fitted on the flight itself: an upper bound on what a lap-locked term
     could remove)."""
     d = np.asarray(direction, dtype=float) / np.linalg.norm(direction)
+    WindEstimator(method, direction=d, **params)  # an unknown keyword fails here, before work
     controllers = sorted({f.controller for f in flights})
     if len(controllers) < 2:
         raise ValueError(f"flights must come from at least two controllers to hold one out, "
