@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..core.stats import decide, paired_difference, summarise
+from ..core.stats import MIN_DECIDE, decide, paired_difference, summarise
 from ..sim.variability import FlightVariability
 from ..study.cache import results_dir
 from ..study.profiles import DEFAULT_SEED, get_profile
@@ -38,7 +38,7 @@ from .memo import memo
 
 __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPTERS",
            "chapter_variability", "sources_table", "headline_cases", "sensitivity_table",
-           "SENSITIVITY_VERSION", "FITTED_DECIMALS"]
+           "SENSITIVITY_VERSION", "FITTED_DECIMALS", "shown", "verdict_sentence"]
 
 #: The twin's sources of variability as :func:`uavwind.analysis.figure8.calibrate_twin` fits
 #: them (the :class:`~uavwind.analysis.figure8.TwinCalibration` fields of the same names;
@@ -215,6 +215,80 @@ def sensitivity_table(chapter: str, profile="quick", seed: int = DEFAULT_SEED, r
         "profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
         "cases": [cases[i].setting.key() for i in chosen], "version": SENSITIVITY_VERSION},
         compute, results)
+
+
+def _case_name(row, chapter):
+    if chapter == "exp10":
+        return f"S{row['scenario_id']}, {'GNSS noise' if row['noise'] == 'consumer' else 'no noise'}"
+    if chapter == "exp11":
+        return f"{row['action']} actions, {_channel(row['observation'])}"
+    return f"{row['action']}, {_channel(row['observation'])}"
+
+
+def _channel(name):
+    return {"imu": "IMU"}.get(name, name.replace("_", " "))
+
+
+def _cell(r, side):
+    n = int(r[f"{side}_n_loops"])
+    mean = f"{r[f'{side}_mean']:.1f}"
+    if n >= 3 and r[f"{side}_ci_low"] < r[f"{side}_ci_high"]:
+        mean += f" [{r[f'{side}_ci_low']:.1f}, {r[f'{side}_ci_high']:.1f}]"
+    return mean
+
+
+def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
+    """:func:`sensitivity_table`'s rows as a page shows them: per headline case the mean
+    score [95% CI] and the share grouped correctly without and with the variability, the
+    verdicts, the paired change and whether the verdict survives."""
+    _check_chapter(chapter)
+    rows = {}
+    for _, r in table.iterrows():
+        crashed = int(r["with_crashed"])
+        rows[f"{r['scenario']}: {_case_name(r, chapter)}"] = {
+            "score without": _cell(r, "without"),
+            "grouped without": f"{100 * r['without_correct_rate']:.0f}%",
+            "verdict without": r["without_verdict"],
+            "score with": _cell(r, "with"),
+            "grouped with": f"{100 * r['with_correct_rate']:.0f}%"
+                            + (f" ({crashed} crashed)" if crashed else ""),
+            "verdict with": r["with_verdict"],
+            "change [95% CI]": (f"{r['change']:+.1f} [{r['change_low']:+.1f}, "
+                                f"{r['change_high']:+.1f}]"),
+            "loops": f"{int(r['with_n_loops'])}",
+            "survives": "yes" if r["survives"] else "**no**"}
+    return pd.DataFrame(rows).T
+
+
+def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
+    """What the rows say, in words: how many verdicts survive, each change named (the case,
+    from what to what), or that too few loops decide either side."""
+    _check_chapter(chapter)
+    n = len(table)
+    kept = int(table["survives"].sum())
+    changed = table[~table["survives"].astype(bool)]
+    undecided = (table["without_verdict"] == "cannot decide") & (
+        table["with_verdict"] == "cannot decide")
+    if undecided.all():
+        n_loops = int(table["with_n_loops"].min())
+        return (f"On {n_loops} loop{'' if n_loops == 1 else 's'} a case neither side decides "
+                f"a verdict (one needs {MIN_DECIDE}): the rows show the scores only; the paper "
+                f"profile's count decides.")
+    parts = [f"{kept} of {n} headline verdicts survive the real vehicle's variability"]
+    for _, r in changed.iterrows():
+        parts.append(f"**{r['scenario'].lower()}, {_case_name(r, chapter)}: "
+                     f"{r['without_verdict']} without it, {r['with_verdict']} with it** "
+                     f"(grouped correctly in {100 * r['without_correct_rate']:.0f}% and "
+                     f"{100 * r['with_correct_rate']:.0f}% of the loops)")
+    moved = table[(table["change_high"] < 0) | (table["change_low"] > 0)]
+    text = "; ".join(parts) + "."
+    if len(moved):
+        big = moved.loc[moved["change"].abs().idxmax()]
+        text += (f" The score moves decidedly in {len(moved)} of {n} cases, most on "
+                 f"{big['scenario'].lower()}, {_case_name(big, chapter)} "
+                 f"({big['change']:+.1f} points, 95% CI {big['change_low']:+.1f} to "
+                 f"{big['change_high']:+.1f}).")
+    return text
 
 
 def _register(chapter):
