@@ -253,3 +253,31 @@ def test_the_fitted_values_are_figure8s_fit(tmp_path):
     half = 0.5 * 10.0 ** -se.FITTED_DECIMALS + 1e-12
     for k, v in se.FITTED.items():
         assert abs(getattr(cal, k) - v) <= half, (k, getattr(cal, k), v)
+
+
+def _table(without, with_, n=50, change=(-3.0, -5.0, -1.0)):
+    row = {"scenario": "Light constant vs light constant", "scenario_id": 1, "noise": "none",
+           "with_crashed": 0, "change": change[0], "change_low": change[1],
+           "change_high": change[2]}
+    for side, (verdict, rate) in (("without", without), ("with", with_)):
+        row.update({f"{side}_verdict": verdict, f"{side}_correct_rate": rate,
+                    f"{side}_n_loops": n, f"{side}_mean": 50.0, f"{side}_ci_low": 40.0,
+                    f"{side}_ci_high": 60.0})
+    row["survives"] = without[0] == with_[0]
+    return pd.DataFrame([row])
+
+
+def test_the_sentence_names_a_changed_verdict_and_says_when_nothing_decides():
+    changed = _table(("separates", 0.9), ("cannot decide", 0.6))
+    text = se.verdict_sentence(changed, "exp10")
+    assert text.startswith("0 of 1 headline verdicts survive")
+    assert "separates without it, cannot decide with it" in text and "90%" in text
+    assert "-3.0 points" in text
+    assert se.shown(changed, "exp10").iloc[0]["survives"] == "**no**"
+    kept = _table(("separates", 1.0), ("separates", 1.0), change=(0.0, 0.0, 0.0))
+    assert se.verdict_sentence(kept, "exp10") == (
+        "1 of 1 headline verdicts survive the real vehicle's variability. None was the "
+        "simulator's steadiness.")
+    assert "steady simulator only" in text
+    few = _table(("cannot decide", 1.0), ("cannot decide", 1.0), n=2)
+    assert "On 2 loops a case neither side decides" in se.verdict_sentence(few, "exp14")

@@ -27,7 +27,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..core.stats import MIN_DECIDE, decide, paired_difference, summarise
+from ..core.stats import MIN_DECIDE, MIN_INTERVAL, decide, paired_difference, summarise
 from ..sim.variability import FlightVariability
 from ..study.cache import results_dir
 from ..study.profiles import DEFAULT_SEED, get_profile
@@ -253,8 +253,9 @@ def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
             "grouped with": f"{100 * r['with_correct_rate']:.0f}%"
                             + (f" ({crashed} crashed)" if crashed else ""),
             "verdict with": r["with_verdict"],
-            "change [95% CI]": (f"{r['change']:+.1f} [{r['change_low']:+.1f}, "
-                                f"{r['change_high']:+.1f}]"),
+            "change [95% CI]": (f"{r['change']:+.1f}" + (
+                f" [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
+                if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
             "loops": f"{int(r['with_n_loops'])}",
             "survives": "yes" if r["survives"] else "**no**"}
     return pd.DataFrame(rows).T
@@ -280,8 +281,12 @@ def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
                      f"{r['without_verdict']} without it, {r['with_verdict']} with it** "
                      f"(grouped correctly in {100 * r['without_correct_rate']:.0f}% and "
                      f"{100 * r['with_correct_rate']:.0f}% of the loops)")
-    moved = table[(table["change_high"] < 0) | (table["change_low"] > 0)]
+    moved = table[((table["change_high"] < 0) | (table["change_low"] > 0))
+                  & (table["with_n_loops"] >= MIN_INTERVAL)]
     text = "; ".join(parts) + "."
+    text += (" Each verdict that changes was the simulator's steadiness: the chapter's verdict "
+             "on that case holds for the steady simulator only." if len(changed) else
+             " None was the simulator's steadiness.")
     if len(moved):
         big = moved.loc[moved["change"].abs().idxmax()]
         text += (f" The score moves decidedly in {len(moved)} of {n} cases, most on "
