@@ -95,7 +95,7 @@ __all__ = [
 # imported (tests/test_registry.py: every module that registers is imported here)
 # (in the order the fill has always put them: the long ones first)
 from .report import explore  # noqa: E402,F401
-from .analysis import filters, exp13, page_analyses  # noqa: E402,F401,I001
+from .analysis import filters, exp13, page_analyses, sensitivity  # noqa: E402,F401,I001
 
 
 def __getattr__(name):

@@ -261,21 +261,23 @@ def simulate_flight(thrust: ThrustSequence | AttitudeSequence | Reference, wind:
     """As :func:`simulate`, but return a :class:`Flight` with velocities and winds too (and,
     for a multirotor, its attitudes, body rates, rotor speeds and specific forces; for a
     reference flight, the reference positions, the commanded thrusts and the aerodynamic
-    forces). ``state_errors``: a reference flight's imperfect attitude estimate and thrust
-    (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`; a multirotor with a position
-    control only)."""
+    forces). ``state_errors``: a multirotor's imperfect attitude estimate and thrust (and, under
+    a position control, velocity estimate): a reference flight's
+    (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`, a position control only) or an
+    open-loop one's (:meth:`~uavwind.sim.multirotor.Multirotor.fly`)."""
     uav = _vehicle(uav, vehicle)
     if isinstance(thrust, Reference):
         n, dt = _prepare_reference(thrust, wind, uav, dt, duration, start_position)
         return uav.fly_reference(thrust, wind, dt, n, record_all=True,
                                  state_errors=state_errors)
-    if state_errors is not None:
-        raise ValueError("state_errors applies to a reference flight (a position controller "
-                         "reads the state); this action is flown open loop")
+    if state_errors is not None and not isinstance(uav, Multirotor):
+        raise ValueError("state_errors applies to a multirotor (an attitude loop reads an "
+                         "estimate, rotors make the thrust); the point mass has neither")
     n, t_start, forces, start = _prepare(thrust, wind, uav, dt, duration, start_altitude,
                                          start_position)
     if isinstance(uav, Multirotor):
-        return uav.fly(thrust, wind, float(dt), n, start, record_all=True)
+        return uav.fly(thrust, wind, float(dt), n, start, record_all=True,
+                       state_errors=state_errors)
     pos, vg, va, w = _integrate(wind, uav, float(dt), n, t_start, forces, start, record_all=True)
     return Flight(times=t_start + dt, positions=pos, ground_velocities=vg, air_velocities=va,
                   winds=w, thrust=forces, start=start)

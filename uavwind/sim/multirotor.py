@@ -112,6 +112,26 @@ def _tilt_quaternion(b3: np.ndarray) -> np.ndarray:
     return np.concatenate([math.sin(half) * axis, [math.cos(half)]])
 
 
+def _rotvec_quaternions(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
+    """Quaternions [i, j, k, w] (..., 4) of the rotations by the rotation vectors
+    ``(ex, ey, 0)`` [rad] (the same rotation as the kernels' ``_tilt_error``)."""
+    th = np.hypot(ex, ey)
+    half = 0.5 * th
+    s = np.where(th > 0, np.sin(half) / np.where(th > 0, th, 1.0), 0.5)
+    return np.stack([s * ex, s * ey, np.zeros_like(ex), np.cos(half)], axis=-1)
+
+
+def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton products ``a b`` of quaternions [i, j, k, w] (rotation ``a`` after ``b``), a
+    (n, 4) and b (4,) or (n, 4)."""
+    ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    bx, by, bz, bw = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return np.stack([aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx,
+                     aw * bz + ax * by - ay * bx + az * bw,
+                     aw * bw - ax * bx - ay * by - az * bz], axis=-1)
+
+
 def force_command(force, tilt_limit: float = 90.0) -> tuple[float, np.ndarray, bool]:
     """``(collective thrust [N], attitude quaternion [i, j, k, w], limited)`` that flies the
     world-frame ``force`` (3,) [N] as well as a multirotor can: exactly within
@@ -422,15 +442,26 @@ class Multirotor:
 
     def fly(self, thrust: ThrustSequence | AttitudeSequence, wind: WindModel, dt: float, n: int,
             start: np.ndarray, record_all: bool = False,
-            clip_log: np.ndarray | None = None) -> np.ndarray | Flight:
+            clip_log: np.ndarray | None = None,
+            state_errors: np.ndarray | None = None) -> np.ndarray | Flight:
         """Fly ``thrust`` through every environment of ``wind`` for ``n`` samples of ``dt``
         [s] from ``start`` (3,) [m]: positions (n_env, n, 3) [m], or with ``record_all`` a
         :class:`~uavwind.sim.flight.Flight` with velocities, winds, attitudes, body rates,
         rotor speeds, specific forces and the limit shares. ``clip_log``, a boolean array
         (n_env, n * control steps per sample), if given, is filled with whether a motor command
-        was clipped in each control step (it changes nothing of the flight). (Checked inputs:
-        call it through :func:`uavwind.simulate` / :func:`uavwind.simulate_flight`, which
-        check the thrust and the grid once; this trusts them.)"""
+        was clipped in each control step (it changes nothing of the flight).
+
+        ``state_errors`` (n_env, n * control steps per sample, 6), as
+        :meth:`fly_reference`'s: at each control step the attitude loop reads an attitude
+        estimate off the true attitude by the world rotation ``E`` of ``(e_x, e_y, 0)`` [rad]
+        (columns 0, 1), which is exactly the true attitude flying the command ``E^T R_d``, so
+        the command is rotated so; and the rotors make ``1 + e_t`` times the commanded thrust
+        (column 2). Columns 3-5 (a velocity estimate) are not read: nothing flown open loop
+        reads a velocity. The record keeps the true state and the commanded thrust. None
+        (default): the command as given, the same code path as before the errors existed.
+        (Checked inputs: call it through :func:`uavwind.simulate` /
+        :func:`uavwind.simulate_flight`, which check the thrust and the grid once; this
+        trusts them.)"""
         control_step = _kernels().control_step
 
         per = self.steps_per_sample(dt)
@@ -454,19 +485,37 @@ class Multirotor:
         n_ctrl = n * per
         if clip_log is not None and clip_log.shape != (n_env, n_ctrl):
             raise ValueError(f"clip_log must have shape {(n_env, n_ctrl)}, got {clip_log.shape}")
+        if state_errors is not None:
+            state_errors = check_array(state_errors, "state_errors", shape=(n_env, n_ctrl, 6))
+            if not np.all(np.abs(state_errors[..., :3]) < 0.5):
+                raise ValueError("state_errors must have small attitude and thrust errors: each "
+                                 "|error| of columns 0-2 below 0.5 (rad, or a share of the "
+                                 "thrust)")
+            q_err = _rotvec_quaternions(-state_errors[..., 0], -state_errors[..., 1])  # E^T
+            gain = 1.0 + state_errors[..., 2]
+            if record_all:
+                held_thrust = np.empty((n_env, n))
+                held_quat = np.empty((n_env, n, 4))
         seg_of = thrust.segment(np.arange(n_ctrl) * h_ctrl)
         for k in range(n_ctrl):
             t = k * h_ctrl
             thrust_k, quat_k, limited = commands[int(max(seg_of[k], 0))]
             limited_steps += limited
-            T[:] = thrust_k
-            C[:] = quat_k
+            if state_errors is None:
+                T[:] = thrust_k
+                C[:] = quat_k
+            else:  # the thrust the rotors make, the command the true attitude flies
+                T[:] = thrust_k * gain[:, k]
+                C[:] = _quaternion_product(q_err[:, k], quat_k)
             S[:, S_WIND] = wind._velocity(t, S[:, S_POS])
             last = (k + 1) % per == 0
             j = (k + 1) // per - 1
             if record_all and last:  # the state the held command is computed from
                 before[:, j] = S
-                held_thrust[j], held_quat[j] = thrust_k, quat_k
+                if state_errors is None:
+                    held_thrust[j], held_quat[j] = thrust_k, quat_k
+                else:
+                    held_thrust[:, j], held_quat[:, j] = T, C
             if clip_log is not None:
                 clipped_before = clipped.copy()
             control_step(P, S, T, C, 0, self.substeps, h, clipped)
@@ -485,6 +534,7 @@ class Multirotor:
         u_held = _clipped_commands(P, before.reshape(n_env * n, -1),
                                    np.broadcast_to(held_thrust, (n_env, n)).ravel(),
                                    np.broadcast_to(held_quat, (n_env, n, 4)).reshape(-1, 4))
+        # (with state errors the rotor speeds are those flown; Flight.thrust is the command)
         rec = _recorded(P, states, u_held.reshape(n_env, n, 4))
         return Flight(times=(np.arange(n) + 1) * dt, positions=positions,
                       ground_velocities=rec["v"], air_velocities=rec["v"] - rec["wind"],

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from ..core.checks import Range, check_fields, check_scalar
+from ..core.seeding import child_seed
 from .actions import SAMPLERS
 from .manoeuvres import FLYABLE, FlyableLimits  # registers the "waypoints" sampler
 from .cited_dryden import CitedDryden
@@ -33,7 +34,8 @@ from .dynamics import simulate, simulate_flight
 from .observation import Noise, check_observation, noise_seed, observe
 from .multirotor import Multirotor
 from .rotor_params import SE3_KD_POS, SE3_KP_POS
-from .vehicle import UAV
+from .variability import VARIABILITY_KEY, FlightVariability
+from .vehicle import UAV, n_steps
 from .wind import ConstantWind, RampedWind, ShearWind, WindGroups
 
 if TYPE_CHECKING:
@@ -207,6 +209,11 @@ class Setting:
         The budget of the ``"waypoints"`` sampler (default
         :data:`~uavwind.sim.manoeuvres.FLYABLE`, still air); one with a ``thrust_margin``
         makes room for the strongest wind of both groups (:meth:`waypoint_limits`).
+    variability : FlightVariability, optional
+        A multirotor as unsteady as a real one
+        (:class:`~uavwind.sim.variability.FlightVariability`: state-estimate and thrust
+        errors, battery, controller gains, gusts), drawn per loop from the loop's wind seed
+        (spawn key ``(..., 3)``); None (default) or all sizes 0: the steady vehicle.
     """
 
     group_a: EnvironmentGroup
@@ -223,6 +230,7 @@ class Setting:
     baseline: bool = False
     wind_ramp: float = 0.0
     flyable: FlyableLimits = FLYABLE
+    variability: FlightVariability | None = None
 
     def __post_init__(self):
         check_observation(self.observation)
@@ -250,6 +258,23 @@ class Setting:
         check_fields(self, {"wind_ramp": Range(0.0, self.duration)})
         if self.sampler == "waypoints":
             self.waypoint_limits()  # a wind the vehicle cannot hold: say so now, not mid-search
+        if self.variability is not None:
+            if not isinstance(self.variability, FlightVariability):
+                raise TypeError(f"variability must be a FlightVariability or None, got "
+                                f"{type(self.variability).__name__}")
+            if not isinstance(self.uav, Multirotor):
+                raise ValueError("variability needs uav=Multirotor(...): its sources (attitude "
+                                 "estimate, thrust, battery, controller) are a multirotor's")
+            if self.variability.needs_control and self.sampler != "waypoints":
+                raise ValueError("variability: velocity_error, gain_spread and integral_spread "
+                                 "act through a position controller, which only the "
+                                 "'waypoints' sampler flies; set them to 0 for actions flown "
+                                 "open loop")
+            if (self.variability.has_errors and self.sampler == "waypoints"
+                    and self.uav.position_control is None):
+                raise ValueError("variability: a reference flight flies state errors under a "
+                                 "position control with an integral term; give the vehicle a "
+                                 "position_control (rotor_params.PositionControl)")
         if self.n_env < 3:
             raise ValueError(f"a setting needs at least 3 environments in all (two groups, one "
                              f"with two members, for a silhouette), got {self.group_a.n_env} + "
@@ -273,17 +298,21 @@ class Setting:
     def has_turbulence(self) -> bool:
         return "turbulence" in (self.group_a.kind, self.group_b.kind)
 
-    def wind(self, seed: int | np.random.SeedSequence | None = None
+    def wind(self, seed: int | np.random.SeedSequence | None = None, gusts=None
              ) -> WindGroups | RampedWind:
         """A :class:`~uavwind.sim.wind.WindGroups` of both groups (ramped in over
         :attr:`wind_ramp` seconds, if set).
 
         ``seed`` (int or SeedSequence) seeds the turbulence; each group draws
-        from its own child, so the groups' gusts are independent.
+        from its own child, so the groups' gusts are independent. ``gusts``: a wind model
+        of every environment added to the groups' (a :class:`~uavwind.sim.wind.SumWind`,
+        ramped in with them; the variability's gusts).
         """
         ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
         sa, sb = ss.spawn(2)
         groups = WindGroups(self.group_a.wind(sa), self.group_b.wind(sb))
+        if gusts is not None:
+            groups = groups + gusts
         return RampedWind(groups, self.wind_ramp) if self.wind_ramp > 0 else groups
 
     def max_wind_speed(self) -> float:
@@ -307,19 +336,45 @@ class Setting:
                                           limits=self.waypoint_limits())
         return SAMPLERS[self.sampler](rng, n_changes=self.n_changes, duration=self.duration)
 
+    @property
+    def varies(self) -> bool:
+        """Whether a loop draws any variability (:attr:`variability` set and not all 0)."""
+        return self.variability is not None and not self.variability.off
+
     def simulate(self, thrust: ThrustSequence,
                  seed: int | np.random.SeedSequence | None = None) -> np.ndarray:
         """Positions (n_env, n_steps, 3) [m] of all environments under ``thrust``."""
+        if self.varies:
+            return self._flight(thrust, seed).positions
         return simulate(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
                         duration=self.duration, start_altitude=self.start_altitude)
+
+    def _flight(self, thrust, seed) -> Flight:
+        """The loop's :class:`~uavwind.sim.flight.Flight`, with its variability drawn from
+        ``seed``'s spawn key ``(..., 3)`` (:mod:`uavwind.sim.variability`)."""
+        if not self.varies:
+            return simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
+                                   duration=self.duration, start_altitude=self.start_altitude)
+        var = self.variability
+        vs = child_seed(seed, VARIABILITY_KEY)
+        uav = var.vehicle(self.uav, vs)
+        speeds = np.concatenate([np.zeros(g.n_env) if g.kind == "turbulence" else g.speeds
+                                 for g in (self.group_a, self.group_b)])
+        gusts = var.gusts(speeds, self.start_altitude, self.dt, vs)
+        wind = self.wind(seed, gusts=gusts)
+        errors = None
+        if var.has_errors:
+            n_ctrl = n_steps(self.dt, self.duration) * uav.check_grid(self.dt)
+            errors = var.state_errors(self.n_env, n_ctrl, uav.control_rate, vs)
+        return simulate_flight(thrust, wind, uav=uav, dt=self.dt, duration=self.duration,
+                               start_altitude=self.start_altitude, state_errors=errors)
 
     def observe(self, thrust: ThrustSequence, seed: int | np.random.SeedSequence | None = None,
                 ) -> tuple[np.ndarray, Flight, np.ndarray | None]:
         """``(observations, flight, positions)`` of one loop: the observed channel with
         its noise (seeded from ``seed``'s spawn key ``(..., 2)``), the
         :class:`~uavwind.sim.flight.Flight`, and the noisy positions (what the baseline sees)."""
-        flight = simulate_flight(thrust, self.wind(seed), uav=self.uav, dt=self.dt,
-                                 duration=self.duration, start_altitude=self.start_altitude)
+        flight = self._flight(thrust, seed)
         ns = noise_seed(seed)
         obs = observe(flight, self.observation, self.noise, seed=ns, gravity=self.uav.gravity)
         if not self.baseline:
@@ -343,6 +398,8 @@ class Setting:
             if fields[k] == default:  # the paper's loop keeps its earlier keys
                 del fields[k]
         del fields["flyable"]  # a waypoint setting's limits: below, as they were
+        if self.variability is None or self.variability.off:  # added later: earlier keys
+            del fields["variability"]  # kept, and no variability flies as none
         if fields.get("noise"):  # noise fields added later keep earlier keys while zero
             for k in ("attitude", "rate"):
                 if fields["noise"].get(k) == 0.0:
