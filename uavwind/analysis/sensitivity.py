@@ -27,7 +27,8 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..core.stats import MIN_DECIDE, MIN_INTERVAL, decide, paired_difference, summarise
+from ..core.stats import (MIN_DECIDE, MIN_INTERVAL, UNDECIDED, decide, paired_difference,
+                          summarise)
 from ..sim.variability import FlightVariability
 from ..study.cache import results_dir
 from ..study.profiles import DEFAULT_SEED, get_profile
@@ -257,7 +258,8 @@ def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
                 f" [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
                 if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
             "loops": f"{int(r['with_n_loops'])}",
-            "survives": "yes" if r["survives"] else "**no**"}
+            "survives": ("no verdict to keep" if r["without_verdict"] == UNDECIDED
+                         else "yes" if r["survives"] else "**no**")}
     return pd.DataFrame(rows).T
 
 
@@ -266,16 +268,18 @@ def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
     from what to what), or that too few loops decide either side."""
     _check_chapter(chapter)
     n = len(table)
-    kept = int(table["survives"].sum())
-    changed = table[~table["survives"].astype(bool)]
-    undecided = (table["without_verdict"] == "cannot decide") & (
-        table["with_verdict"] == "cannot decide")
+    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
+    kept = int(decided["survives"].sum())
+    changed = decided[~decided["survives"].astype(bool)]
+    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
     if undecided.all():
         n_loops = int(table["with_n_loops"].min())
         return (f"On {n_loops} loop{'' if n_loops == 1 else 's'} a case neither side decides "
                 f"a verdict (one needs {MIN_DECIDE}): the rows show the scores only; the paper "
                 f"profile's count decides.")
-    parts = [f"{kept} of {n} headline verdicts survive the real vehicle's variability"]
+    parts = [f"{kept} of {len(decided)} headline verdicts survive the real vehicle's "
+             f"variability" + (f" ({n - len(decided)} of the {n} cases decide nothing without "
+                               f"it, so have no verdict to keep)" if len(decided) < n else "")]
     for _, r in changed.iterrows():
         parts.append(f"**{r['scenario'].lower()}, {_case_name(r, chapter)}: "
                      f"{r['without_verdict']} without it, {r['with_verdict']} with it** "
