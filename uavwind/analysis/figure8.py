@@ -67,6 +67,7 @@ from ..sim.dynamics import simulate_flight
 from ..sim.multirotor import Multirotor
 from ..sim.references import Lemniscate
 from ..sim.rotor_params import NEURAL_FLY_CONTROL, PositionControl
+from ..sim.variability import burn_in, gauss_markov
 from ..sim.wind import ConstantWind, RampedWind, SinusoidalWind
 from .memo import memo
 from .real_flights import (STUDIES, compute_rows, decided_orders, flight_summaries,
@@ -406,17 +407,11 @@ def _state_errors(cal, rng, n, rate):
 
 
 def _gauss_markov(rng, n, rate, tau, sd):
-    """(n, len(sd)) white noise at ``rate`` [Hz] through two first-order lags of time
-    constant ``tau`` [s], after a burn-in of ten time constants, each column of SD ``sd``."""
-    from scipy.signal import lfilter
-
-    a = float(np.exp(-1.0 / (rate * tau)))
-    burn = int(np.ceil(10 * tau * rate))
-    z = rng.standard_normal((n + burn, len(sd)))
-    for _ in range(2):
-        z = lfilter([1.0 - a], [1.0, -a], z, axis=0)
-    unit = np.sqrt((1.0 - a) ** 4 * (1.0 + a * a) / (1.0 - a * a) ** 3)  # the cascade's SD
-    return z[burn:] * (sd / unit)
+    """(n, len(sd)) second-order Gauss-Markov errors at ``rate`` [Hz], time constant ``tau``
+    [s], each column of SD ``sd``, drawn from ``rng``
+    (:func:`uavwind.sim.variability.gauss_markov`)."""
+    z = rng.standard_normal((n + burn_in(rate, tau), len(sd)))
+    return gauss_markov(z, rate, tau, sd, axis=0)
 
 
 def _turbulence_tilt(cal, rng, n, rate, speed):
