@@ -80,8 +80,25 @@ def test_pretty_shows_shares_as_percentages_in_side_by_side_tables_too():
     df = pd.concat({"a": pd.DataFrame({"mean": [1.0], "correct_rate": [0.5]}),
                     "b": pd.DataFrame({"mean": [2.0], "correct_rate": [0.25]})}, axis=1)
     out = uw.pretty(df)
-    assert out[("a", "correct (%)")].tolist() == [50.0]
-    assert out[("b", "correct (%)")].tolist() == [25.0] and out[("b", "mean")].tolist() == [2.0]
+    assert out[("a", "correct (%)")].tolist() == ["50.00"]
+    assert out[("b", "correct (%)")].tolist() == ["25.00"] and out[("b", "mean")].tolist() == ["2.00"]
+
+
+def test_pretty_writes_whole_numbers_with_the_tables_decimals_and_counts_whole():
+    """pandas prints a column of whole floats as "100.0" (and all zeros as "0.0") beside
+    another column's "98.50": pretty gives every float column the table's decimals, and a
+    count (loops) none."""
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.DataFrame({"mean": [98.5, 97.25], "correct_rate": [1.0, 1.0],
+                       "best_so_far": [0.0, 0.0], "n_loops": [2.0, 4.0]})
+    out = uw.pretty(df)
+    assert out["correct (%)"].tolist() == ["100.00", "100.00"]
+    assert out["best so far"].tolist() == ["0.00", "0.00"]
+    assert out["loops"].tolist() == [2, 4]
+    assert out["mean"].tolist() == [98.5, 97.25]  # not whole: pandas prints it with 2 decimals
+    assert uw.pretty(df, precision=1)["correct (%)"].tolist() == ["100.0", "100.0"]
 
 
 def test_a_missing_value_is_shown_as_a_dash_not_nan():
@@ -96,7 +113,7 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
     # a share, shown as the prose quotes it: a percentage (issue 67: 0.02 beside "3.1%")
     assert col == "motor limited (%)"
     # and with the table's decimals, though the dash makes the column text ("2.0" beside "2.09")
-    assert out[col].tolist() == [MISSING, "25.00"] and out["mean"].tolist() == [1.0, 2.0]
+    assert out[col].tolist() == [MISSING, "25.00"] and out["mean"].tolist() == ["1.00", "2.00"]
 
 
 def test_pretty_shows_no_interval_for_one_loop():
@@ -117,7 +134,7 @@ def test_pretty_shows_no_interval_for_one_loop():
     assert [two[c] for c in ("95% CI low", "95% CI high", "runner up high")] == ["–"] * 3, two
     # a column with a dash is text: its numbers keep the table's two decimals
     assert three["95% CI low"] == "70.00" and three["95% CI high"] == "90.00"
-    assert one["mean"] == 85.0
+    assert one["mean"] == "85.00"
     assert three["runner up high"] == "3.00"  # a paired difference's CI
     assert three["correct, CI low (%)"] == "–"  # 100% [100, 100]: zero width, not shown
 

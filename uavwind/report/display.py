@@ -15,6 +15,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 
 from ..core.stats import MIN_INTERVAL
@@ -96,7 +97,29 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
-    return show_missing(out.round(precision), precision)
+    return _whole_floats(show_missing(out.round(precision), precision), precision)
+
+
+#: Columns that count (loops, crashes): whole numbers, shown without decimals.
+COUNTS = ("n_loops", "loops", "crashed", "flipped", "n_env", "iteration", "thrust_changes")
+
+
+def _whole_floats(df: pd.DataFrame, precision: int) -> pd.DataFrame:
+    """A float column whose values are all whole would print as "100.0" (pandas trims the
+    trailing zeros of such a column) beside another's "98.50": it is written with the table's
+    ``precision`` decimals, as text, unless it counts (:data:`COUNTS`), when it is whole."""
+    out = df.copy()
+    for col in out.columns:
+        values = out[col]
+        if values.dtype.kind != "f" or not len(values) or values.isna().any():
+            continue
+        if not np.all(np.isfinite(values)) or not np.all(values == np.round(values)):
+            continue
+        name = col[-1] if isinstance(col, tuple) else col
+        counts = name in COUNTS or name in [PRETTY.get(c, c) for c in COUNTS]
+        out[col] = (values.astype(int) if counts
+                    else [f"{v:.{precision}f}" for v in values])
+    return out
 
 
 #: The columns holding a 95% interval's bounds.
