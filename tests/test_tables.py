@@ -84,20 +84,23 @@ def test_pretty_shows_shares_as_percentages_in_side_by_side_tables_too():
     assert out[("b", "correct (%)")].tolist() == ["25.00"] and out[("b", "mean")].tolist() == ["2.00"]
 
 
-def test_pretty_writes_whole_numbers_with_the_tables_decimals_and_counts_whole():
-    """pandas prints a column of whole floats as "100.0" (and all zeros as "0.0") beside
-    another column's "98.50": pretty gives every float column the table's decimals, and a
-    count (loops) none."""
+def test_pretty_writes_every_float_with_the_tables_decimals_and_counts_whole():
+    """pandas prints a column of whole floats as "100.0" (all zeros as "0.0", halves as
+    "50.0") beside another column's "98.50": pretty gives every float column the table's
+    decimals, a count (loops) none, and a yes/no column words."""
     import pandas as pd
 
     import uavwind as uw
     df = pd.DataFrame({"mean": [98.5, 97.25], "correct_rate": [1.0, 1.0],
-                       "best_so_far": [0.0, 0.0], "n_loops": [2.0, 4.0]})
+                       "best_so_far": [0.0, 0.0], "n_loops": [2.0, 4.0],
+                       "noise_bias": [0.5, 1.0], "decided": [True, False]})
     out = uw.pretty(df)
     assert out["correct (%)"].tolist() == ["100.00", "100.00"]
     assert out["best so far"].tolist() == ["0.00", "0.00"]
     assert out["loops"].tolist() == [2, 4]
-    assert out["mean"].tolist() == [98.5, 97.25]  # not whole: pandas prints it with 2 decimals
+    assert out["mean"].tolist() == ["98.50", "97.25"]
+    assert out["noise bias (m)"].tolist() == ["0.50", "1.00"]
+    assert out["placed by the one rule"].tolist() == ["yes", "no"]
     assert uw.pretty(df, precision=1)["correct (%)"].tolist() == ["100.0", "100.0"]
 
 
@@ -131,11 +134,11 @@ def test_pretty_shows_no_interval_for_one_loop():
     out = uw.pretty(df)
     one, two, three = out.iloc[0], out.iloc[1], out.iloc[2]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
-    assert [two[c] for c in ("95% CI low", "95% CI high", "runner up high")] == ["–"] * 3, two
+    assert [two[c] for c in ("95% CI low", "95% CI high", "difference, 95% CI high")] == ["–"] * 3, two
     # a column with a dash is text: its numbers keep the table's two decimals
     assert three["95% CI low"] == "70.00" and three["95% CI high"] == "90.00"
     assert one["mean"] == "85.00"
-    assert three["runner up high"] == "3.00"  # a paired difference's CI
+    assert three["difference, 95% CI high"] == "3.00"  # a paired difference's CI
     assert three["correct, CI low (%)"] == "–"  # 100% [100, 100]: zero width, not shown
 
 

@@ -59,6 +59,14 @@ PRETTY = {
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
     "rmse_high": "RMSE CI high", "paper_mean_t4": "paper mean",
+    # Exp 7's breaking level (analysis.beyond.breaking_level)
+    "last_ok": "last level above half (m)", "first_broken": "first level below half (m)",
+    "correct_rate_at_last_ok": "correct there (%)",
+    "correct_rate_at_first_broken": "correct at the first below (%)",
+    "decided": "placed by the one rule",
+    # Exp 8's best observation against its runner-up (analysis.beyond.best_observation)
+    "runner_up": "runner-up", "runner_up_diff": "best minus runner-up",
+    "runner_up_low": "difference, 95% CI low", "runner_up_high": "difference, 95% CI high",
     **column_names(),  # the experiments' label columns, as the registry names them
 }
 #: Columns holding shares in [0, 1], shown as percentages.
@@ -97,28 +105,32 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
-    return _whole_floats(show_missing(out.round(precision), precision), precision)
+    for col in out.columns:  # a yes/no column in words, not Python's True/False
+        if out[col].dtype == bool:
+            out[col] = out[col].map({True: "yes", False: "no"})
+    return _fixed_decimals(show_missing(out.round(precision), precision), precision)
 
 
 #: Columns that count (loops, crashes): whole numbers, shown without decimals.
 COUNTS = ("n_loops", "loops", "crashed", "flipped", "n_env", "iteration", "thrust_changes")
 
 
-def _whole_floats(df: pd.DataFrame, precision: int) -> pd.DataFrame:
-    """A float column whose values are all whole would print as "100.0" (pandas trims the
-    trailing zeros of such a column) beside another's "98.50": it is written with the table's
-    ``precision`` decimals, as text, unless it counts (:data:`COUNTS`), when it is whole."""
+def _fixed_decimals(df: pd.DataFrame, precision: int) -> pd.DataFrame:
+    """Every float column written with the table's ``precision`` decimals, as text: pandas
+    trims the zeros a whole column shares, so a column of whole numbers printed as "100.0"
+    or "0.0", and one of halves as "50.0", beside another's "98.50". A count
+    (:data:`COUNTS`) is written whole."""
     out = df.copy()
     for col in out.columns:
         values = out[col]
-        if values.dtype.kind != "f" or not len(values) or values.isna().any():
-            continue
-        if not np.all(np.isfinite(values)) or not np.all(values == np.round(values)):
+        if values.dtype.kind != "f" or not len(values):
             continue
         name = col[-1] if isinstance(col, tuple) else col
-        counts = name in COUNTS or name in [PRETTY.get(c, c) for c in COUNTS]
-        out[col] = (values.astype(int) if counts
-                    else [f"{v:.{precision}f}" for v in values])
+        if name in COUNTS or name in [PRETTY.get(c, c) for c in COUNTS]:
+            if values.notna().all() and np.all(values == np.round(values)):
+                out[col] = values.astype(int)
+            continue
+        out[col] = [MISSING if pd.isna(v) else f"{v:.{precision}f}" for v in values]
     return out
 
 
