@@ -173,3 +173,32 @@ def test_the_baseline_table_names_its_loops_so_two_show_no_interval():
     two, five = uw.pretty(baseline_table(loops(2))), uw.pretty(baseline_table(loops(5)))
     assert (two[["RMSE CI low", "RMSE CI high"]] == "–").all(axis=None)
     assert (five[["RMSE CI low", "RMSE CI high"]] != "–").all(axis=None)
+
+
+def test_verdicts_markdown_writes_one_item_per_case_with_its_markdown_rendered():
+    """A verdict's evidence is prose with Markdown (`make book`): shown as a DataFrame cell it
+    printed its backticks (C1 on each vehicle, issue 67); as a list item it is rendered."""
+    import pandas as pd
+    import pytest
+
+    from uavwind.report.display import verdicts_markdown
+    df = pd.DataFrame({"vehicle": ["point mass", "multirotor"], "noise": ["none", "consumer"],
+                       "verdict": ["cannot decide", "reproduced"],
+                       "evidence": ["only 2 loops (`make book` runs enough)", "S1 lowest"]}
+                      ).set_index(["vehicle", "noise"])
+    text = verdicts_markdown(df)
+    assert text.splitlines() == [
+        "- **point mass, none**: *cannot decide*. only 2 loops (`make book` runs enough)",
+        "- **multirotor, consumer**: *reproduced*. S1 lowest"]
+    with pytest.raises(ValueError, match="verdicts must have"):
+        verdicts_markdown(df.drop(columns="evidence"))
+
+
+def test_a_mis_modelled_estimators_columns_read_as_words():
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.DataFrame({"rmse_mass+20%": [7.71], "correct_rate_drag+20%": [1.0], "odd_name": [1.5]})
+    assert list(uw.pretty(df).columns) == ["wind RMSE, mass +20% (m/s)",
+                                           "correct, drag coefficient +20% (%)", "odd name"]
+    assert uw.pretty(df)["correct, drag coefficient +20% (%)"].tolist() == ["100.00"]

@@ -12,6 +12,7 @@ and tests can reach the presentation too:
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -24,7 +25,8 @@ from ..study.registry import column_names
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name",
+__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown",
+           "verdicts_markdown", "group_name",
            "channel_name", "signed"]
 
 #: Observation channel (its code name) -> display name, where the code name does not read.
@@ -100,7 +102,7 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
         if name in SHARES or str(name).startswith("correct_rate"):
             out[col] = 100 * out[col]
-    out = out.rename(columns=lambda c: PRETTY.get(c, c.replace("_", " ") if isinstance(c, str) else c))
+    out = out.rename(columns=_display_name)
     if isinstance(out.index, pd.MultiIndex):
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
@@ -109,6 +111,26 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         if out[col].dtype == bool:
             out[col] = out[col].map({True: "yes", False: "no"})
     return _fixed_decimals(show_missing(out.round(precision), precision), precision)
+
+
+#: Exp 9's columns of a mis-modelled estimator: "rmse_mass+20%", "correct_rate_drag+20%".
+_MODEL_ERROR = re.compile(r"^(rmse|correct_rate)_(mass|drag)([+-]\d+%)$")
+
+
+def _display_name(column):
+    """A column's name as a table shows it: :data:`PRETTY`'s, a mis-modelled estimator's
+    ("wind RMSE, mass +20% (m/s)"), else the name with spaces for underscores."""
+    if not isinstance(column, str):
+        return column
+    if column in PRETTY:
+        return PRETTY[column]
+    m = _MODEL_ERROR.match(column)
+    if m:
+        what = {"mass": "mass", "drag": "drag coefficient"}[m.group(2)]
+        error = f"{m.group(3)[0]}{m.group(3)[1:]}"
+        return (f"wind RMSE, {what} {error} (m/s)" if m.group(1) == "rmse"
+                else f"correct, {what} {error} (%)")
+    return column.replace("_", " ")
 
 
 #: Columns that count (loops, crashes): whole numbers, shown without decimals.
@@ -176,3 +198,18 @@ def claims_markdown(verdicts: pd.DataFrame,
                   f"*Rule.* {row['rule']}"]
         parts.append("\n".join(lines))
     return "\n\n".join(parts)
+
+
+def verdicts_markdown(verdicts: pd.DataFrame) -> str:
+    """A table of verdicts with their evidence (``verdict`` and ``evidence`` columns, one row
+    per case named by its index) as a Markdown list, one item per row: "**point mass, none**:
+    *cannot decide*. <evidence>". The evidence is prose with Markdown in it (`make book`),
+    which a table's cell would print with its backticks, and a paragraph a cell squeezes."""
+    missing = {"verdict", "evidence"} - set(verdicts.columns)
+    if missing:
+        raise ValueError(f"verdicts must have the columns verdict and evidence, missing {sorted(missing)}")
+    items = []
+    for key, row in verdicts.iterrows():
+        name = ", ".join(str(k) for k in key) if isinstance(key, tuple) else str(key)
+        items.append(f"- **{name}**: *{row['verdict']}*. {row['evidence']}")
+    return "\n".join(items)
