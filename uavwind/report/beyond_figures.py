@@ -190,7 +190,7 @@ def future_grid(table) -> Figure:
     scen = list(dict.fromkeys(table["scenario"]))
     obs = list(dict.fromkeys(table["observation"]))
     fig, axes = plt.subplots(len(noises), len(actions), squeeze=False,
-                             figsize=(4.4 * len(actions) + 1.0, 3.0 * len(noises) + 1.2),
+                             figsize=(3.8 * len(actions) + 0.8, 2.9 * len(noises) + 1.0),
                              constrained_layout=True)
     for i, noise in enumerate(noises):
         for j, action in enumerate(actions):
@@ -204,8 +204,9 @@ def future_grid(table) -> Figure:
                         color="white" if v < 60 else "black")
             # wrapped narrower than a column: "light constant vs light shear" and "vs strong
             # turbulence" ran into each other on one line each (issue 44); at 7.5 pt they
-            # were about 6 px on the page (issue 67): a figure nearer the page's width, larger
-            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 12) for s in scen], fontsize=9)
+            # were about 6 px on the page (issue 67): a figure nearer the page's width (about
+            # 8.4 in for 690 px of text column: 9 pt is about 10 px there), larger
+            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 11) for s in scen], fontsize=9)
             ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=10)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=10)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
