@@ -82,6 +82,10 @@ def test_interval_label_never_calls_two_loops_an_interval_nor_shows_zero_width()
     assert interval_label(85.0, 85.0, 85.0, 1, digits=1) == "85.0 (1 loop, no interval)"
     assert interval_label(85.04, 80.12, 89.96, 3, digits=1) == "85.0 [80.1, 90.0]"
     assert interval_label(85.0, math.nan, math.nan, 8, digits=1) == "85.0 (8 loops, no interval)"
+    # a difference, signed: a zero-width one (every episode alike) is no interval either
+    assert interval_label(0.0, 0.0, 0.0, 6, 1, unit="episodes", signed=True) == \
+        "+0.0 (the same on all 6 episodes)"
+    assert interval_label(-16.7, -50.0, -1e-9, 6, 1, signed=True) == "-16.7 [-50.0, +0.0]"
 
 
 def test_interval_label_is_the_only_interval_formatter():
