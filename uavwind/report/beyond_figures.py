@@ -165,7 +165,9 @@ def vehicle_scores(table) -> Figure:
     plt = _plt()
     scen = list(dict.fromkeys(table["scenario"]))
     vehicles = list(dict.fromkeys(table["vehicle"]))
-    fig, ax = plt.subplots(figsize=(10, 0.55 * len(scen) * len(vehicles) / 2 + 2),
+    # about the text column's width (7 in for 690 px), so 9-10 pt reads as 12-14 px: at 10 in
+    # wide and 15 in tall the labels were about 7 px and the legend 6 px (issue 67)
+    fig, ax = plt.subplots(figsize=(7, 0.2 * len(scen) * len(vehicles) + 1.8),
                            constrained_layout=True)
     h = 0.8 / len(vehicles)
     y = np.arange(len(scen))
@@ -174,10 +176,10 @@ def vehicle_scores(table) -> Figure:
         err = _errors(s)  # no bar where there is no 95% interval
         _mark_zero_bars(ax, ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h,
                                     xerr=err, capsize=2, label=v))
-    ax.set_yticks(y, scen, fontsize=8)
+    ax.set_yticks(y, [textwrap.fill(s, 20) for s in scen], fontsize=10)
     ax.invert_yaxis()
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
-    fig.legend(fontsize=7, loc="outside upper center", ncol=2)  # above the axes, off the bars
+    fig.legend(fontsize=9, loc="outside upper center", ncol=2)  # above the axes, off the bars
     return fig
 
 
@@ -222,7 +224,9 @@ def flyable_scores(table) -> Figure:
     obs = list(dict.fromkeys(table["observation"]))
     actions = list(dict.fromkeys(table["action"]))
     fig, axes = plt.subplots(1, len(obs), squeeze=False, sharey=True,
-                             figsize=(3.6 * len(obs) + 2.4, 0.45 * len(scen) + 1.6),
+                             # near the text column's width (13 in wide put 8 pt at about
+                             # 6 px on the page, issue 67); scenario names wrapped
+                             figsize=(2.4 * len(obs) + 1.8, 0.55 * len(scen) + 1.6),
                              constrained_layout=True)
     h = 0.8 / len(actions)
     y = np.arange(len(scen))
@@ -234,11 +238,12 @@ def flyable_scores(table) -> Figure:
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))
-        ax.set(title=channel_name(o), xlabel="mean score (blank: not run)", xlim=(0, 100))
-    axes[0, 0].set_yticks(y, scen, fontsize=8)
+        ax.set(title=channel_name(o), xlabel="mean score", xlim=(0, 100))
+    axes[0, 0].set_yticks(y, [textwrap.fill(s, 20) for s in scen], fontsize=9)
     axes[0, 0].invert_yaxis()
     # above the panels: inside the last one it covered the bottom scenario's bars
-    fig.legend(*axes[0, -1].get_legend_handles_labels(), fontsize=7,
+    fig.legend(*axes[0, -1].get_legend_handles_labels(), fontsize=9,
+               title="no bar and no 0: not run", title_fontsize=9,
                loc="outside upper center", ncol=len(actions))
     return fig
 
