@@ -268,7 +268,9 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
     scen = list(dict.fromkeys(curves["scenario"]))
     veh = list(dict.fromkeys(curves["vehicle"]))
     fig, axes = plt.subplots(len(scen), len(veh), squeeze=False, sharex=True, sharey=True,
-                             figsize=(5.0 * len(veh), 2.6 * len(scen) + 0.6),
+                             # near the text column's width (10 in put the titles and the
+                             # legend at about 7 px on the page, issue 67)
+                             figsize=(3.7 * len(veh) + 0.3, 2.3 * len(scen) + 0.9),
                              constrained_layout=True)
     for i, s in enumerate(scen):
         for j, v in enumerate(veh):
@@ -282,7 +284,7 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
                         label=POLICY_NAMES.get(pol, pol))
                 ax.fill_between(d["time"], d[f"{value}_low"] * scale,
                                 d[f"{value}_high"] * scale, color=colour, alpha=0.12, lw=0)
-            ax.set_title(f"{s}\n{v}", fontsize=8)
+            ax.set_title(f"{s}\n{v}", fontsize=9)
             if value == "accuracy":
                 ax.axhline(50, color="0.8", lw=0.8, zorder=0)
                 # from 40% unless some curve or band goes lower (early reports of a few
@@ -294,7 +296,8 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             if j == 0:
                 ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=7, loc="outside upper center", ncol=len(labels))
+    fig.legend(handles, labels, fontsize=9, loc="outside upper center",
+               ncol=min(len(labels), 2))
     return fig
 
 
