@@ -66,6 +66,8 @@ PRETTY = {
     "correct_rate_at_last_ok": "correct there (%)",
     "correct_rate_at_first_broken": "correct at the first below (%)",
     "decided": "placed by the one rule",
+    # the inference page's fitted layouts (analysis.inference)
+    "in_use": "in use", "in_ci": "in the 95% CI",
     # Exp 8's best observation against its runner-up (analysis.beyond.best_observation)
     "runner_up": "runner-up", "runner_up_diff": "best minus runner-up",
     "runner_up_low": "difference, 95% CI low", "runner_up_high": "difference, 95% CI high",
