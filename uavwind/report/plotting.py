@@ -140,12 +140,12 @@ def _flow(ax, boxes, loop_back, title):
     n = len(boxes)
     ys = np.linspace(0.9, 0.1, n)
     for k, (text, y) in enumerate(zip(boxes, ys)):
-        ax.text(0.5, y, text, ha="center", va="center", fontsize=8.5, wrap=True,
+        ax.text(0.5, y, text, ha="center", va="center", fontsize=9.5, wrap=True,
                 bbox=dict(boxstyle="round,pad=0.4", fc="#eef3fb", ec="#355c9a"))
         if k < n - 1:
             ax.annotate("", xy=(0.5, ys[k + 1] + 0.045), xytext=(0.5, y - 0.045),
                         arrowprops=dict(arrowstyle="->", color="#355c9a"))
-    ax.annotate(loop_back, xy=(0.86, ys[0]), xytext=(0.86, ys[-1]), fontsize=8, ha="center",
+    ax.annotate(loop_back, xy=(0.9, ys[0]), xytext=(0.9, ys[-1]), fontsize=9, ha="center",
                 rotation=90, va="bottom",
                 arrowprops=dict(arrowstyle="->", color="0.4", connectionstyle="arc3,rad=0"))
     ax.set_title(title, fontsize=10)
@@ -154,16 +154,18 @@ def _flow(ax, boxes, loop_back, title):
 def fig2_flowcharts() -> Figure:
     """Fig 2: the system with random exploration (a) and with CEM (b)."""
     plt = _plt()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 5.5), constrained_layout=True)
+    # about the text column's width (7.4 in for 690 px): at 11 in the boxes' text was about
+    # 7 px on the page (issue 67)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(7.4, 5.6), constrained_layout=True)
     common = ["UAV flies one thrust sequence\nin 2 groups of wind environments",
-              "position trajectories\n(n_env x 120 x 3)",
+              "position trajectories\n(environments x 120 steps x 3 axes)",
               "soft-DTW time-series k-means\n(2 clusters)",
               "silhouette score (DTW);\n0 if a trajectory is misgrouped"]
     _flow(a, ["draw a random thrust sequence\n(times, magnitudes, directions)", *common,
               "record score; report max and mean"], "next loop",
           "(a) random exploration")
-    _flow(b, ["draw N thrust vectors from\nN(mu, sigma^2)", *common,
-              "keep the N_e elite samples;\nrefit mu, sigma (eqs CEM1-2)"], "next iteration",
+    _flow(b, ["draw $N$ thrust vectors from\n$\\mathcal{N}(\\mu, \\sigma^2)$", *common,
+              "keep the $N_e$ elite samples;\nrefit $\\mu$, $\\sigma$ (eqs CEM1-2)"], "next iteration",
           "(b) Cross-Entropy Method")
     return fig
 
