@@ -116,7 +116,8 @@ def fig1_trajectory_and_wind(flight: Flight, envs: Sequence[int] = (0, -1), arro
 def fig1_velocity_projections(flight: Flight, env: int = 0, every: int = 10) -> Figure:
     """Fig 1b: UAV ground velocity (top) and wind (bottom) along the path in XY, XZ, YZ."""
     plt = _plt()
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), constrained_layout=True)
+    # near the text column's width (12 in put its labels at about 6 px on the page)
+    fig, axes = plt.subplots(2, 3, figsize=(8.4, 5.4), constrained_layout=True)
     p, v, w = flight.positions[env], flight.ground_velocities[env], flight.winds[env]
     idx = np.arange(0, p.shape[0], every)
     for row, (vec, name, colour) in enumerate(((v, "UAV velocity", "tab:blue"),
@@ -178,13 +179,13 @@ def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
               title: str | None = None) -> Figure:
     """Fig 3: (a) one loop's trajectories by group, (b) scores over the loops."""
     plt = _plt()
-    fig = plt.figure(figsize=(11, 4.5), constrained_layout=True)
+    fig = plt.figure(figsize=(8.4, 3.9), constrained_layout=True)  # near the column's width
     ax1 = fig.add_subplot(1, 2, 1, projection="3d")
     for g, (c, lab) in enumerate(zip(GROUP_COLOURS, group_labels)):
         for k, tr in enumerate(trajectories[np.asarray(groups) == g]):
             ax1.plot(tr[:, 0], tr[:, 1], tr[:, 2], color=c, lw=1, label=lab if k == 0 else None)
     ax1.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=title or "one loop")
-    ax1.legend(fontsize=8)
+    ax1.legend(fontsize=9)
     ax2 = fig.add_subplot(1, 2, 2)
     _score_axes(ax2, np.asarray(scores, dtype=float))
     return fig
@@ -322,7 +323,7 @@ def dryden_spectrum(wind: DrydenWind, n_samples: int = 4096, nperseg: int = 512)
     S = S.mean(axis=0) / (2 * np.pi)  # per rad/s
     omega = 2 * np.pi * f[1:]
     p = wind.parameters
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True, sharey=True)
+    fig, axes = plt.subplots(1, 3, figsize=(8.4, 3.2), constrained_layout=True, sharey=True)
     for j, (ax, axis) in enumerate(zip(axes, "uvw")):
         ax.loglog(omega, S[1:, j], color="tab:blue", label="simulated (Welch)")
         ax.loglog(omega, dryden_psd(omega, p[f"sigma_{axis}"][0], p[f"L_{axis}"][0],
