@@ -62,9 +62,10 @@ PRETTY = {
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
     "rmse_high": "RMSE CI high", "paper_mean_t4": "paper mean",
     # Exp 7's breaking level (analysis.beyond.breaking_level)
-    "last_ok": "last level above half (m)", "first_broken": "first level below half (m)",
-    "correct_rate_at_last_ok": "correct there (%)",
-    "correct_rate_at_first_broken": "correct at the first below (%)",
+    "last_ok": "last level, half or more correct (m)",
+    "first_broken": "first level, under half correct (m)",
+    "correct_rate_at_last_ok": "correct at the last (%)",
+    "correct_rate_at_first_broken": "correct at the first (%)",
     "decided": "placed by the one rule",
     # the inference page's fitted layouts (analysis.inference)
     "in_use": "in use", "in_ci": "in the 95% CI",
