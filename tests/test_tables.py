@@ -188,8 +188,8 @@ def test_verdicts_markdown_writes_one_item_per_case_with_its_markdown_rendered()
                       ).set_index(["vehicle", "noise"])
     text = verdicts_markdown(df)
     assert text.splitlines() == [
-        "- **point mass, none**: *cannot decide*. only 2 loops (`make book` runs enough)",
-        "- **multirotor, consumer**: *reproduced*. S1 lowest"]
+        "- **point mass, none**: *cannot decide*. Only 2 loops (`make book` runs enough)",
+        "- **multirotor, consumer**: *reproduced*. S1 lowest"]  # a sentence after the stop
     with pytest.raises(ValueError, match="verdicts must have"):
         verdicts_markdown(df.drop(columns="evidence"))
 

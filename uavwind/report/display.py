@@ -195,12 +195,19 @@ def claims_markdown(verdicts: pd.DataFrame,
     parts = []
     for cid, row in verdicts.iterrows():
         lines = [f"**{cid}.** {row['statement']}", ""]
-        lines += [f"- *{names.get(r, r)}: {row[f'verdict ({r})']}.* {row[f'evidence ({r})']}"
-                  for r in readings]
+        lines += [f"- *{names.get(r, r)}: {row[f'verdict ({r})']}.* "
+                  f"{_sentence(row[f'evidence ({r})'])}" for r in readings]
         lines += ["", f"*What the difference teaches.* {row['lesson']}", "",
                   f"*Rule.* {row['rule']}"]
         parts.append("\n".join(lines))
     return "\n\n".join(parts)
+
+
+def _sentence(text: str) -> str:
+    """``text`` as a sentence after a full stop: its first letter capitalised ("means by
+    scenario: ..." follows "*cannot decide.*")."""
+    text = str(text)
+    return text[:1].upper() + text[1:]
 
 
 def verdicts_markdown(verdicts: pd.DataFrame) -> str:
@@ -214,5 +221,5 @@ def verdicts_markdown(verdicts: pd.DataFrame) -> str:
     items = []
     for key, row in verdicts.iterrows():
         name = ", ".join(str(k) for k in key) if isinstance(key, tuple) else str(key)
-        items.append(f"- **{name}**: *{row['verdict']}*. {row['evidence']}")
+        items.append(f"- **{name}**: *{row['verdict']}*. {_sentence(row['evidence'])}")
     return "\n".join(items)
