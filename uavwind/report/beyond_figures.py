@@ -208,7 +208,8 @@ def future_grid(table) -> Figure:
             # turbulence" ran into each other on one line each (issue 44); at 7.5 pt they
             # were about 6 px on the page (issue 67): a figure nearer the page's width (about
             # 8.4 in for 690 px of text column: 9 pt is about 10 px there), larger
-            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 9, break_long_words=False) for s in scen],
+            ax.set_xticks(range(len(scen)),
+                          [textwrap.fill(s, 9, break_long_words=False) for s in scen],
                           fontsize=9)
             ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=10)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=10)
