@@ -217,7 +217,8 @@ def verdicts_markdown(verdicts: pd.DataFrame) -> str:
     which a table's cell would print with its backticks, and a paragraph a cell squeezes."""
     missing = {"verdict", "evidence"} - set(verdicts.columns)
     if missing:
-        raise ValueError(f"verdicts must have the columns verdict and evidence, missing {sorted(missing)}")
+        raise ValueError("verdicts must have the columns verdict and evidence, missing "
+                         f"{sorted(missing)}")
     items = []
     for key, row in verdicts.iterrows():
         name = ", ".join(str(k) for k in key) if isinstance(key, tuple) else str(key)

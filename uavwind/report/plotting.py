@@ -166,7 +166,8 @@ def fig2_flowcharts() -> Figure:
               "record score; report max and mean"], "next loop",
           "(a) random exploration")
     _flow(b, ["draw $N$ thrust vectors from\n$\\mathcal{N}(\\mu, \\sigma^2)$", *common,
-              "keep the $N_e$ elite samples;\nrefit $\\mu$, $\\sigma$ (eqs CEM1-2)"], "next iteration",
+              "keep the $N_e$ elite samples;\nrefit $\\mu$, $\\sigma$ (eqs CEM1-2)"],
+          "next iteration",
           "(b) Cross-Entropy Method")
     return fig
 
