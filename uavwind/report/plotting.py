@@ -181,6 +181,8 @@ def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
     """Fig 3: (a) one loop's trajectories by group, (b) scores over the loops."""
     plt = _plt()
     fig = plt.figure(figsize=(8.4, 3.9), constrained_layout=True)  # near the column's width
+    # the 3-D panel's z label reaches past its box: a gap so it stays clear of the scores' axis
+    fig.get_layout_engine().set(wspace=0.12)
     ax1 = fig.add_subplot(1, 2, 1, projection="3d")
     for g, (c, lab) in enumerate(zip(GROUP_COLOURS, group_labels)):
         for k, tr in enumerate(trajectories[np.asarray(groups) == g]):
@@ -219,7 +221,7 @@ def _score_axes(ax, scores, title=None, ylim=(-2, 102), legend=True):
     values = f"max {scores.max():.2f}, mean {scores.mean():.2f}"
     ax.set_title(f"{title}\n{values}" if title else values, fontsize=9)
     if legend:
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=9, loc="best")
 
 
 def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
