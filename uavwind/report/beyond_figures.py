@@ -50,7 +50,8 @@ def noise_curves(table: pd.DataFrame) -> Figure:
     noise (log x; 0 drawn at 0.01 m), one line per scenario, 95% bands."""
     plt = _plt()
     t = table[table["noise_bias"] == 0]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    # near the text column's width (10 in put its labels and legend at about 6 px, issue 67)
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.6), constrained_layout=True)
     for scen, sub in t.groupby("scenario", sort=False):
         x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
         for ax, (y, lo, hi, scale) in zip(axes, [("mean", "ci_low", "ci_high", 1),
@@ -63,9 +64,10 @@ def noise_curves(table: pd.DataFrame) -> Figure:
     for ax, label in zip(axes, ["mean score", "correctly grouped loops (%)"]):
         ax.set_xscale("log")
         ax.axvline(1.0, color="0.5", ls=":", lw=0.8)
-        ax.set(xlabel="position noise sigma [m] (0 drawn at 0.01)", ylabel=label, ylim=(-2, 102))
+        ax.set(xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)", ylabel=label,
+               ylim=(-2, 102))
     axes[1].axhline(50, color="0.5", ls="--", lw=0.8)
-    axes[0].legend(fontsize=7, loc="lower left")
+    axes[0].legend(fontsize=8, loc="lower left")
     return fig
 
 
@@ -102,7 +104,7 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     white position noise, one line per scenario."""
     plt = _plt()
     t = table[table["noise_bias"] == 0]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.8), constrained_layout=True)  # column's width
     # lines that coincide (the worked example: 100% at every level for both methods) stay
     # visible: concentric markers, the first scenario's largest and open, the last's
     # smallest, filled and on top
@@ -117,9 +119,10 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
                      zorder=3 + k, mfc=c if last else "none", mew=1.3)
         axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=ms, ls="--", color=c,
                      zorder=3 + k, mfc=c if last else "none", mew=1.3)
-    axes[0].set(xscale="log", yscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+    axes[0].set(xscale="log", yscale="log",
+                xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)",
                 ylabel="baseline wind RMSE [m/s]")
-    axes[1].set(xscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+    axes[1].set(xscale="log", xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)",
                 ylabel="correctly grouped loops (%)", ylim=(-2, 102))
     # one legend above both panels: the scenarios' colours, and the two methods' line styles
     from matplotlib.lines import Line2D
