@@ -204,3 +204,16 @@ def test_the_real_flights_read_as_the_data_readme_describes():
     tilt = {c: np.mean([flight_laps(f, ())["tilt"].mean() for f in fl if f.condition == c])
             for c in ("nowind", "35wind", "70wind", "100wind")}
     assert tilt["nowind"] < tilt["35wind"] < tilt["70wind"] < tilt["100wind"]
+
+
+def test_every_condition_has_a_readers_name():
+    """A page names a fan setting by its wind, not the file's code: every condition has a
+    label, each different, each saying its speed; an unknown name passes through."""
+    from uavwind.data.neuralfly import CONDITION_LABELS, CONDITIONS, condition_label
+
+    assert set(CONDITION_LABELS) == set(CONDITIONS)
+    assert len(set(CONDITION_LABELS.values())) == len(CONDITIONS)
+    for c, speed in CONDITIONS.items():
+        assert condition_label(c) == ("still air" if speed == 0 else CONDITION_LABELS[c])
+        assert speed == 0 or f"{speed:g} " in condition_label(c)
+    assert condition_label("bogus") == "bogus"

@@ -37,9 +37,10 @@ import pandas as pd
 
 from ..core.checks import check_array, check_scalar
 
-__all__ = ["RealFlight", "CONDITIONS", "CHANNELS", "COLUMNS", "ENV_VAR", "load_neuralfly",
-           "neuralfly_folder", "flight_files", "files_digest", "read_flights", "flight_laps", "cut_laps", "channel_series", "tilt_degrees", "pitch_degrees", "split_noise", "NOISE_CUTOFF",
-           "CITATION"]
+__all__ = ["RealFlight", "CONDITIONS", "CONDITION_LABELS", "condition_label", "CHANNELS",
+           "COLUMNS", "ENV_VAR", "load_neuralfly", "neuralfly_folder", "flight_files",
+           "files_digest", "read_flights", "flight_laps", "cut_laps", "channel_series",
+           "tilt_degrees", "pitch_degrees", "split_noise", "NOISE_CUTOFF", "CITATION"]
 
 #: The environment variable naming the folder of the flights.
 ENV_VAR = "UAVWIND_NEURALFLY"
@@ -50,6 +51,18 @@ CITATION = ("O'Connell et al., Neural-Fly enables rapid learning for agile fligh
 #: is 8.5 + 2.4 sin t m/s, its mean given here).
 CONDITIONS: Mapping[str, float] = {"nowind": 0.0, "35wind": 4.2, "70wind": 8.5,
                                    "70p20sint": 8.5, "100wind": 12.1}
+#: Fan condition -> how a page names it (the wind a reader knows, not the file's code).
+CONDITION_LABELS: Mapping[str, str] = {"nowind": "still air", "35wind": "4.2 m/s",
+                                       "70wind": "8.5 m/s", "70p20sint": "8.5 + 2.4 sin t m/s",
+                                       "100wind": "12.1 m/s"}
+
+
+def condition_label(condition: str) -> str:
+    """How a page names the fan ``condition`` (:data:`CONDITION_LABELS`); a name it does not
+    know passes through."""
+    return CONDITION_LABELS.get(condition, condition)
+
+
 #: Column -> width of its vector (``R`` is 3 x 3, read row-major).
 COLUMNS: Mapping[str, int] = {"t": 1, "p": 3, "p_d": 3, "v": 3, "v_d": 3, "q": 4, "R": 9, "w": 3,
                               "T_sp": 1, "q_sp": 4, "hover_throttle": 1, "fa": 3, "pwm": 4}

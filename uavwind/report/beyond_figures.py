@@ -479,7 +479,10 @@ def channel_pair_heatmap(pairs, title: str = "") -> Figure:
     """Exp 13: mean score over controllers of every pair of wind conditions (rows) in every
     channel (columns) (``pairs``: :func:`uavwind.analysis.real_flights.pair_table`)."""
     plt = _plt()
-    pairs = pairs.assign(pair=pairs["condition_a"] + " vs " + pairs["condition_b"])
+    from ..data.neuralfly import condition_label
+
+    pairs = pairs.assign(pair=pairs["condition_a"].map(condition_label) + " vs "
+                         + pairs["condition_b"].map(condition_label))
     grid = pairs.pivot(index="pair", columns="channel", values="mean")
     grid = grid.reindex(index=list(dict.fromkeys(pairs["pair"])),
                         columns=list(dict.fromkeys(pairs["channel"])))
