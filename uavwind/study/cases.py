@@ -275,10 +275,11 @@ FLYABLE_CPU_PER_LOOP = {"position": 0.75, "attitude": 2.33, "imu": 3.19}
 FLYABLE_CEM_SCALE = {"n_samples": 1 / 3, "max_iter": 1 / 4}
 #: Exp 11's CEM, half the profile's iterations (paper profile: N = 30, Ne = 4, 10 iterations
 #: instead of 20). Its page asks whether the search beats the random loops' best, which a
-#: run's best score answers, and that best had settled by iteration 10: in a paper build with
-#: 20 (at 1ef99a8, seed 20240101) each case's best at 10 was within 0.7 points of its best at
-#: 20 (attitude/IMU 96.1 vs 96.8, attitude/position 40.5 vs 40.5, thrust/IMU 99.2 vs 99.0,
-#: thrust/position 0 throughout), for half of its CPU time (1,624 CPU-s at 1ef99a8, then the
+#: run's highest scores answer, and they had settled by iteration 10: in a paper build with
+#: 20 (at 1ef99a8, seed 20240101) each case's highest score in iteration 10 was within 0.7
+#: points of its highest in iteration 20 (an iteration's highest can fall: attitude/IMU 96.1
+#: vs 96.8, attitude/position 40.5 vs 40.5, thrust/IMU 99.2 vs 99.0, thrust/position 0
+#: throughout), for half of its CPU time (1,624 CPU-s at 1ef99a8, then the
 #: paper book's largest entry; the performance page gives its cost at the last paper build).
 FUTURE_CEM_SCALE = {"max_iter": 1 / 2}
 
