@@ -1,4 +1,5 @@
 """Summary and comparison tables in the paper's layout; the paper's values."""
+import pandas as pd
 import pytest
 
 from uavwind import study as ex
@@ -204,3 +205,13 @@ def test_a_mis_modelled_estimators_columns_read_as_words():
     assert list(uw.pretty(df).columns) == ["wind RMSE, mass +20% (m/s)",
                                            "correct, drag coefficient +20% (%)", "odd name"]
     assert uw.pretty(df)["correct, drag coefficient +20% (%)"].tolist() == ["100.00"]
+
+
+def test_a_table_numbered_only_by_pandas_shows_no_row_numbers():
+    """pretty() drops a default 0, 1, ... index (it says nothing to a reader) and keeps a
+    named or labelled one."""
+    import uavwind as uw
+    df = pd.DataFrame({"scenario": ["a", "b"], "mean": [1.0, 2.5]})
+    assert uw.pretty(df).index.tolist() == ["", ""]
+    assert uw.pretty(df.set_index("scenario")).index.tolist() == ["a", "b"]
+    assert uw.pretty(df.iloc[::-1]).index.tolist() == [1, 0]  # a chosen order keeps its labels

@@ -85,7 +85,8 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     of fewer than :data:`~uavwind.core.stats.MIN_INTERVAL` loops (``n_loops``) shows no
     interval (its bounds, ``ci_low``/``ci_high`` and any ``*_low``/``*_high``, as
     :data:`MISSING`): one value has none, and two values' bootstrap is only their range, not
-    a 95% interval; nor does a zero-width interval (every loop alike) show as one."""
+    a 95% interval; nor does a zero-width interval (every loop alike) show as one. A table
+    whose rows are only numbered 0, 1, ... shows no row labels."""
     out = df.copy()
     bounds = [c for c in out.columns
               if c in _INTERVAL_BOUNDS or str(c).endswith(("_low", "_high"))]
@@ -113,6 +114,9 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
     for col in out.columns:  # a yes/no column in words, not Python's True/False
         if out[col].dtype == bool:
             out[col] = out[col].map({True: "yes", False: "no"})
+    if (isinstance(out.index, pd.RangeIndex) and out.index.name is None
+            and out.index.start == 0 and out.index.step == 1):
+        out.index = pd.Index([""] * len(out))  # row numbers 0, 1, ... say nothing to a reader
     return _fixed_decimals(show_missing(out.round(precision), precision), precision)
 
 
