@@ -38,7 +38,7 @@ from ..study.runner import check_seed_engine, experiment_entries, run_experiment
 from .memo import memo
 
 __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPTERS",
-           "chapter_variability", "sources_table", "headline_cases", "sensitivity_table",
+           "chapter_variability", "sources_table", "sources_shown", "headline_cases", "sensitivity_table",
            "SENSITIVITY_VERSION", "FITTED_DECIMALS", "shown", "verdict_sentence"]
 
 #: The twin's sources of variability as :func:`uavwind.analysis.figure8.calibrate_twin` fits
@@ -138,6 +138,13 @@ def sources_table(chapter: str) -> pd.DataFrame:
     rows = [{"source": SOURCE_NAMES[k], "fitted": fitted[k],
              "flown": getattr(var, k), "applies": why} for k, why in SOURCES[chapter].items()]
     return pd.DataFrame(rows).set_index("source")
+
+
+def sources_shown(chapter: str) -> pd.DataFrame:
+    """:func:`sources_table` as a page shows it: each size at three significant figures, 0
+    where the source does not act."""
+    table = sources_table(chapter)
+    return table.assign(**{c: table[c].map(lambda v: f"{v:.3g}") for c in ("fitted", "flown")})
 
 
 def headline_cases(chapter: str) -> list[int]:
