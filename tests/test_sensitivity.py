@@ -273,7 +273,7 @@ def test_the_sentence_names_a_changed_verdict_and_says_when_nothing_decides():
     assert text.startswith("0 of 1 headline verdicts survive")
     assert "separates without it, cannot decide with it" in text and "90%" in text
     assert "-3.0 points" in text
-    assert se.shown(changed, "exp10").iloc[0]["survives"] == "**no**"
+    assert se.shown(changed, "exp10").iloc[0]["survives"] == "no"
     kept = _table(("separates", 1.0), ("separates", 1.0), change=(0.0, 0.0, 0.0))
     assert se.verdict_sentence(kept, "exp10") == (
         "1 of 1 headline verdicts survive the real vehicle's variability. None was the "
@@ -295,3 +295,15 @@ def test_a_case_that_decides_nothing_without_the_variability_has_no_verdict_to_k
                            "(1 of the 2 cases decide nothing without it, so have no verdict "
                            "to keep)")
     assert se.shown(both.iloc[[1]], "exp10").iloc[0]["survives"] == "no verdict to keep"
+
+
+def test_a_change_every_loop_shares_shows_no_interval():
+    """A zero-width interval (every loop's score moved alike, e.g. 0 to 0) is said in words,
+    not shown as '+0.0 [+0.0, +0.0]'; fewer than MIN_INTERVAL loops show the change alone."""
+    flat = _table(("does not separate", 0.0), ("does not separate", 0.0), n=20,
+                  change=(0.0, 0.0, 0.0))
+    assert se.shown(flat, "exp10").iloc[0]["change [95% CI]"] == "+0.0 (the same on all 20 loops)"
+    moved = _table(("separates", 0.9), ("separates", 0.8), n=20)
+    assert se.shown(moved, "exp10").iloc[0]["change [95% CI]"] == "-3.0 [-5.0, -1.0]"
+    few = _table(("cannot decide", 1.0), ("cannot decide", 1.0), n=2)
+    assert se.shown(few, "exp10").iloc[0]["change [95% CI]"] == "-3.0"

@@ -245,6 +245,19 @@ def _cell(r, side):
     return mean
 
 
+def _change(r) -> str:
+    """The paired change of the score with its 95% CI; none on fewer than
+    :data:`~uavwind.core.stats.MIN_INTERVAL` loops, and where every loop moved alike (a
+    zero-width interval is no interval) that, in words."""
+    n = int(r["with_n_loops"])
+    text = f"{r['change']:+.1f}"
+    if n < MIN_INTERVAL:
+        return text
+    if r["change_low"] == r["change_high"]:
+        return f"{text} (the same on all {n} loops)"
+    return f"{text} [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
+
+
 def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
     """:func:`sensitivity_table`'s rows as a page shows them: per headline case the mean
     score [95% CI] and the share grouped correctly without and with the variability, the
@@ -261,12 +274,10 @@ def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
             "grouped with": f"{100 * r['with_correct_rate']:.0f}%"
                             + (f" ({crashed} crashed)" if crashed else ""),
             "verdict with": r["with_verdict"],
-            "change [95% CI]": (f"{r['change']:+.1f}" + (
-                f" [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
-                if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
+            "change [95% CI]": _change(r),
             "loops": f"{int(r['with_n_loops'])}",
             "survives": ("no verdict to keep" if r["without_verdict"] == UNDECIDED
-                         else "yes" if r["survives"] else "**no**")}
+                         else "yes" if r["survives"] else "no")}
     return pd.DataFrame(rows).T
 
 
