@@ -153,6 +153,9 @@ class TwinCalibration:
         SD of the thrust's relative error [-].
     velocity_error : float
         SD of the velocity estimate's error along world x [m/s].
+    vertical_velocity_error : float
+        SD of the velocity estimate's error along world z [m/s] (0: none, the first twin's;
+        :func:`calibrate_twin` with ``vertical_share``).
     rotor_drag_scale : float
         Further factor on the rotor drag (linear in the airspeed) beside ``drag_scale``
         (:attr:`~uavwind.sim.multirotor.Multirotor.rotor_drag_scale`) [-] (1: the preset's
@@ -187,6 +190,7 @@ class TwinCalibration:
     attitude_error: float = 0.0
     thrust_error: float = 0.0
     velocity_error: float = 0.0
+    vertical_velocity_error: float = 0.0
     rotor_drag_scale: float = 1.0
     error_time: float = ERROR_TIME
     turbulence_tilt: float = 0.0
@@ -201,7 +205,8 @@ class TwinCalibration:
                             "hover_throttle": Range(0.0, 0.95),
                             "hover_throttle_sd": Range(0.0, 0.2),
                             "attitude_error": Range(0.0, 10.0), "thrust_error": Range(0.0, 0.2),
-                            "velocity_error": Range(0.0, 2.0), "variability": Range(0.0, 10.0),
+                            "velocity_error": Range(0.0, 2.0),
+                            "vertical_velocity_error": Range(0.0, 2.0), "variability": Range(0.0, 10.0),
                             "rotor_drag_scale": Range(0.0, 100.0, low_inclusive=False),
                             "error_time": Range(0.01, 10.0),
                             "turbulence_tilt": Range(0.0, 1.0)})
@@ -236,7 +241,8 @@ class TwinCalibration:
         """Whether a replicate draws anything beyond its gusts and noise."""
         return self.variability > 0 and any(
             (self.gain_spread, self.integral_spread, self.hover_throttle, self.attitude_error,
-             self.thrust_error, self.velocity_error, self.turbulence_tilt))
+             self.thrust_error, self.velocity_error, self.vertical_velocity_error,
+             self.turbulence_tilt))
 
     def state_error_sds(self) -> np.ndarray:
         """The SDs of the six state errors a flight draws (tilt about x and y [rad], thrust
@@ -247,7 +253,7 @@ class TwinCalibration:
         force along x by 0.6 N), a drag source, not a steadiness one."""
         a = np.radians(self.attitude_error)
         return self.variability * np.array([a, a, self.thrust_error, self.velocity_error, 0.0,
-                                            0.0])
+                                            self.vertical_velocity_error])
 
     def noise_at(self, condition: str) -> dict[str, float]:
         """{column: std} at ``condition`` (empty without noise)."""
@@ -524,7 +530,8 @@ def _secant(measure, target, x0, x1, low, high, tol, what):
 
 def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
                    controllers=None, variability: bool = True,
-                   per_wind: bool = True, pitch_turbulence: bool = False) -> TwinCalibration:
+                   per_wind: bool = True, pitch_turbulence: bool = False,
+                   fit_noise: bool = False, vertical_share: float = 0.0) -> TwinCalibration:
     """Fit the twin on ``controllers``' flights (default: all but
     :func:`held_out_controller`), from their flight rows in ``real_rows``
     (:func:`uavwind.analysis.real_flights.compute_rows`).
@@ -554,10 +561,28 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     spread at 12.1 m/s into the real range but not at 8.5 m/s, and it raises the force's
     spread at 4.2 m/s and in the sinusoidal wind beyond the real ones (the estimate's error
     enters ``fa``), so the twin's mean scaled error grows (paper profile, 1.27 without it,
-    1.39 with it; ``benchmarks/twin_score.py``)."""
-    for name, flag in (("per_wind", per_wind), ("pitch_turbulence", pitch_turbulence)):
+    1.39 with it; ``benchmarks/twin_score.py``).
+
+    With ``fit_noise`` the recorded noise is fitted last, on the finished twin
+    (:func:`_fit_noise`): what it adds to each channel is what the training controllers'
+    noise leaves once the twin's own motion above the cutoff is counted. Off by default: the
+    twin's attitude noise then equals the training mean wherever it can, which is the trivial
+    model's error there, and the held-out controller is noisier than the training mean in
+    wind, where the twin's excess had been closer to it (paper profile 1.27 -> 1.30, quick
+    0.88 -> 0.90).
+
+    ``vertical_share`` (in [0, 1], default 0: the thrust error alone, the twin before, to the
+    double) is the share of the still-air vertical error's variance carried by an error of
+    the vertical velocity estimate instead of the thrust (:func:`_vertical_fields`): both
+    make the height wander in still air, where the fit cannot tell them apart, but leaning
+    into a strong wind a relative thrust error pushes along x too (``T sin(tilt)``, about
+    half of it at 12.1 m/s) and enters ``fa`` (computed from the commanded thrust), where a
+    velocity error stays vertical."""
+    for name, flag in (("per_wind", per_wind), ("pitch_turbulence", pitch_turbulence),
+                       ("fit_noise", fit_noise)):
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be True or False, got {flag!r}")
+    vertical_share = check_scalar(vertical_share, "vertical_share", low=0.0, high=1.0)
     if study.max_laps == 1:
         raise ValueError("study must keep at least two laps a flight (max_laps 0 or >= 2): the "
                          "gust fit matches a lap-to-lap spread")
@@ -588,15 +613,45 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     quiet = replace(quiet, drag_scale=drag, lift_scale=lift)
     if variability:
         cal = _fit_variability(replace(cal, drag_scale=drag, lift_scale=lift), train, study,
-                               per_wind, pitch_turbulence and per_wind)
-        return replace(cal, gust_scale=_fit_gusts(cal, target["spread"], study))
+                               per_wind, pitch_turbulence and per_wind, vertical_share)
+        cal = replace(cal, gust_scale=_fit_gusts(cal, target["spread"], study))
+        return _fit_noise(cal, study) if fit_noise else cal
 
     def spread(g):
         return _twin_row(replace(quiet, gust_scale=g), SPREAD_CONDITION, study)["fa_x_spread"]
 
     gust = _secant(spread, target["spread"], 0.1, 0.3, 0.0, 10.0, 0.02 * target["spread"],
                    "gust")
-    return replace(cal, drag_scale=drag, lift_scale=lift, gust_scale=gust)
+    cal = replace(cal, drag_scale=drag, lift_scale=lift, gust_scale=gust)
+    return _fit_noise(cal, study) if fit_noise else cal
+
+
+def _fit_noise(cal, study):
+    """``cal`` with the recorded noise refitted: each channel's and wind's added white noise
+    the SD whose square is the target's (``cal.noise``, the training controllers' mean noise
+    there) minus the twin's own content above the noise cutoff (mean square over
+    :data:`N_SEEDS` replicates of ``cal`` flown without noise), 0 where the twin's own
+    content already reaches the target.
+
+    Why: a channel's noise (:func:`uavwind.analysis.real_flights.noise_columns`) is all its
+    content above the 2 Hz cutoff, and the twin has some of its own before any noise is
+    added: the controller answers its velocity estimate's error (a second-order Gauss-Markov
+    process, a few per cent of whose variance lies above 2 Hz) with attitude commands the
+    attitude loop follows well above 2 Hz, and the gusts shake it in wind. In still air that
+    content alone (0.0017 in the attitude's x at the quick profile) is above the training
+    controllers' mean noise (0.0010), so adding their mean on top put the twin's attitude
+    noise above every real controller's. Independent sources' variances add, so the
+    subtraction is exact up to the replicates' sampling. Only the training controllers'
+    noise enters (``cal.noise``)."""
+    quiet = replace(cal, noise=())
+    out = []
+    for cond in dict.fromkeys(c for c, _, _ in cal.noise):
+        rows = [_twin_row(quiet, cond, study, seed) for seed in range(N_SEEDS)]
+        for c, col, std in cal.noise:
+            if c == cond:
+                own = float(np.mean([r[col] ** 2 for r in rows]))
+                out.append((c, col, float(np.sqrt(max(std ** 2 - own, 0.0)))))
+    return replace(cal, noise=tuple(out))
 
 
 def _replicate_mean(cal, condition, study, columns):
@@ -611,7 +666,8 @@ def _replicate_mean(cal, condition, study, columns):
 _ERROR_TARGETS = ("pitch_spread", "fa_x_spread", "z_tracking_spread")
 
 
-def _fit_variability(cal, train, study, per_wind=False, pitch_turbulence=False):
+def _fit_variability(cal, train, study, per_wind=False, pitch_turbulence=False,
+                     vertical_share=0.0):
     """``cal`` with the variability fitted on the training controllers' flight rows
     ``train``:
 
@@ -652,29 +708,48 @@ def _fit_variability(cal, train, study, per_wind=False, pitch_turbulence=False):
     spread = float(np.std(log_track, ddof=1) / slope)
     cal = replace(cal, gain_spread=spread, integral_spread=spread)
     if not per_wind:
-        return _fit_errors(cal, still, study)
-    cal = _fit_error_time(cal, still, study)
+        return _fit_errors(cal, still, study, vertical_share)
+    cal = _fit_error_time(cal, still, study, vertical_share)
     return _fit_turbulence_tilt(cal, train, study) if pitch_turbulence else cal
 
 
-def _fit_errors(cal, still, study):
+def _vertical_fields(size, share):
+    """The thrust error [-] and the vertical velocity-estimate error [m/s] of a vertical error
+    of SD ``size``, ``share`` of its variance carried by the velocity (one share of thrust
+    counted as one metre per second: in still air the twin's height wanders about as much
+    for either, 0.009-0.010 m lap to lap at 0.03). ``share`` 0 is the thrust error alone,
+    ``size`` itself, to the double."""
+    if share == 0.0:
+        return {"thrust_error": size}
+    return {"thrust_error": size * float(np.sqrt(1.0 - share)),
+            "vertical_velocity_error": size * float(np.sqrt(share))}
+
+
+def _fit_errors(cal, still, study, vertical_share=0.0):
     """``cal`` with the SDs of the attitude, thrust and velocity errors fitted on the
     training controllers' still-air flight rows ``still`` (:func:`_fit_variability`), at
-    ``cal.error_time``."""
+    ``cal.error_time``; the vertical one split between the thrust and the vertical velocity
+    estimate by ``vertical_share`` (:func:`_vertical_fields`)."""
     from scipy.optimize import nnls
 
-    cal = replace(cal, attitude_error=0.0, thrust_error=0.0, velocity_error=0.0)
+    cal = replace(cal, attitude_error=0.0, thrust_error=0.0, velocity_error=0.0,
+                  vertical_velocity_error=0.0)
+
+    def sizes(values):
+        out = {"attitude_error": values[0], "velocity_error": values[2]}
+        return out | _vertical_fields(values[1], vertical_share)
     goal = still[list(_ERROR_TARGETS)].mean().to_numpy() ** 2
     zero = _replicate_mean(cal, "nowind", study, _ERROR_TARGETS) ** 2
-    fields = ("attitude_error", "thrust_error", "velocity_error")
     C = np.empty((3, 3))
-    for j, (name, ref) in enumerate(zip(fields, _ERROR_START)):
-        m = _replicate_mean(replace(cal, **{name: ref}), "nowind", study, _ERROR_TARGETS) ** 2
+    for j, ref in enumerate(_ERROR_START):
+        one = [0.0, 0.0, 0.0]
+        one[j] = ref
+        m = _replicate_mean(replace(cal, **sizes(one)), "nowind", study, _ERROR_TARGETS) ** 2
         C[:, j] = (m - zero) / ref ** 2
     C = np.maximum(C, 0.0)
     for _ in range(4):
         var, _ = nnls(C, np.maximum(goal - zero, 0.0))
-        fitted = replace(cal, **{n: float(np.sqrt(v)) for n, v in zip(fields, var)})
+        fitted = replace(cal, **sizes([float(np.sqrt(v)) for v in var]))
         got = _replicate_mean(fitted, "nowind", study, _ERROR_TARGETS) ** 2
         if np.all(np.abs(np.sqrt(got) - np.sqrt(goal)) <= 0.05 * np.sqrt(goal)):
             break
@@ -684,7 +759,7 @@ def _fit_errors(cal, still, study):
     return fitted
 
 
-def _fit_error_time(cal, still, study):
+def _fit_error_time(cal, still, study, vertical_share=0.0):
     """``cal`` with the errors' correlation time fitted on the training controllers'
     still-air lap-to-lap spread of position (``still``'s mean, to 3%), their SDs refitted
     (:func:`_fit_errors`) at each time tried, by secant steps on its logarithm from
@@ -700,7 +775,8 @@ def _fit_error_time(cal, still, study):
     tried = {}
 
     def measure(log_tau):
-        fitted = _fit_errors(replace(cal, error_time=float(np.exp(log_tau))), still, study)
+        fitted = _fit_errors(replace(cal, error_time=float(np.exp(log_tau))), still, study,
+                             vertical_share)
         got = float(_replicate_mean(fitted, "nowind", study, ("position_spread",))[0])
         tried[log_tau] = fitted
         return got
@@ -922,7 +998,8 @@ def _training_digest(real_rows, controllers):
 
 def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
              n_jobs: int | None = None, variability: bool = True,
-             per_wind: bool = True, pitch_turbulence: bool = False) -> pd.DataFrame:
+             per_wind: bool = True, pitch_turbulence: bool = False,
+             fit_noise: bool = False, vertical_share: float = 0.0) -> pd.DataFrame:
     """Experiment 13's simulated rows (the real rows' columns; ``attrs["calibration"]`` the
     :class:`TwinCalibration` as a dict, ``attrs["held_out"]`` the controller it was not fitted
     on), kept by :func:`uavwind.analysis.memo.memo` under a digest of the training
@@ -930,9 +1007,11 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
     recomputed with a warning. ``variability`` False: the twin whose replicates differ by
     gusts and noise alone (:func:`calibrate_twin`'s); ``per_wind`` False: the twin fitted at
     one wind; ``pitch_turbulence``: with the attitude estimate's error in wind (both
-    :func:`calibrate_twin`'s)."""
+    :func:`calibrate_twin`'s); ``fit_noise`` False: the noise set to the training mean, not
+    fitted on the twin's own content; ``vertical_share``: the vertical error's share carried
+    by the vertical velocity estimate (both :func:`calibrate_twin`'s)."""
     for name, flag in (("variability", variability), ("per_wind", per_wind),
-                       ("pitch_turbulence", pitch_turbulence)):
+                       ("pitch_turbulence", pitch_turbulence), ("fit_noise", fit_noise)):
         if not isinstance(flag, bool):
             raise TypeError(f"{name} must be True or False, got {flag!r}")
     if profile not in STUDIES:
@@ -946,7 +1025,8 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
 
     def compute():
         cal = calibrate_twin(real_rows, study, train, variability=variability,
-                             per_wind=per_wind, pitch_turbulence=pitch_turbulence)
+                             per_wind=per_wind, pitch_turbulence=pitch_turbulence,
+                             fit_noise=fit_noise, vertical_share=vertical_share)
         flights = simulated_flights(cal, conditions=conditions, duration=flight_duration(study))
         df = compute_rows(flights, study, n_jobs=n_jobs, estimate=False)  # the page: real only
         df.attrs.update(profile=profile, calibration=json.dumps(cal.to_dict()), held_out=held,
@@ -956,7 +1036,9 @@ def sim_rows(real_rows: pd.DataFrame, profile: str = "paper", results=None,
     return memo("exp13_sim", {"training": _training_digest(real_rows, train), "held_out": held,
                               "study": asdict(study), "seed": SIM_SEED, "n_seeds": N_SEEDS,
                               "version": SIM_VERSION, "variability": variability,
-                              "per_wind": per_wind, "pitch_turbulence": pitch_turbulence},
+                              "per_wind": per_wind, "pitch_turbulence": pitch_turbulence}
+                | ({"fit_noise": True} if fit_noise else {})
+                | ({"vertical_share": vertical_share} if vertical_share else {}),
                 compute, results)
 
 
