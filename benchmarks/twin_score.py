@@ -6,7 +6,8 @@ lap-to-lap spread per wind.
 correlation time assumed; tilt: with the attitude estimate's error in wind fitted on the pitch
 spread; fitnoise: the recorded noise fitted on the twin's own content above the cutoff;
 vertical=S: share S of the still-air vertical error carried by the vertical velocity
-estimate, not the thrust); reads and fills
+estimate, not the thrust, instead of the share's fit; vertical=0 is the twin of SIM_VERSION
+7); reads and fills
 $UAVWIND_RESULTS."""
 import sys
 import time
@@ -21,7 +22,7 @@ per_wind = (sys.argv[3] != "one") if len(sys.argv) > 3 else True
 tilt = "tilt" in sys.argv[4:]
 fit_noise = "fitnoise" in sys.argv[4:]
 share = [float(a.split("=")[1]) for a in sys.argv[4:] if a.startswith("vertical=")]
-share = share[0] if share else 0.0
+share = share[0] if share else "fit"
 real = rf.real_flight_rows(profile=profile, n_jobs=1)
 t0 = time.process_time(); w0 = time.time()
 sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability,

@@ -56,6 +56,46 @@ def test_bad_values_name_the_parameter():
     with pytest.raises(ValueError, match="vertical_velocity_error"):
         replace(VARIED, vertical_velocity_error=-0.1)
     rows = pd.DataFrame({"kind": ["flight"], "controller": ["A"]})
-    for bad in (-0.1, 1.5):
+    for bad in (-0.1, 1.5, "fitted"):
         with pytest.raises(ValueError, match="vertical_share"):
             figure8.calibrate_twin(rows, STUDY, controllers=("A",), vertical_share=bad)
+        with pytest.raises(ValueError, match="vertical_share"):
+            figure8.sim_rows(pd.DataFrame({"kind": [], "controller": []}), "quick",
+                             vertical_share=bad)
+
+
+def test_the_share_fit_meets_the_position_spread_or_takes_the_bound_it_leans_on():
+    """A stand-in ``build`` (the vertical error of VARIED split at the share): the twin's
+    position spread at 12.1 m/s falls as the share grows; a target between its ends is met to
+    5%, one beyond an end gives that bound, and the row is marked fitted."""
+    study = STUDY
+    built = []
+
+    def build(share):
+        built.append(share)
+        return replace(VARIED, **figure8._vertical_fields(0.05, share))
+
+    def spread(share):
+        c = build(share)
+        return figure8._replicate_mean(c, figure8.SPREAD_CONDITION, study,
+                                       ("position_spread",))[0]
+
+    ends = spread(0.0), spread(1.0)
+    assert ends[0] > 1.1 * ends[1]
+
+    def train(value):
+        return pd.DataFrame({"condition": [figure8.SPREAD_CONDITION] * 2,
+                             "position_spread": [value * 0.9, value * 1.1]})
+    built.clear()
+    low = figure8._fit_vertical_share(build, train(0.5 * ends[1]), study)
+    assert built == [1.0] and low.vertical_velocity_error == pytest.approx(0.05)
+    assert ("lap-to-lap spread of position", figure8.SPREAD_CONDITION) in low.fitted_on
+    high = figure8._fit_vertical_share(build, train(2 * ends[0]), study)
+    assert high.vertical_velocity_error == 0.0 and high.thrust_error == 0.05
+    mid = 0.5 * (ends[0] + ends[1])
+    got = figure8._fit_vertical_share(build, train(mid), study)
+    assert 0.0 < got.vertical_velocity_error < 0.05
+    assert figure8._replicate_mean(got, figure8.SPREAD_CONDITION, study,
+                                   ("position_spread",))[0] == pytest.approx(mid, rel=0.05)
+    with pytest.raises(ValueError, match="position spread"):
+        figure8._fit_vertical_share(build, train(mid).drop(columns="position_spread"), study)
