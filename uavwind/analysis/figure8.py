@@ -40,11 +40,15 @@ The twin (each choice stated on the page):
   one controller at every wind, as a real controller is); per flight, the battery (the
   hover throttle, so the rotors' full thrust, drawn from the training flights'); and within
   the flight, the state the controller acts on: an attitude estimate tilted off the true
-  attitude, a velocity estimate off the true velocity and a thrust off the commanded, each a
-  second-order Gauss-Markov process (correlation time ``error_time``) that the controller
-  flies on in the kernel (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`'s
-  ``state_errors``) and that the record carries as a real log does (the estimated attitude
-  and velocity, ``fa`` computed from them and the commanded thrust). Its own gusts and noise.
+  attitude, a velocity estimate off the true velocity (along x, and vertically) and a thrust
+  off the commanded, each a second-order Gauss-Markov process (correlation time
+  ``error_time``) that the controller flies on in the kernel
+  (:meth:`~uavwind.sim.multirotor.Multirotor.fly_reference`'s ``state_errors``) and that the
+  record carries as a real log does (the estimated attitude and velocity, ``fa`` computed
+  from them and the commanded thrust). The still-air vertical error is split between the
+  thrust and the vertical velocity estimate on the position spread at 12.1 m/s
+  (:func:`_fit_vertical_share`: on the Neural-Fly flights all of it the velocity's). Its own
+  gusts and noise.
 * *Held out.* The twin is fitted on every controller but one (:func:`held_out_controller`)
   and checked on that one (:func:`validation_table`).
 """
