@@ -575,8 +575,10 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     noise leaves once the twin's own motion above the cutoff is counted. Off by default: the
     twin's attitude noise then equals the training mean wherever it can, which is the trivial
     model's error there, and the held-out controller is noisier than the training mean in
-    wind, where the twin's excess had been closer to it (paper profile 1.27 -> 1.30, quick
-    0.88 -> 0.90).
+    wind, where the twin's excess had been closer to it. On the twin of SIM_VERSION 7 it
+    worsened the mean scaled error (paper profile 1.27 -> 1.30, quick 0.88 -> 0.90); on
+    SIM_VERSION 8's it moves it by less than a hundredth (paper 1.155 -> 1.147, quick 0.805
+    -> 0.807): no gain worth a further fit.
 
     ``vertical_share`` (in [0, 1]; 0: the thrust error alone, the twin of SIM_VERSION 7, to
     the double) is the share of the still-air vertical error's variance carried by an error
