@@ -568,7 +568,8 @@ def calibrate_twin(real_rows: pd.DataFrame, study=STUDIES["paper"],
     spread at 12.1 m/s into the real range but not at 8.5 m/s, and it raises the force's
     spread at 4.2 m/s and in the sinusoidal wind beyond the real ones (the estimate's error
     enters ``fa``), so the twin's mean scaled error grows (paper profile, 1.27 without it,
-    1.39 with it; ``benchmarks/twin_score.py``).
+    1.39 with it; on SIM_VERSION 8's twin 1.155 without, 1.331 with, quick 0.805 and 0.801;
+    ``benchmarks/twin_score.py``).
 
     With ``fit_noise`` the recorded noise is fitted last, on the finished twin
     (:func:`_fit_noise`): what it adds to each channel is what the training controllers'
