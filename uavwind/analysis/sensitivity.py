@@ -47,9 +47,9 @@ __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPT
 #: its mean, which carries to a vehicle of another thrust-to-weight ratio). See
 #: :data:`FITTED_BY`; ``tests/test_sensitivity.py`` holds them to a new fit when the flights
 #: are there.
-FITTED = {"attitude_error": 0.2521, "thrust_error": 0.0300, "velocity_error": 0.0420,
+FITTED = {"attitude_error": 0.3542, "thrust_error": 0.0, "velocity_error": 0.0392,
           "hover_throttle": 0.4817, "hover_throttle_sd": 0.0183, "gain_spread": 0.2509,
-          "integral_spread": 0.2509, "gust_scale": 0.0335, "error_time": 0.2610}
+          "integral_spread": 0.2509, "gust_scale": 0.0875, "error_time": 0.2592}
 #: Where :data:`FITTED` comes from.
 FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_rows("
              "profile='quick'), STUDIES['quick']): fitted on the four training controllers "
@@ -58,8 +58,11 @@ FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_r
              "and vertical tracking (the state errors) and position (the errors' correlation "
              "time, error_time [s]), their still-air tracking error (the controller), their "
              "hover throttle (the battery) and their spread of force along x at 12.1 m/s (the "
-             "gusts); figure8.py with the drag fitted at every wind (SIM_VERSION 7), the quick "
-             "profile's fit (the paper profile's correlation time is 0.217 s)")
+             "gusts); figure8.py with the drag fitted at every wind and the still-air vertical "
+             "error's share fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it "
+             "takes the bound, the vertical velocity estimate's error alone, so the thrust "
+             "error is 0; that vertical velocity error, 0.0263 m/s, is not a source here), "
+             "the quick profile's fit (the paper profile's correlation time is 0.232 s)")
 #: The decimals :data:`FITTED` keeps: a new fit rounds to them.
 FITTED_DECIMALS = 4
 
@@ -74,7 +77,7 @@ SOURCE_NAMES = {"attitude_error": "attitude-estimate tilt [deg]",
 
 _OPEN_LOOP = {
     "attitude_error": "yes: the attitude loop flies on an estimate",
-    "thrust_error": "yes: the rotors make the commanded thrust only to a few percent",
+    "thrust_error": "yes: the rotors' thrust off the commanded (the twin fits it at 0)",
     "velocity_error": "no: flown open loop, nothing reads a velocity",
     "battery": "yes: the rotors' top speed (where they saturate)",
     "gain_spread": "no: no position controller flies (thrust or attitude flown open loop)",
@@ -86,7 +89,7 @@ SOURCES = {
     "exp11": _OPEN_LOOP,
     "exp14": {
         "attitude_error": "yes: the position controller reads an attitude estimate",
-        "thrust_error": "yes: the rotors make its thrust only to a few percent",
+        "thrust_error": "yes: the rotors' thrust off the commanded (the twin fits it at 0)",
         "velocity_error": "yes: it reads a velocity estimate",
         "battery": "yes: the rotors' top speed and the thrust cone",
         "gain_spread": "yes: a position controller flies the references",
@@ -108,7 +111,8 @@ HEADLINES = {
     "exp14": [{"scenario_id": 1, "action": "waypoints", "observation": o}
               for o in ("position", "attitude", "imu")]}
 #: Bump when a change alters the sensitivity rows.
-SENSITIVITY_VERSION = "2"
+#: 3: FITTED from the twin of SIM_VERSION 8 (no thrust error, larger gusts and tilt).
+SENSITIVITY_VERSION = "3"
 
 
 def _check_chapter(chapter):
