@@ -196,12 +196,15 @@ def test_the_chapters_sources_are_named_and_a_controller_only_where_one_flies():
         v = se.chapter_variability(ch)
         assert v.attitude_error == se.FITTED["attitude_error"] and v.gust_scale > 0
         assert v.gain_spread == v.integral_spread == v.velocity_error == 0.0
+        assert v.vertical_velocity_error == 0.0  # flown open loop: nothing reads a velocity
     v = se.chapter_variability("exp14")
     assert v.gain_spread == se.FITTED["gain_spread"] and v.velocity_error > 0
+    assert v.vertical_velocity_error == se.FITTED["vertical_velocity_error"] > 0
+    assert v.sds()[5] == v.vertical_velocity_error  # the kernels' velocity z column
     assert se.chapter_variability("exp14", 0.0).off
     t = se.sources_table("exp10")
     assert t.loc["controller bandwidth (log-SD)", "flown"] == 0.0
-    assert t["applies"].str.startswith("no").sum() == 3
+    assert t["applies"].str.startswith("no").sum() == 4
     for ch in se.CHAPTERS:  # one case per headline, and the registry runs each
         assert len(se.headline_cases(ch)) == len(se.HEADLINES[ch])
         assert f"{ch}_sensitivity" in uw.study.registry.REGISTRY

@@ -51,7 +51,8 @@ __all__ = ["FlightVariability", "VARIABILITY_KEY", "gauss_markov", "burn_in"]
 VARIABILITY_KEY = 3
 
 _FIELDS = {"attitude_error": Range(0.0, 10.0), "thrust_error": Range(0.0, 0.2),
-           "velocity_error": Range(0.0, 2.0), "battery": Range(0.0, 0.5),
+           "velocity_error": Range(0.0, 2.0), "vertical_velocity_error": Range(0.0, 2.0),
+           "battery": Range(0.0, 0.5),
            "gain_spread": Range(0.0, 2.0), "integral_spread": Range(0.0, 2.0),
            "gust_scale": Range(0.0, 10.0),
            "error_time": Range(0.0, 100.0, low_inclusive=False)}
@@ -95,6 +96,10 @@ class FlightVariability:
     velocity_error : float
         SD of the velocity estimate's error along world x [m/s], in [0, 2] (read by a
         position controller only).
+    vertical_velocity_error : float
+        SD of the velocity estimate's error along world z [m/s], in [0, 2] (read by a
+        position controller only: what makes a held height wander in still air beside the
+        thrust error; the twin's fit gives it all of that wander).
     battery : float
         Relative SD of the hover throttle (weight over full thrust) [-], in [0, 0.5]; drawn
         per loop, kept in [0.5, 1.5] times the vehicle's.
@@ -111,6 +116,7 @@ class FlightVariability:
     attitude_error: float = 0.0
     thrust_error: float = 0.0
     velocity_error: float = 0.0
+    vertical_velocity_error: float = 0.0
     battery: float = 0.0
     gain_spread: float = 0.0
     integral_spread: float = 0.0
@@ -124,18 +130,21 @@ class FlightVariability:
     def off(self) -> bool:
         """True when no source acts (every size 0): a loop flies as without variability."""
         return not any((self.attitude_error, self.thrust_error, self.velocity_error,
+                        self.vertical_velocity_error,
                         self.battery, self.gain_spread, self.integral_spread, self.gust_scale))
 
     @property
     def needs_control(self) -> bool:
         """True when a source acts only through a position controller (the velocity
         estimate, the controller's gains)."""
-        return bool(self.velocity_error or self.gain_spread or self.integral_spread)
+        return bool(self.velocity_error or self.vertical_velocity_error or self.gain_spread
+                    or self.integral_spread)
 
     @property
     def has_errors(self) -> bool:
         """True when a loop draws within-flight state errors."""
-        return bool(self.attitude_error or self.thrust_error or self.velocity_error)
+        return bool(self.attitude_error or self.thrust_error or self.velocity_error
+                    or self.vertical_velocity_error)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -144,7 +153,8 @@ class FlightVariability:
         """The SDs of the six errors a flight draws: tilt about world x and y [rad], thrust
         [-], velocity along x, y, z [m/s] (along x only, as the twin draws it)."""
         a = np.radians(self.attitude_error)
-        return np.array([a, a, self.thrust_error, self.velocity_error, 0.0, 0.0])
+        return np.array([a, a, self.thrust_error, self.velocity_error, 0.0,
+                         self.vertical_velocity_error])
 
     def vehicle(self, uav: Multirotor, seed) -> Multirotor:
         """The vehicle of one loop: ``uav`` with its battery and controller drawn from
