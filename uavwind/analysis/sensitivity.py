@@ -427,13 +427,17 @@ _COMPARISONS = {"best - random": "planning before take-off (open-loop best - ran
                 "greedy - best": "greedy replanning (greedy - open-loop best)"}
 
 
-def _closed_loop_name(r):
+def _closed_loop_name(r, sentence=False):
+    """A row's name: the table's (``vs light shear: open-loop best, right at 12 s``) or, in
+    a sentence, the whole scenario (``light constant vs light shear, open-loop best, right at
+    12 s``)."""
     from .closed_loop import POLICY_NAMES
 
-    scen = r["scenario"].replace("Light constant vs ", "vs ")
+    scen = (r["scenario"].lower() + "," if sentence
+            else r["scenario"].replace("Light constant vs ", "vs ") + ":")
     if r["kind"] == "identifies":
-        return f"{scen}: {POLICY_NAMES.get(r['row'], r['row'])}, right at {r['time']:g} s"
-    return f"{scen}: {_COMPARISONS.get(r['row'], r['row'])} at {r['time']:g} s"
+        return f"{scen} {POLICY_NAMES.get(r['row'], r['row'])}, right at {r['time']:g} s"
+    return f"{scen} {_COMPARISONS.get(r['row'], r['row'])} at {r['time']:g} s"
 
 
 def _signed(v):
@@ -467,6 +471,10 @@ def _shown_closed_loop(table):
     return pd.DataFrame(rows).T
 
 
+def _count(n, word):
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
 def _closed_loop_sentence(table):
     """:func:`verdict_sentence` of Exp 12's rows."""
     n = len(table)
@@ -484,19 +492,27 @@ def _closed_loop_sentence(table):
         unit = ((lambda v: f"{v:.0f}%") if r["kind"] == "identifies"
                 else (lambda v: f"{_signed(v)} points"))
         what = ("right in" if r["kind"] == "identifies" else "a paired difference of")
-        parts.append(f"**{_closed_loop_name(r).lower()}: {r['without_verdict']} without it, "
+        parts.append(f"**{_closed_loop_name(r, True)}: {r['without_verdict']} without it, "
                      f"{r['with_verdict']} with it** ({what} {unit(r['without_mean'])} and "
                      f"{unit(r['with_mean'])}{' of the episodes' if r['kind'] == 'identifies' else ''})")
     text = "; ".join(parts) + "."
-    text += (" Each verdict that changes was the simulator's steadiness: the chapter's verdict "
-             "there holds for a vehicle as steady as the model it predicts with only." if len(changed)
-             else " None was the simulator's steadiness.")
+    lost = changed[changed["without_verdict"] != "cannot decide"]
+    if len(lost):
+        text += (f" {_count(len(lost), 'verdict')} the chapter decides without it "
+                 f"{'is' if len(lost) == 1 else 'are'} lost or turned with it: there the "
+                 f"verdict was the simulator's steadiness, and holds only for a vehicle as "
+                 f"steady as the model its belief predicts with.")
+    elif len(changed):
+        text += (" Every change is a verdict the steady simulator could not decide: none of "
+                 "the chapter's decided verdicts was the simulator's steadiness.")
+    else:
+        text += " None was the simulator's steadiness."
     moved = table[((table["change_high"] < 0) | (table["change_low"] > 0))
                   & (table["with_n_loops"] >= MIN_INTERVAL)]
     if len(moved):
         big = moved.loc[moved["change"].abs().idxmax()]
         text += (f" The accuracy moves decidedly in {len(moved)} of {n} rows, most on "
-                 f"{_closed_loop_name(big).lower()} ({_signed(big['change'])} points, 95% CI "
+                 f"{_closed_loop_name(big, True)} ({_signed(big['change'])} points, 95% CI "
                  f"{_signed(big['change_low'])} to {_signed(big['change_high'])}).")
     return text
 
