@@ -1,7 +1,10 @@
 """The twin against the held-out controller (Exp 13, issue 66): its validation table, its
 mean scaled error over the physical quantities beside the training mean's, and its pitch
-lap-to-lap spread per wind. `python benchmarks/twin_score.py [quick|paper] [on|off]` (off:
-the twin of gusts and noise alone); reads and fills $UAVWIND_RESULTS."""
+lap-to-lap spread per wind.
+`python benchmarks/twin_score.py [quick|paper] [on|off] [wind|one] [tilt]` (off: the twin of
+gusts and noise alone; one: the twin fitted at one wind, its correlation time assumed; tilt:
+with the attitude estimate's error in wind fitted on the pitch spread); reads and fills
+$UAVWIND_RESULTS."""
 import sys
 import time
 
@@ -11,9 +14,12 @@ from uavwind.analysis import figure8, real_flights as rf
 
 profile = sys.argv[1] if len(sys.argv) > 1 else "quick"
 variability = (sys.argv[2] != "off") if len(sys.argv) > 2 else True
+per_wind = (sys.argv[3] != "one") if len(sys.argv) > 3 else True
+tilt = len(sys.argv) > 4 and sys.argv[4] == "tilt"
 real = rf.real_flight_rows(profile=profile, n_jobs=1)
 t0 = time.process_time(); w0 = time.time()
-sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability)
+sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability,
+                       per_wind=per_wind, pitch_turbulence=tilt)
 print(f"twin rows: {time.process_time()-t0:.1f} CPU-s (this process), {time.time()-w0:.1f} s wall")
 val = figure8.validation_table(real, sim)
 c = figure8.calibration_of(sim); print({k: v for k, v in c.to_dict().items() if k != "noise"})

@@ -135,7 +135,12 @@ def test_too_few_loops_or_intervals_across_zero_cannot_decide():
     exp5 = _fake("exp5", [{"direction": d, "loop": i, "score": s}
                           for d, ss in (("similar", (0.0, 80.0)), ("opposite", (90.0, 91.0)))
                           for i, s in enumerate(ss)])
-    assert C.claim_c7({"exp5": exp5}).verdict == "cannot decide"
+    c7 = C.claim_c7({"exp5": exp5})
+    assert c7.verdict == "cannot decide"
+    # its difference of two shares in their own whole percentage points, not nested in
+    # brackets ("(difference 50.00 points (2 loops, no interval))", issue 67)
+    assert "similar 50%, opposite 100%, a difference of 50 points (2 loops, no interval);" \
+        in c7.evidence, c7.evidence
     # two loops on the wrong side of every other scenario still decide nothing (issue 67:
     # a 2-loop "interval" is the range of the two loops)...
     far = df.copy()

@@ -317,14 +317,14 @@ def test_the_threads_section_sets_threads_against_serial_idle_and_beside_busy_co
     line = summary_lines(rep)["threads"]
     assert "*Measured 2026-11-28 15:00 UTC on Some CPU*" in line
     assert "ran 1.25 times as fast as the serial ones" in line
-    assert "with 1 other core(s) busy, 3.0 times slower than them" in line
+    assert "with 1 other core busy, 3.00 times slower than them" in line
     assert "using 3.40 CPU seconds against 1.10" in line
-    assert "1.5 times slower than them with `OMP_WAIT_POLICY=PASSIVE`" in line
+    assert "1.50 times slower than them with `OMP_WAIT_POLICY=PASSIVE`" in line
     assert "identical in every run" in line
     rep["threads"]["identical"] = False
     assert "**not** identical" in summary_lines(rep)["threads"]
     t = report_tables(rep)["threads"]
-    assert t.loc[("1 other core(s) busy", "threads"), "wall (s)"] == 3.3
+    assert t.loc[("1 other core busy", "threads"), "wall (s)"] == 3.3
     assert t.loc[("idle", "serial"), "wall range (s)"] == "0.90-1.10"
     assert len(t) == 6
     # from 2026-12-04: serial against the helper threads, no OpenMP pool

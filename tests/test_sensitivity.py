@@ -281,3 +281,17 @@ def test_the_sentence_names_a_changed_verdict_and_says_when_nothing_decides():
     assert "steady simulator only" in text
     few = _table(("cannot decide", 1.0), ("cannot decide", 1.0), n=2)
     assert "On 2 loops a case neither side decides" in se.verdict_sentence(few, "exp14")
+
+
+def test_a_case_that_decides_nothing_without_the_variability_has_no_verdict_to_keep():
+    """Two rows, one decided and kept, one undecided on both sides: the sentence counts the
+    decided one only and says the other had nothing to keep; the table does not call it
+    'yes'."""
+    both = pd.concat([_table(("separates", 1.0), ("separates", 1.0)),
+                      _table(("cannot decide", 0.6), ("cannot decide", 0.5))],
+                     ignore_index=True)
+    text = se.verdict_sentence(both, "exp10")
+    assert text.startswith("1 of 1 headline verdicts survive the real vehicle's variability "
+                           "(1 of the 2 cases decide nothing without it, so have no verdict "
+                           "to keep)")
+    assert se.shown(both.iloc[[1]], "exp10").iloc[0]["survives"] == "no verdict to keep"

@@ -229,7 +229,8 @@ def test_the_rows_are_cached_and_repeat(exp12_rows):
     pd.testing.assert_frame_equal(on, se.sensitivity_table("exp12", TINY, results=folder))
     assert list((folder / "analyses").glob("exp12_sensitivity-*.parquet"))
     shown = se.shown(on, "exp12")
-    assert len(shown) == len(on) and set(shown["survives"]) <= {"yes", "no"}
+    assert len(shown) == len(on) and set(shown["survives"]) <= {"yes", "no",
+                                                                 "no verdict to keep"}
 
 
 def _row(kind, without, with_, change=(0.0, 0.0, 0.0)):
@@ -252,10 +253,17 @@ def test_the_sentence_tells_a_lost_verdict_from_a_new_one():
     assert text.startswith("1 of 2 headline verdicts survive")
     assert ("light constant vs light shear, closed-loop greedy, right at 12 s: identifies "
             "without it, cannot decide with it") in text
-    assert "1 verdict the chapter decides without it is lost" in text
+    assert "Each verdict that changes was the simulator's steadiness" in text
     assert "-35.0 points" in text and "1 of 2 rows (every one lower with it)" in text
-    gained = pd.DataFrame([_row("comparison", ("cannot decide", 3.0), ("helps", 9.0))])
-    assert "none of the chapter's decided verdicts" in se.verdict_sentence(gained, "exp12")
+    assert list(se.shown(lost, "exp12")["survives"]) == ["no", "yes"]
+    # a row that decides nothing without it has no verdict to lose
+    gained = pd.DataFrame([_row("comparison", ("cannot decide", 3.0), ("helps", 9.0)),
+                           _row("comparison", ("helps", 9.0), ("helps", 9.0))])
+    text = se.verdict_sentence(gained, "exp12")
+    assert text.startswith("1 of 1 headline verdicts survive the real vehicle's variability (1 "
+                           "of the 2 rows decide nothing without it")
+    assert "None was the simulator's steadiness." in text
+    assert se.shown(gained, "exp12").iloc[0]["survives"] == "no verdict to keep"
     kept = pd.DataFrame([_row("comparison", ("helps", 9.0), ("helps", 9.0))])
     assert se.verdict_sentence(kept, "exp12").endswith("None was the simulator's steadiness.")
     few = pd.DataFrame([_row("comparison", ("cannot decide", 3.0), ("cannot decide", 3.0))])

@@ -4,7 +4,7 @@ import math
 import pytest
 
 from uavwind.report.sentences import (compare_phrase, first_to_lose, grouping_phrase,
-                                      interval_order, interval_text)
+                                      interval_order)
 
 
 def test_interval_order_says_above_below_or_cannot_decide():
@@ -28,20 +28,6 @@ def test_compare_phrase_takes_each_branch():
     assert compare_phrase((80, 85), (90, 95), **words, n=50) == "down"
     assert compare_phrase((80, 92), (90, 95), **words, n=50) == "cannot decide"
     assert compare_phrase((90, 95), (80, 85), **words, n=2) == "cannot decide"
-
-
-def test_interval_text_shows_no_interval_for_one_loop_or_a_zero_width_one():
-    assert interval_text(85.0, 85.0, 85.0, n=1) == "85.0 (one loop)"
-    assert interval_text(85.0, 80.0, 90.0, n=2) == "85.0 (2 loops, no interval)"
-    assert interval_text(85.0, 85.0, 85.0, n=3) == "85.0"
-    assert interval_text(85.04, 80.12, 89.96, n=3) == "85.0 [80.1, 90.0]"
-    assert interval_text(85.04, 80.12, 89.96, n=3, digits=2) == "85.04 [80.12, 89.96]"
-    with pytest.raises(ValueError, match="^n must"):
-        interval_text(85.0, 80.0, 90.0, n=0)
-    with pytest.raises(ValueError, match="^mean must"):
-        interval_text(math.nan, 80.0, 90.0, n=3)
-    with pytest.raises(ValueError, match="^interval must"):
-        interval_text(85.0, 90.0, 80.0, n=3)
 
 
 def test_grouping_phrase_takes_each_branch():

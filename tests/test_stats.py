@@ -1,4 +1,5 @@
 """The one summary and confidence interval."""
+import math
 import numpy as np
 import pytest
 
@@ -78,3 +79,24 @@ def test_interval_label_never_calls_two_loops_an_interval_nor_shows_zero_width()
     assert interval_label(1.0, 1.0, 1.0, 5, digits=0, scale=100) == "100 (the same on all 5 loops)"
     assert interval_label(85.0, 80.1, 89.9, 50, digits=1) == "85.0 [80.1, 89.9]"
     assert interval_label(-1e-17, -1e-17, 0.5, 5) == "0.00 [0.00, 0.50]"
+    assert interval_label(85.0, 85.0, 85.0, 1, digits=1) == "85.0 (1 loop, no interval)"
+    assert interval_label(85.04, 80.12, 89.96, 3, digits=1) == "85.0 [80.1, 90.0]"
+    assert interval_label(85.0, math.nan, math.nan, 8, digits=1) == "85.0 (8 loops, no interval)"
+    # a difference, signed: a zero-width one (every episode alike) is no interval either
+    assert interval_label(0.0, 0.0, 0.0, 6, 1, unit="episodes", signed=True) == \
+        "+0.0 (the same on all 6 episodes)"
+    assert interval_label(-16.7, -50.0, -1e-9, 6, 1, signed=True) == "-16.7 [-50.0, +0.0]"
+
+
+def test_interval_label_is_the_only_interval_formatter():
+    """One name per idea: the report layer's former interval_text is gone, its pages use this."""
+    import uavwind.report.sentences as sentences
+    assert not hasattr(sentences, "interval_text")
+
+
+@pytest.mark.parametrize("args, name", [((85.0, 80.0, 90.0, 0), "n"),
+                                        ((math.nan, 80.0, 90.0, 3), "estimate"),
+                                        ((85.0, 90.0, 80.0, 3), "low")])
+def test_interval_label_rejects_what_it_cannot_write_naming_it(args, name):
+    with pytest.raises(ValueError, match=f"^{name} must"):
+        interval_label(*args)

@@ -61,7 +61,8 @@ def test_the_parts_are_the_tables_the_pages_showed(experiment, parameter, values
                                   pretty(comparison_table(df).drop(columns="case")))
     for stat in ("mean", "max"):
         expected = summary_table(df)[stat].unstack("scenario")
-        pd.testing.assert_frame_equal(page.scores(stat), expected)
+        pd.testing.assert_frame_equal(page.scores(stat), expected, check_names=False)
+        assert page.scores(stat).index.name == sweeps.SWEEPS[experiment]  # not the code's name
         assert list(page.scores(stat).index) == list(values)
     with pytest.raises(ValueError, match="stat"):
         page.scores("median")

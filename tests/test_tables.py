@@ -80,8 +80,29 @@ def test_pretty_shows_shares_as_percentages_in_side_by_side_tables_too():
     df = pd.concat({"a": pd.DataFrame({"mean": [1.0], "correct_rate": [0.5]}),
                     "b": pd.DataFrame({"mean": [2.0], "correct_rate": [0.25]})}, axis=1)
     out = uw.pretty(df)
-    assert out[("a", "correct (%)")].tolist() == [50.0]
-    assert out[("b", "correct (%)")].tolist() == [25.0] and out[("b", "mean")].tolist() == [2.0]
+    assert out[("a", "correct (%)")].tolist() == ["50.00"]
+    assert out[("b", "correct (%)")].tolist() == ["25.00"]
+    assert out[("b", "mean")].tolist() == ["2.00"]
+
+
+def test_pretty_writes_every_float_with_the_tables_decimals_and_counts_whole():
+    """pandas prints a column of whole floats as "100.0" (all zeros as "0.0", halves as
+    "50.0") beside another column's "98.50": pretty gives every float column the table's
+    decimals, a count (loops) none, and a yes/no column words."""
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.DataFrame({"mean": [98.5, 97.25], "correct_rate": [1.0, 1.0],
+                       "best_so_far": [0.0, 0.0], "n_loops": [2.0, 4.0],
+                       "noise_bias": [0.5, 1.0], "decided": [True, False]})
+    out = uw.pretty(df)
+    assert out["correct (%)"].tolist() == ["100.00", "100.00"]
+    assert out["best so far"].tolist() == ["0.00", "0.00"]
+    assert out["loops"].tolist() == [2, 4]
+    assert out["mean"].tolist() == ["98.50", "97.25"]
+    assert out["noise bias (m)"].tolist() == ["0.50", "1.00"]
+    assert out["placed by the one rule"].tolist() == ["yes", "no"]
+    assert uw.pretty(df, precision=1)["correct (%)"].tolist() == ["100.0", "100.0"]
 
 
 def test_a_missing_value_is_shown_as_a_dash_not_nan():
@@ -96,7 +117,7 @@ def test_a_missing_value_is_shown_as_a_dash_not_nan():
     # a share, shown as the prose quotes it: a percentage (issue 67: 0.02 beside "3.1%")
     assert col == "motor limited (%)"
     # and with the table's decimals, though the dash makes the column text ("2.0" beside "2.09")
-    assert out[col].tolist() == [MISSING, "25.00"] and out["mean"].tolist() == [1.0, 2.0]
+    assert out[col].tolist() == [MISSING, "25.00"] and out["mean"].tolist() == ["1.00", "2.00"]
 
 
 def test_pretty_shows_no_interval_for_one_loop():
@@ -114,11 +135,12 @@ def test_pretty_shows_no_interval_for_one_loop():
     out = uw.pretty(df)
     one, two, three = out.iloc[0], out.iloc[1], out.iloc[2]
     assert [one[c] for c in ("95% CI low", "95% CI high", "correct, CI low (%)")] == ["–"] * 3, one
-    assert [two[c] for c in ("95% CI low", "95% CI high", "runner up high")] == ["–"] * 3, two
+    bounds = ("95% CI low", "95% CI high", "difference, 95% CI high")
+    assert [two[c] for c in bounds] == ["–"] * 3, two
     # a column with a dash is text: its numbers keep the table's two decimals
     assert three["95% CI low"] == "70.00" and three["95% CI high"] == "90.00"
-    assert one["mean"] == 85.0
-    assert three["runner up high"] == "3.00"  # a paired difference's CI
+    assert one["mean"] == "85.00"
+    assert three["difference, 95% CI high"] == "3.00"  # a paired difference's CI
     assert three["correct, CI low (%)"] == "–"  # 100% [100, 100]: zero width, not shown
 
 
@@ -153,3 +175,32 @@ def test_the_baseline_table_names_its_loops_so_two_show_no_interval():
     two, five = uw.pretty(baseline_table(loops(2))), uw.pretty(baseline_table(loops(5)))
     assert (two[["RMSE CI low", "RMSE CI high"]] == "–").all(axis=None)
     assert (five[["RMSE CI low", "RMSE CI high"]] != "–").all(axis=None)
+
+
+def test_verdicts_markdown_writes_one_item_per_case_with_its_markdown_rendered():
+    """A verdict's evidence is prose with Markdown (`make book`): shown as a DataFrame cell it
+    printed its backticks (C1 on each vehicle, issue 67); as a list item it is rendered."""
+    import pandas as pd
+    import pytest
+
+    from uavwind.report.display import verdicts_markdown
+    df = pd.DataFrame({"vehicle": ["point mass", "multirotor"], "noise": ["none", "consumer"],
+                       "verdict": ["cannot decide", "reproduced"],
+                       "evidence": ["only 2 loops (`make book` runs enough)", "S1 lowest"]}
+                      ).set_index(["vehicle", "noise"])
+    text = verdicts_markdown(df)
+    assert text.splitlines() == [
+        "- **point mass, none**: *cannot decide*. Only 2 loops (`make book` runs enough)",
+        "- **multirotor, consumer**: *reproduced*. S1 lowest"]  # a sentence after the stop
+    with pytest.raises(ValueError, match="verdicts must have"):
+        verdicts_markdown(df.drop(columns="evidence"))
+
+
+def test_a_mis_modelled_estimators_columns_read_as_words():
+    import pandas as pd
+
+    import uavwind as uw
+    df = pd.DataFrame({"rmse_mass+20%": [7.71], "correct_rate_drag+20%": [1.0], "odd_name": [1.5]})
+    assert list(uw.pretty(df).columns) == ["wind RMSE, mass +20% (m/s)",
+                                           "correct, drag coefficient +20% (%)", "odd name"]
+    assert uw.pretty(df)["correct, drag coefficient +20% (%)"].tolist() == ["100.00"]

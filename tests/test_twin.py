@@ -261,7 +261,7 @@ def test_the_calibration_hits_its_targets(monkeypatch):
     targets = {"force_x": -7.0, "force_z": -0.4, "offset": -2.5, "spread": 0.3}
     study = rf.RealFlightStudy(max_laps=2)
     cal = figure8.calibrate_twin(_target_rows(targets), study, controllers=("A", "B"),
-                                 variability=False)
+                                 variability=False, per_wind=False)
     assert cal.axis_offset == -2.5 and cal.controllers == ("A", "B")
     assert len(cal.noise) == len(figure8.CONDITIONS) * len(rf.noise_columns())
     quiet = figure8.TwinCalibration(drag_scale=cal.drag_scale, lift_scale=cal.lift_scale,

@@ -168,7 +168,7 @@ def _target_rows():
 
 def test_the_variability_fit_hits_its_still_air_targets():
     rows = _target_rows()
-    cal = figure8.calibrate_twin(rows, STUDY, controllers=("A", "B"))
+    cal = figure8.calibrate_twin(rows, STUDY, controllers=("A", "B"), per_wind=False)
     assert cal.hover_throttle == pytest.approx(0.48)
     assert cal.hover_throttle_sd == pytest.approx(np.std([0.47, 0.49] * 5, ddof=1))
     assert cal.gain_spread > 0 and cal.integral_spread == cal.gain_spread
@@ -178,4 +178,5 @@ def test_the_variability_fit_hits_its_still_air_targets():
     gusty = figure8._replicate_mean(cal, figure8.SPREAD_CONDITION, STUDY, ("fa_x_spread",))
     assert gusty[0] == pytest.approx(0.45, rel=0.03)
     with pytest.raises(ValueError, match="pitch_spread"):
-        figure8.calibrate_twin(rows.drop(columns="pitch_spread"), STUDY, controllers=("A", "B"))
+        figure8.calibrate_twin(rows.drop(columns="pitch_spread"), STUDY, controllers=("A", "B"),
+                               per_wind=False)

@@ -266,8 +266,11 @@ def claim_c7(r: Mapping[str, pd.DataFrame]) -> Verdict:
                "reproduced" if ro == 1.0 and rs < 1.0 else
                "partly" if dec.word == "higher" else
                "not reproduced" if dec.decided else UNDECIDED)
-    ev = (f"correctly grouped loops: similar {100 * rs:.0f}%, opposite {100 * ro:.0f}% "
-          f"(difference {interval_label(dec.estimate, dec.low, dec.high, n, 2, 100, suffix=' points')}); "
+    # the difference in the shares' own format (whole percentage points), not in brackets
+    # inside a bracket ("(difference 50.00 points (2 loops, no interval))")
+    ev = (f"correctly grouped loops: similar {100 * rs:.0f}%, opposite {100 * ro:.0f}%, a "
+          f"difference of "
+          f"{interval_label(dec.estimate, dec.low, dec.high, n, 0, 100, suffix=' points')}; "
           f"mean score similar {_fmt(bootstrap_ci(same), same.size)}, opposite "
           f"{_fmt(bootstrap_ci(opp), opp.size)}" + _too_few([dec]))
     return Verdict("C7", "Opposite wind directions remove the misclassifications (Exp 5).",

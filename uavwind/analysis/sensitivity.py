@@ -37,7 +37,8 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from ..core.stats import (MIN_DECIDE, MIN_INTERVAL, bootstrap_ci, decide, paired_difference,
+from ..core.stats import (MIN_DECIDE, MIN_INTERVAL, UNDECIDED, bootstrap_ci, decide,
+                          paired_difference,
                           summarise)
 from ..sim.variability import FlightVariability
 from ..study.cache import results_dir
@@ -58,19 +59,19 @@ __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPT
 #: its mean, which carries to a vehicle of another thrust-to-weight ratio). See
 #: :data:`FITTED_BY`; ``tests/test_sensitivity.py`` holds them to a new fit when the flights
 #: are there.
-FITTED = {"attitude_error": 0.2844, "thrust_error": 0.0320, "velocity_error": 0.0356,
-          "hover_throttle": 0.4817, "hover_throttle_sd": 0.0183, "gain_spread": 0.2513,
-          "integral_spread": 0.2513, "gust_scale": 0.0521}
+FITTED = {"attitude_error": 0.2521, "thrust_error": 0.0300, "velocity_error": 0.0420,
+          "hover_throttle": 0.4817, "hover_throttle_sd": 0.0183, "gain_spread": 0.2509,
+          "integral_spread": 0.2509, "gust_scale": 0.0335, "error_time": 0.2610}
 #: Where :data:`FITTED` comes from.
 FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_rows("
              "profile='quick'), STUDIES['quick']): fitted on the four training controllers "
              "(L1, NF-C, NF-T, baseline; indi held out) of the 25 Neural-Fly flights "
              "($UAVWIND_NEURALFLY), their still-air lap-to-lap spreads of pitch, force along x "
-             "and vertical tracking (the state errors), their still-air tracking error (the "
-             "controller), their hover throttle (the battery) and their spread of force along "
-             "x at 12.1 m/s (the gusts); figure8.py at commit 9cad936 (SIM_VERSION 6), read "
-             "off the quick profile's exp13_sim rows (the paper profile's fit: attitude 0.20 "
-             "deg, thrust 0.038, velocity 0.032 m/s, controller 0.30, gusts 0.051)")
+             "and vertical tracking (the state errors) and position (the errors' correlation "
+             "time, error_time [s]), their still-air tracking error (the controller), their "
+             "hover throttle (the battery) and their spread of force along x at 12.1 m/s (the "
+             "gusts); figure8.py with the drag fitted at every wind (SIM_VERSION 7), the quick "
+             "profile's fit (the paper profile's correlation time is 0.217 s)")
 #: The decimals :data:`FITTED` keeps: a new fit rounds to them.
 FITTED_DECIMALS = 4
 
@@ -136,7 +137,7 @@ CLOSED_LOOP_AT = {"identifies": None, "comparison": 4.0}
 #: paper's random manoeuvres, and replanning in flight against the best open-loop plan.
 CLOSED_LOOP_PAIRS = (("best", "random"), ("receding", "best"), ("greedy", "best"))
 #: Bump when a change alters the sensitivity rows.
-SENSITIVITY_VERSION = "1"
+SENSITIVITY_VERSION = "2"
 
 
 def _check_chapter(chapter):
@@ -154,7 +155,7 @@ def chapter_variability(chapter: str, scale: float = 1.0) -> FlightVariability:
         raise ValueError(f"scale must be a number in [0, 10], got {scale!r}")
     values = dict(FITTED, battery=FITTED["hover_throttle_sd"] / FITTED["hover_throttle"])
     acts = {k: scale * values[k] for k, why in SOURCES[chapter].items() if why.startswith("yes")}
-    return FlightVariability(**acts)
+    return FlightVariability(**acts, error_time=FITTED["error_time"])  # a time, not a size
 
 
 def sources_table(chapter: str) -> pd.DataFrame:
@@ -380,7 +381,8 @@ def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
                 f" [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
                 if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
             "loops": f"{int(r['with_n_loops'])}",
-            "survives": "yes" if r["survives"] else "**no**"}
+            "survives": ("no verdict to keep" if r["without_verdict"] == UNDECIDED
+                         else "yes" if r["survives"] else "**no**")}
     return pd.DataFrame(rows).T
 
 
@@ -391,16 +393,18 @@ def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
     if chapter == "exp12":
         return _closed_loop_sentence(table)
     n = len(table)
-    kept = int(table["survives"].sum())
-    changed = table[~table["survives"].astype(bool)]
-    undecided = (table["without_verdict"] == "cannot decide") & (
-        table["with_verdict"] == "cannot decide")
+    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
+    kept = int(decided["survives"].sum())
+    changed = decided[~decided["survives"].astype(bool)]
+    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
     if undecided.all():
         n_loops = int(table["with_n_loops"].min())
         return (f"On {n_loops} loop{'' if n_loops == 1 else 's'} a case neither side decides "
                 f"a verdict (one needs {MIN_DECIDE}): the rows show the scores only; the paper "
                 f"profile's count decides.")
-    parts = [f"{kept} of {n} headline verdicts survive the real vehicle's variability"]
+    parts = [f"{kept} of {len(decided)} headline verdicts survive the real vehicle's "
+             f"variability" + (f" ({n - len(decided)} of the {n} cases decide nothing without "
+                               f"it, so have no verdict to keep)" if len(decided) < n else "")]
     for _, r in changed.iterrows():
         parts.append(f"**{r['scenario'].lower()}, {_case_name(r, chapter)}: "
                      f"{r['without_verdict']} without it, {r['with_verdict']} with it** "
@@ -467,27 +471,27 @@ def _shown_closed_loop(table):
                 f" [{_signed(r['change_low'])}, {_signed(r['change_high'])}]"
                 if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
             "episodes": f"{int(r['with_n_loops'])}",
-            "survives": "yes" if r["survives"] else "no"}  # a DataFrame shows no Markdown
+            "survives": ("no verdict to keep" if r["without_verdict"] == UNDECIDED
+                         else "yes" if r["survives"] else "no")}  # a DataFrame: no Markdown
     return pd.DataFrame(rows).T
 
 
-def _count(n, word):
-    return f"{n} {word}{'' if n == 1 else 's'}"
-
-
 def _closed_loop_sentence(table):
-    """:func:`verdict_sentence` of Exp 12's rows."""
+    """:func:`verdict_sentence` of Exp 12's rows: only a verdict decided without the
+    variability can be kept or lost (a row that decides nothing without it has none)."""
     n = len(table)
-    kept = int(table["survives"].sum())
-    changed = table[~table["survives"].astype(bool)]
-    undecided = (table["without_verdict"] == "cannot decide") & (
-        table["with_verdict"] == "cannot decide")
+    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
+    kept = int(decided["survives"].sum())
+    changed = decided[~decided["survives"].astype(bool)]
+    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
     if undecided.all():
         n_ep = int(table["with_n_loops"].min())
-        return (f"On {n_ep} episode{'' if n_ep == 1 else 's'} a case neither side decides a "
+        return (f"On {n_ep} episode{'' if n_ep == 1 else 's'} a row neither side decides a "
                 f"verdict (one needs {MIN_DECIDE}): the rows show the numbers only; the paper "
                 f"profile's count decides.")
-    parts = [f"{kept} of {n} headline verdicts survive the real vehicle's variability"]
+    parts = [f"{kept} of {len(decided)} headline verdicts survive the real vehicle's "
+             f"variability" + (f" ({n - len(decided)} of the {n} rows decide nothing without "
+                               f"it, so have no verdict to keep)" if len(decided) < n else "")]
     for _, r in changed.iterrows():
         unit = ((lambda v: f"{v:.0f}%") if r["kind"] == "identifies"
                 else (lambda v: f"{_signed(v)} points"))
@@ -497,17 +501,9 @@ def _closed_loop_sentence(table):
                      f"{r['with_verdict']} with it** ({what} {unit(r['without_mean'])} and "
                      f"{unit(r['with_mean'])}{of})")
     text = "; ".join(parts) + "."
-    lost = changed[changed["without_verdict"] != "cannot decide"]
-    if len(lost):
-        text += (f" {_count(len(lost), 'verdict')} the chapter decides without it "
-                 f"{'is' if len(lost) == 1 else 'are'} lost or turned with it: there the "
-                 f"verdict was the simulator's steadiness, and holds only for a vehicle as "
-                 f"steady as the model its belief predicts with.")
-    elif len(changed):
-        text += (" Every change is a verdict the steady simulator could not decide: none of "
-                 "the chapter's decided verdicts was the simulator's steadiness.")
-    else:
-        text += " None was the simulator's steadiness."
+    text += (" Each verdict that changes was the simulator's steadiness: there the chapter's "
+             "verdict holds only for a vehicle as steady as the model its belief predicts "
+             "with." if len(changed) else " None was the simulator's steadiness.")
     moved = table[((table["change_high"] < 0) | (table["change_low"] > 0))
                   & (table["with_n_loops"] >= MIN_INTERVAL)]
     if len(moved):

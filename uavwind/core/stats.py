@@ -332,23 +332,34 @@ def decide(estimate: float, low: float, high: float, n: int, *, threshold: float
 
 
 def interval_label(estimate: float, low: float, high: float, n: int, digits: int = 2,
-                   scale: float = 1.0, unit: str = "loops", suffix: str = "") -> str:
-    """An estimate with its 95% interval as the book writes it: ``"85.00 [80.10, 89.90]"``;
-    with fewer than :data:`MIN_INTERVAL` values no interval is called one
-    (``"85.00 (2 loops, no interval)"``), and a zero-width interval is not shown as an
-    interval (``"85.00 (the same on all 5 loops)"``). ``scale`` multiplies every number
-    (100 for a share in percent) and ``suffix`` follows the estimate (``"%"``).
+                   scale: float = 1.0, unit: str = "loops", suffix: str = "",
+                   signed: bool = False) -> str:
+    """An estimate with its 95% interval as the book writes it, the one formatter of every
+    interval a page prints: ``"85.00 [80.10, 89.90]"``; with fewer than :data:`MIN_INTERVAL`
+    values no interval is called one (``"85.00 (2 loops, no interval)"``, ``"85.00 (1 loop,
+    no interval)"``), and a zero-width interval is not shown as an interval (``"85.00 (the
+    same on all 5 loops)"``). ``scale`` multiplies every number (100 for a share in percent)
+    and ``suffix`` follows the estimate (``"%"``); ``signed`` writes every number with its
+    sign, as a difference reads (``"+0.0 [-1.2, +1.5]"``; a value that rounds to zero is
+    ``+0.0``). A NaN bound is no interval; a NaN estimate, ``n < 1`` or ``low > high`` raise
+    a ``ValueError`` naming the parameter.
 
     >>> interval_label(0.5, 0.0, 1.0, 2, digits=0, scale=100)
     '50 (2 loops, no interval)'
     """
-    n = check_scalar(n, "n", low=0, integer=True)
+    n = check_scalar(n, "n", low=1, integer=True)
+    digits = check_scalar(digits, "digits", low=0, integer=True)
     est, lo, hi = (float(v) * scale for v in (estimate, low, high))
+    if isnan(est):
+        raise ValueError(f"estimate must be a number, got {estimate}")
+    if not isnan(lo) and not isnan(hi) and lo > hi:
+        raise ValueError(f"low must not exceed high, got [{low}, {high}]")
     # round(., d) + 0.0: never "-0.00" (a bias of -1e-17 is none)
     e, lo_r, hi_r = (round(v, digits) + 0.0 for v in (est, lo, hi))
+    f = f"{'+' if signed else ''}.{digits}f"
     if n < MIN_INTERVAL or isnan(lo) or isnan(hi):
         one = unit[:-1] if unit.endswith("s") else unit
-        return f"{e:.{digits}f}{suffix} ({n} {one if n == 1 else unit}, no interval)"
+        return f"{e:{f}}{suffix} ({n} {one if n == 1 else unit}, no interval)"
     if lo_r == hi_r:
-        return f"{e:.{digits}f}{suffix} (the same on all {n} {unit})"
-    return f"{e:.{digits}f}{suffix} [{lo_r:.{digits}f}, {hi_r:.{digits}f}]"
+        return f"{e:{f}}{suffix} (the same on all {n} {unit})"
+    return f"{e:{f}}{suffix} [{lo_r:{f}}, {hi_r:{f}}]"

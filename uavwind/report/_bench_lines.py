@@ -116,14 +116,16 @@ def _threads_line(t: Mapping[str, Any], when: str | None) -> str:
         return case["serial"]["wall_seconds"] / case[setting]["wall_seconds"]
 
     def phrase(r):
-        return f"{r:.2f} times as fast as" if r >= 1 else f"{1 / r:.1f} times slower than"
+        # one format for both directions: "1.18 times as fast", "1.13 times slower"
+        return f"{r:.2f} times as fast as" if r >= 1 else f"{1 / r:.2f} times slower than"
     host = t.get("host", {})
     return (f"*Measured {when or '(date not recorded)'} on {host.get('model', '?')}*, "
             f"the engine's k-means on {t['loops']} held-out loops, the median of {t['rounds']} "
             f"rounds, each run in a child process, {t['threads']} threads: on an idle machine "
             f"the threaded kernels "
             f"ran {phrase(ratio(idle, 'threads'))} the serial ones; with {t['busy_cores']} "
-            f"other core(s) busy, {phrase(ratio(busy, 'threads'))} them, using "
+            f"other core{'s' if t['busy_cores'] != 1 else ''} busy, "
+            f"{phrase(ratio(busy, 'threads'))} them, using "
             f"{busy['threads']['cpu_seconds']:.2f} CPU seconds against "
             f"{busy['serial']['cpu_seconds']:.2f}"
             + (f" (numba's OpenMP pool: a thread waiting at a barrier for a core another "

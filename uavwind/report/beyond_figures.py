@@ -50,7 +50,8 @@ def noise_curves(table: pd.DataFrame) -> Figure:
     noise (log x; 0 drawn at 0.01 m), one line per scenario, 95% bands."""
     plt = _plt()
     t = table[table["noise_bias"] == 0]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    # near the text column's width (10 in put its labels and legend at about 6 px, issue 67)
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.6), constrained_layout=True)
     for scen, sub in t.groupby("scenario", sort=False):
         x = np.maximum(sub["noise_sigma"].to_numpy(), 0.01)
         for ax, (y, lo, hi, scale) in zip(axes, [("mean", "ci_low", "ci_high", 1),
@@ -63,9 +64,10 @@ def noise_curves(table: pd.DataFrame) -> Figure:
     for ax, label in zip(axes, ["mean score", "correctly grouped loops (%)"]):
         ax.set_xscale("log")
         ax.axvline(1.0, color="0.5", ls=":", lw=0.8)
-        ax.set(xlabel="position noise sigma [m] (0 drawn at 0.01)", ylabel=label, ylim=(-2, 102))
+        ax.set(xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)", ylabel=label,
+               ylim=(-2, 102))
     axes[1].axhline(50, color="0.5", ls="--", lw=0.8)
-    axes[0].legend(fontsize=7, loc="lower left")
+    axes[0].legend(fontsize=8, loc="lower left")
     return fig
 
 
@@ -102,7 +104,7 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
     white position noise, one line per scenario."""
     plt = _plt()
     t = table[table["noise_bias"] == 0]
-    fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.8), constrained_layout=True)  # column's width
     # lines that coincide (the worked example: 100% at every level for both methods) stay
     # visible: concentric markers, the first scenario's largest and open, the last's
     # smallest, filled and on top
@@ -117,9 +119,10 @@ def baseline_vs_clustering(table: pd.DataFrame) -> Figure:
                      zorder=3 + k, mfc=c if last else "none", mew=1.3)
         axes[1].plot(x, 100 * sub["cc_correct_rate"], marker="o", ms=ms, ls="--", color=c,
                      zorder=3 + k, mfc=c if last else "none", mew=1.3)
-    axes[0].set(xscale="log", yscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+    axes[0].set(xscale="log", yscale="log",
+                xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)",
                 ylabel="baseline wind RMSE [m/s]")
-    axes[1].set(xscale="log", xlabel="position noise sigma [m] (0 drawn at 0.01)",
+    axes[1].set(xscale="log", xlabel="position noise $\\sigma$ [m] (0 drawn at 0.01)",
                 ylabel="correctly grouped loops (%)", ylim=(-2, 102))
     # one legend above both panels: the scenarios' colours, and the two methods' line styles
     from matplotlib.lines import Line2D
@@ -165,7 +168,9 @@ def vehicle_scores(table) -> Figure:
     plt = _plt()
     scen = list(dict.fromkeys(table["scenario"]))
     vehicles = list(dict.fromkeys(table["vehicle"]))
-    fig, ax = plt.subplots(figsize=(10, 0.55 * len(scen) * len(vehicles) / 2 + 2),
+    # about the text column's width (7 in for 690 px), so 9-10 pt reads as 12-14 px: at 10 in
+    # wide and 15 in tall the labels were about 7 px and the legend 6 px (issue 67)
+    fig, ax = plt.subplots(figsize=(7, 0.2 * len(scen) * len(vehicles) + 1.8),
                            constrained_layout=True)
     h = 0.8 / len(vehicles)
     y = np.arange(len(scen))
@@ -174,10 +179,10 @@ def vehicle_scores(table) -> Figure:
         err = _errors(s)  # no bar where there is no 95% interval
         _mark_zero_bars(ax, ax.barh(y + (j - (len(vehicles) - 1) / 2) * h, s["mean"], h,
                                     xerr=err, capsize=2, label=v))
-    ax.set_yticks(y, scen, fontsize=8)
+    ax.set_yticks(y, [textwrap.fill(s, 20) for s in scen], fontsize=10)
     ax.invert_yaxis()
     ax.set(xlabel="mean score", xlim=(0, 100), title="Mean score by vehicle and start")
-    fig.legend(fontsize=7, loc="outside upper center", ncol=2)  # above the axes, off the bars
+    fig.legend(fontsize=9, loc="outside upper center", ncol=2)  # above the axes, off the bars
     return fig
 
 
@@ -190,7 +195,7 @@ def future_grid(table) -> Figure:
     scen = list(dict.fromkeys(table["scenario"]))
     obs = list(dict.fromkeys(table["observation"]))
     fig, axes = plt.subplots(len(noises), len(actions), squeeze=False,
-                             figsize=(4.4 * len(actions) + 1.0, 3.0 * len(noises) + 1.2),
+                             figsize=(3.8 * len(actions) + 0.8, 2.9 * len(noises) + 1.0),
                              constrained_layout=True)
     for i, noise in enumerate(noises):
         for j, action in enumerate(actions):
@@ -204,8 +209,11 @@ def future_grid(table) -> Figure:
                         color="white" if v < 60 else "black")
             # wrapped narrower than a column: "light constant vs light shear" and "vs strong
             # turbulence" ran into each other on one line each (issue 44); at 7.5 pt they
-            # were about 6 px on the page (issue 67): a figure nearer the page's width, larger
-            ax.set_xticks(range(len(scen)), [textwrap.fill(s, 12) for s in scen], fontsize=9)
+            # were about 6 px on the page (issue 67): a figure nearer the page's width (about
+            # 8.4 in for 690 px of text column: 9 pt is about 10 px there), larger
+            ax.set_xticks(range(len(scen)),
+                          [textwrap.fill(s, 9, break_long_words=False) for s in scen],
+                          fontsize=9)
             ax.set_yticks(range(len(obs)), [channel_name(o) for o in obs], fontsize=10)
             ax.set_title(f"{action} actions, noise: {noise}", fontsize=10)
     fig.colorbar(im, ax=axes, shrink=0.6, label="mean score")
@@ -221,7 +229,9 @@ def flyable_scores(table) -> Figure:
     obs = list(dict.fromkeys(table["observation"]))
     actions = list(dict.fromkeys(table["action"]))
     fig, axes = plt.subplots(1, len(obs), squeeze=False, sharey=True,
-                             figsize=(3.6 * len(obs) + 2.4, 0.45 * len(scen) + 1.6),
+                             # near the text column's width (13 in wide put 8 pt at about
+                             # 6 px on the page, issue 67); scenario names wrapped
+                             figsize=(2.4 * len(obs) + 1.8, 0.55 * len(scen) + 1.6),
                              constrained_layout=True)
     h = 0.8 / len(actions)
     y = np.arange(len(scen))
@@ -233,11 +243,12 @@ def flyable_scores(table) -> Figure:
             # a "0" beside a case that scored 0; a pair not run stays blank
             _mark_zero_bars(ax, ax.barh(y + (j - (len(actions) - 1) / 2) * h, s["mean"], h,
                                         xerr=err, capsize=2, label=a))
-        ax.set(title=channel_name(o), xlabel="mean score (blank: not run)", xlim=(0, 100))
-    axes[0, 0].set_yticks(y, scen, fontsize=8)
+        ax.set(title=channel_name(o), xlabel="mean score", xlim=(0, 100))
+    axes[0, 0].set_yticks(y, [textwrap.fill(s, 20) for s in scen], fontsize=9)
     axes[0, 0].invert_yaxis()
     # above the panels: inside the last one it covered the bottom scenario's bars
-    fig.legend(*axes[0, -1].get_legend_handles_labels(), fontsize=7,
+    fig.legend(*axes[0, -1].get_legend_handles_labels(), fontsize=9,
+               title="no bar and no 0: not run", title_fontsize=9,
                loc="outside upper center", ncol=len(actions))
     return fig
 
@@ -262,7 +273,9 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
     scen = list(dict.fromkeys(curves["scenario"]))
     veh = list(dict.fromkeys(curves["vehicle"]))
     fig, axes = plt.subplots(len(scen), len(veh), squeeze=False, sharex=True, sharey=True,
-                             figsize=(5.0 * len(veh), 2.6 * len(scen) + 0.6),
+                             # near the text column's width (10 in put the titles and the
+                             # legend at about 7 px on the page, issue 67)
+                             figsize=(3.7 * len(veh) + 0.3, 2.3 * len(scen) + 0.9),
                              constrained_layout=True)
     for i, s in enumerate(scen):
         for j, v in enumerate(veh):
@@ -276,7 +289,7 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
                         label=POLICY_NAMES.get(pol, pol))
                 ax.fill_between(d["time"], d[f"{value}_low"] * scale,
                                 d[f"{value}_high"] * scale, color=colour, alpha=0.12, lw=0)
-            ax.set_title(f"{s}\n{v}", fontsize=8)
+            ax.set_title(f"{s}\n{v}", fontsize=9)
             if value == "accuracy":
                 ax.axhline(50, color="0.8", lw=0.8, zorder=0)
                 # from 40% unless some curve or band goes lower (early reports of a few
@@ -288,7 +301,8 @@ def closed_loop_curves(curves, value: str = "accuracy") -> Figure:
             if j == 0:
                 ax.set_ylabel("accuracy (%)" if value == "accuracy" else "log-loss (nats)")
     handles, labels = axes[0, 0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=7, loc="outside upper center", ncol=len(labels))
+    fig.legend(handles, labels, fontsize=9, loc="outside upper center",
+               ncol=min(len(labels), 2))
     return fig
 
 

@@ -12,9 +12,11 @@ and tests can reach the presentation too:
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import numpy as np
 import pandas as pd
 
 from ..core.stats import MIN_INTERVAL
@@ -23,7 +25,8 @@ from ..study.registry import column_names
 if TYPE_CHECKING:
     from ..sim.setting import Setting
 
-__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown", "group_name",
+__all__ = ["show_missing", "MISSING", "PRETTY", "SHARES", "pretty", "claims_markdown",
+           "verdicts_markdown", "group_name",
            "channel_name", "signed"]
 
 #: Observation channel (its code name) -> display name, where the code name does not read.
@@ -58,6 +61,17 @@ PRETTY = {
     "baseline_correct_rate": "baseline correct (%)", "cc_correct_rate": "clustering correct (%)",
     "cc_mean": "clustering mean", "rmse": "wind RMSE (m/s)", "rmse_low": "RMSE CI low",
     "rmse_high": "RMSE CI high", "paper_mean_t4": "paper mean",
+    # Exp 7's breaking level (analysis.beyond.breaking_level)
+    "last_ok": "last level, half or more correct (m)",
+    "first_broken": "first level, under half correct (m)",
+    "correct_rate_at_last_ok": "correct at the last (%)",
+    "correct_rate_at_first_broken": "correct at the first (%)",
+    "decided": "placed by the one rule",
+    # the inference page's fitted layouts (analysis.inference)
+    "in_use": "in use", "in_ci": "in the 95% CI",
+    # Exp 8's best observation against its runner-up (analysis.beyond.best_observation)
+    "runner_up": "runner-up", "runner_up_diff": "best minus runner-up",
+    "runner_up_low": "difference, 95% CI low", "runner_up_high": "difference, 95% CI high",
     **column_names(),  # the experiments' label columns, as the registry names them
 }
 #: Columns holding shares in [0, 1], shown as percentages.
@@ -91,12 +105,58 @@ def pretty(df: pd.DataFrame, precision: int = 2) -> pd.DataFrame:
         name = col[-1] if isinstance(col, tuple) else col  # side-by-side tables: the last level
         if name in SHARES or str(name).startswith("correct_rate"):
             out[col] = 100 * out[col]
-    out = out.rename(columns=lambda c: PRETTY.get(c, c.replace("_", " ") if isinstance(c, str) else c))
+    out = out.rename(columns=_display_name)
     if isinstance(out.index, pd.MultiIndex):
         out.index = out.index.set_names([PRETTY.get(n, n) for n in out.index.names])
     elif out.index.name:
         out.index.name = PRETTY.get(out.index.name, out.index.name)
-    return show_missing(out.round(precision), precision)
+    for col in out.columns:  # a yes/no column in words, not Python's True/False
+        if out[col].dtype == bool:
+            out[col] = out[col].map({True: "yes", False: "no"})
+    return _fixed_decimals(show_missing(out.round(precision), precision), precision)
+
+
+#: Exp 9's columns of a mis-modelled estimator: "rmse_mass+20%", "correct_rate_drag+20%".
+_MODEL_ERROR = re.compile(r"^(rmse|correct_rate)_(mass|drag)([+-]\d+%)$")
+
+
+def _display_name(column):
+    """A column's name as a table shows it: :data:`PRETTY`'s, a mis-modelled estimator's
+    ("wind RMSE, mass +20% (m/s)"), else the name with spaces for underscores."""
+    if not isinstance(column, str):
+        return column
+    if column in PRETTY:
+        return PRETTY[column]
+    m = _MODEL_ERROR.match(column)
+    if m:
+        what = {"mass": "mass", "drag": "drag coefficient"}[m.group(2)]
+        error = f"{m.group(3)[0]}{m.group(3)[1:]}"
+        return (f"wind RMSE, {what} {error} (m/s)" if m.group(1) == "rmse"
+                else f"correct, {what} {error} (%)")
+    return column.replace("_", " ")
+
+
+#: Columns that count (loops, crashes): whole numbers, shown without decimals.
+COUNTS = ("n_loops", "loops", "crashed", "flipped", "n_env", "iteration", "thrust_changes")
+
+
+def _fixed_decimals(df: pd.DataFrame, precision: int) -> pd.DataFrame:
+    """Every float column written with the table's ``precision`` decimals, as text: pandas
+    trims the zeros a whole column shares, so a column of whole numbers printed as "100.0"
+    or "0.0", and one of halves as "50.0", beside another's "98.50". A count
+    (:data:`COUNTS`) is written whole."""
+    out = df.copy()
+    for col in out.columns:
+        values = out[col]
+        if values.dtype.kind != "f" or not len(values):
+            continue
+        name = col[-1] if isinstance(col, tuple) else col
+        if name in COUNTS or name in [PRETTY.get(c, c) for c in COUNTS]:
+            if values.notna().all() and np.all(values == np.round(values)):
+                out[col] = values.astype(int)
+            continue
+        out[col] = [MISSING if pd.isna(v) else f"{v:.{precision}f}" for v in values]
+    return out
 
 
 #: The columns holding a 95% interval's bounds.
@@ -135,9 +195,32 @@ def claims_markdown(verdicts: pd.DataFrame,
     parts = []
     for cid, row in verdicts.iterrows():
         lines = [f"**{cid}.** {row['statement']}", ""]
-        lines += [f"- *{names.get(r, r)}: {row[f'verdict ({r})']}.* {row[f'evidence ({r})']}"
-                  for r in readings]
+        lines += [f"- *{names.get(r, r)}: {row[f'verdict ({r})']}.* "
+                  f"{_sentence(row[f'evidence ({r})'])}" for r in readings]
         lines += ["", f"*What the difference teaches.* {row['lesson']}", "",
                   f"*Rule.* {row['rule']}"]
         parts.append("\n".join(lines))
     return "\n\n".join(parts)
+
+
+def _sentence(text: str) -> str:
+    """``text`` as a sentence after a full stop: its first letter capitalised ("means by
+    scenario: ..." follows "*cannot decide.*")."""
+    text = str(text)
+    return text[:1].upper() + text[1:]
+
+
+def verdicts_markdown(verdicts: pd.DataFrame) -> str:
+    """A table of verdicts with their evidence (``verdict`` and ``evidence`` columns, one row
+    per case named by its index) as a Markdown list, one item per row: "**point mass, none**:
+    *cannot decide*. <evidence>". The evidence is prose with Markdown in it (`make book`),
+    which a table's cell would print with its backticks, and a paragraph a cell squeezes."""
+    missing = {"verdict", "evidence"} - set(verdicts.columns)
+    if missing:
+        raise ValueError("verdicts must have the columns verdict and evidence, missing "
+                         f"{sorted(missing)}")
+    items = []
+    for key, row in verdicts.iterrows():
+        name = ", ".join(str(k) for k in key) if isinstance(key, tuple) else str(key)
+        items.append(f"- **{name}**: *{row['verdict']}*. {_sentence(row['evidence'])}")
+    return "\n".join(items)

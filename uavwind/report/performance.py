@@ -205,7 +205,8 @@ def report_tables(report: Mapping[str, Any]) -> dict[str, pd.DataFrame]:
              for model, h in _by_date(report["heldout_hosts"])]).set_index("host")
     if "threads" in report:
         t = report["threads"]
-        machine = {"idle": "idle", "busy": f"{t['busy_cores']} other core(s) busy"}
+        cores = f"core{'s' if t['busy_cores'] != 1 else ''}"
+        machine = {"idle": "idle", "busy": f"{t['busy_cores']} other {cores} busy"}
         out["threads"] = pd.DataFrame(
             [{"machine": machine[cond], "kernels": setting, "wall (s)": c["wall_seconds"],
               "CPU (s)": c["cpu_seconds"],

@@ -116,7 +116,8 @@ def fig1_trajectory_and_wind(flight: Flight, envs: Sequence[int] = (0, -1), arro
 def fig1_velocity_projections(flight: Flight, env: int = 0, every: int = 10) -> Figure:
     """Fig 1b: UAV ground velocity (top) and wind (bottom) along the path in XY, XZ, YZ."""
     plt = _plt()
-    fig, axes = plt.subplots(2, 3, figsize=(12, 6.5), constrained_layout=True)
+    # near the text column's width (12 in put its labels at about 6 px on the page)
+    fig, axes = plt.subplots(2, 3, figsize=(8.4, 5.4), constrained_layout=True)
     p, v, w = flight.positions[env], flight.ground_velocities[env], flight.winds[env]
     idx = np.arange(0, p.shape[0], every)
     for row, (vec, name, colour) in enumerate(((v, "UAV velocity", "tab:blue"),
@@ -140,12 +141,12 @@ def _flow(ax, boxes, loop_back, title):
     n = len(boxes)
     ys = np.linspace(0.9, 0.1, n)
     for k, (text, y) in enumerate(zip(boxes, ys)):
-        ax.text(0.5, y, text, ha="center", va="center", fontsize=8.5, wrap=True,
+        ax.text(0.5, y, text, ha="center", va="center", fontsize=9.5, wrap=True,
                 bbox=dict(boxstyle="round,pad=0.4", fc="#eef3fb", ec="#355c9a"))
         if k < n - 1:
             ax.annotate("", xy=(0.5, ys[k + 1] + 0.045), xytext=(0.5, y - 0.045),
                         arrowprops=dict(arrowstyle="->", color="#355c9a"))
-    ax.annotate(loop_back, xy=(0.86, ys[0]), xytext=(0.86, ys[-1]), fontsize=8, ha="center",
+    ax.annotate(loop_back, xy=(0.9, ys[0]), xytext=(0.9, ys[-1]), fontsize=9, ha="center",
                 rotation=90, va="bottom",
                 arrowprops=dict(arrowstyle="->", color="0.4", connectionstyle="arc3,rad=0"))
     ax.set_title(title, fontsize=10)
@@ -154,16 +155,19 @@ def _flow(ax, boxes, loop_back, title):
 def fig2_flowcharts() -> Figure:
     """Fig 2: the system with random exploration (a) and with CEM (b)."""
     plt = _plt()
-    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 5.5), constrained_layout=True)
+    # about the text column's width (7.4 in for 690 px): at 11 in the boxes' text was about
+    # 7 px on the page (issue 67)
+    fig, (a, b) = plt.subplots(1, 2, figsize=(7.4, 5.6), constrained_layout=True)
     common = ["UAV flies one thrust sequence\nin 2 groups of wind environments",
-              "position trajectories\n(n_env x 120 x 3)",
+              "position trajectories\n(environments x 120 steps x 3 axes)",
               "soft-DTW time-series k-means\n(2 clusters)",
               "silhouette score (DTW);\n0 if a trajectory is misgrouped"]
     _flow(a, ["draw a random thrust sequence\n(times, magnitudes, directions)", *common,
               "record score; report max and mean"], "next loop",
           "(a) random exploration")
-    _flow(b, ["draw N thrust vectors from\nN(mu, sigma^2)", *common,
-              "keep the N_e elite samples;\nrefit mu, sigma (eqs CEM1-2)"], "next iteration",
+    _flow(b, ["draw $N$ thrust vectors from\n$\\mathcal{N}(\\mu, \\sigma^2)$", *common,
+              "keep the $N_e$ elite samples;\nrefit $\\mu$, $\\sigma$ (eqs CEM1-2)"],
+          "next iteration",
           "(b) Cross-Entropy Method")
     return fig
 
@@ -176,13 +180,15 @@ def fig3_loop(trajectories: np.ndarray, groups: ArrayLike, scores: ArrayLike,
               title: str | None = None) -> Figure:
     """Fig 3: (a) one loop's trajectories by group, (b) scores over the loops."""
     plt = _plt()
-    fig = plt.figure(figsize=(11, 4.5), constrained_layout=True)
+    fig = plt.figure(figsize=(8.4, 3.9), constrained_layout=True)  # near the column's width
+    # the 3-D panel's z label reaches past its box: a gap so it stays clear of the scores' axis
+    fig.get_layout_engine().set(wspace=0.12)
     ax1 = fig.add_subplot(1, 2, 1, projection="3d")
     for g, (c, lab) in enumerate(zip(GROUP_COLOURS, group_labels)):
         for k, tr in enumerate(trajectories[np.asarray(groups) == g]):
             ax1.plot(tr[:, 0], tr[:, 1], tr[:, 2], color=c, lw=1, label=lab if k == 0 else None)
     ax1.set(xlabel="x (m)", ylabel="y (m)", zlabel="z (m)", title=title or "one loop")
-    ax1.legend(fontsize=8)
+    ax1.legend(fontsize=9)
     ax2 = fig.add_subplot(1, 2, 2)
     _score_axes(ax2, np.asarray(scores, dtype=float))
     return fig
@@ -215,7 +221,7 @@ def _score_axes(ax, scores, title=None, ylim=(-2, 102), legend=True):
     values = f"max {scores.max():.2f}, mean {scores.mean():.2f}"
     ax.set_title(f"{title}\n{values}" if title else values, fontsize=9)
     if legend:
-        ax.legend(fontsize=7, loc="best")
+        ax.legend(fontsize=9, loc="best")
 
 
 def score_per_loop(df: pd.DataFrame, by: str = "scenario", ncols: int = 2,
@@ -320,7 +326,7 @@ def dryden_spectrum(wind: DrydenWind, n_samples: int = 4096, nperseg: int = 512)
     S = S.mean(axis=0) / (2 * np.pi)  # per rad/s
     omega = 2 * np.pi * f[1:]
     p = wind.parameters
-    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), constrained_layout=True, sharey=True)
+    fig, axes = plt.subplots(1, 3, figsize=(8.4, 3.2), constrained_layout=True, sharey=True)
     for j, (ax, axis) in enumerate(zip(axes, "uvw")):
         ax.loglog(omega, S[1:, j], color="tab:blue", label="simulated (Welch)")
         ax.loglog(omega, dryden_psd(omega, p[f"sigma_{axis}"][0], p[f"L_{axis}"][0],

@@ -8,7 +8,9 @@ changes (issue 44). A verdict word is given only where the one rule of every ver
 fewer loops than a verdict needs, *cannot decide*, and the sentence says so.
 
 Each function raises a ``ValueError`` naming the parameter on input it cannot judge (an
-interval whose low end lies above its high end, a NaN, an empty set of rates).
+interval whose low end lies above its high end, a NaN, an empty set of rates). A mean with
+its interval is written by :func:`uavwind.core.stats.interval_label`, the one formatter of
+every interval a page prints.
 """
 
 from __future__ import annotations
@@ -18,10 +20,9 @@ from collections.abc import Mapping, Sequence
 
 import numpy as np
 
-from ..core.stats import MIN_INTERVAL, UNDECIDED, decide, paired_difference
+from ..core.stats import UNDECIDED, decide, paired_difference
 
-__all__ = ["interval_order", "compare_phrase", "interval_text", "grouping_phrase",
-           "first_to_lose"]
+__all__ = ["interval_order", "compare_phrase", "grouping_phrase", "first_to_lose"]
 
 
 def _interval(low: float, high: float, name: str) -> tuple[float, float]:
@@ -50,26 +51,6 @@ def compare_phrase(a: Sequence[float], b: Sequence[float], higher: str, lower: s
     """``higher`` when ``a``'s interval lies above ``b``'s, ``lower`` when below, else
     ``undecided`` (:func:`interval_order` over ``n`` loops)."""
     return {1: higher, -1: lower, 0: undecided}[interval_order(a, b, n=n)]
-
-
-def interval_text(mean: float, low: float, high: float, n: int, digits: int = 1) -> str:
-    """``"85.0 [80.1, 89.9]"``: a mean with its 95% interval; a mean of fewer than
-    :data:`~uavwind.core.stats.MIN_INTERVAL` loops has none to call one (``"85.0 (one
-    loop)"``, ``"85.0 (2 loops, no interval)"``) and a zero-width interval is not shown, only
-    the mean."""
-    n = int(n)
-    if n < 1:
-        raise ValueError(f"n must be at least 1, got {n}")
-    if math.isnan(float(mean)):
-        raise ValueError(f"mean must be a number, got {mean}")
-    if n == 1:
-        return f"{mean:.{digits}f} (one loop)"
-    if n < MIN_INTERVAL:
-        return f"{mean:.{digits}f} ({n} loops, no interval)"
-    lo, hi = _interval(low, high, "interval")
-    if round(lo, digits) == round(hi, digits):
-        return f"{mean:.{digits}f}"
-    return f"{mean:.{digits}f} [{lo:.{digits}f}, {hi:.{digits}f}]"
 
 
 def grouping_phrase(correct_rates: Mapping[str, float], what: str) -> str:

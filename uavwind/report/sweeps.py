@@ -68,9 +68,11 @@ class SweepPage:
 
     def scores(self, stat: str) -> pd.DataFrame:
         """``stat`` (``"mean"`` or ``"max"``) of every setting: one row per value of the
-        swept parameter, one column per scenario."""
+        swept parameter, named as the figure's axis names it (a reader sees "environments
+        (both groups)", not the column ``n_env``), one column per scenario."""
         check_choice(stat, "stat", ("mean", "max"))
-        return summary_table(self.results)[stat].unstack("scenario")
+        return (summary_table(self.results)[stat].unstack("scenario")
+                .rename_axis(index=SWEEPS[self.experiment]))
 
     def figure(self) -> Figure:
         """Figs 5-7: maximum and mean score against the swept parameter, one panel per

@@ -26,7 +26,7 @@ from ._slots import (AERO, C_D, G, INERTIA, INERTIA_INV, INTEGRAL_ACC, K_D, K_ET
                      ROTOR_DIR, ROTOR_POS, S_QUAT, S_RATES, S_ROTORS, S_VEL, S_WIND, SE3_KD_ATT,
                      SE3_KP_ATT, SPEED_MAX, SPEED_MIN, TAN_TILT, TAU_M, THRUST_HIGH, THRUST_LOW,
                      TM_TO_F)
-from .rotor_params import DRAG_KEYS, GRAVITY, SE3_KD_POS, SE3_KP_POS, rotorpy_params
+from .rotor_params import DRAG_KEYS, GRAVITY, ROTOR_DRAG_KEYS, SE3_KD_POS, SE3_KP_POS, rotorpy_params
 
 
 @lru_cache(maxsize=None)
@@ -66,11 +66,13 @@ def _recompiled(module, reload=importlib.reload):
 
 @lru_cache(maxsize=32)
 def _packed(preset, mass, drag_scale=1.0, lift_scale=1.0, control=None,
-            hover_throttle=None):  # mass resolved
+            hover_throttle=None, rotor_drag_scale=1.0):  # mass resolved
     """The kernels' parameter vector (``uavwind.sim._rotor_kernels``' layout)."""
     qp = rotorpy_params(preset, mass)
     if drag_scale != 1.0:
         qp.update({k: qp.get(k, 0.0) * drag_scale for k in DRAG_KEYS})
+    if rotor_drag_scale != 1.0:
+        qp.update({k: qp.get(k, 0.0) * rotor_drag_scale for k in ROTOR_DRAG_KEYS})
     if lift_scale != 1.0:
         qp["k_h"] = qp.get("k_h", 0.0) * lift_scale
     inertia = np.array([[qp["Ixx"], qp["Ixy"], qp["Ixz"]],

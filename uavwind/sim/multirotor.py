@@ -71,8 +71,8 @@ from ._slots import (FLAT_ACC, FLAT_ERR, FLAT_POS, FLAT_VEL, FLAT_YAW, FLAT_YAW_
                      SPEED_MIN)
 from .actions import AttitudeSequence, ThrustSequence
 from .flight import Flight
-from .rotor_params import (DRAG_KEYS, GRAVITY, PRESETS, PositionControl, default_mass,
-                           rotorpy_params)
+from .rotor_params import (DRAG_KEYS, GRAVITY, PRESETS, ROTOR_DRAG_KEYS, PositionControl,
+                           default_mass, rotorpy_params)
 
 if TYPE_CHECKING:
     from .references import Reference
@@ -171,6 +171,7 @@ _RANGES = {"mass": Range(0.0, 1e3, low_inclusive=False),
            "substeps": Range(1, 100, integer=True),
            "drag_scale": Range(0.0, 100.0, low_inclusive=False),
            "lift_scale": Range(0.0, 100.0),
+           "rotor_drag_scale": Range(0.0, 100.0, low_inclusive=False),
            "hover_throttle": Range(0.01, 1.0)}
 
 
@@ -201,6 +202,12 @@ class Multirotor:
     drag_scale : float
         Factor on the drag coefficients :data:`~uavwind.sim.rotor_params.DRAG_KEYS` [-], in
         (0, 100]; default 1 (the preset's). Experiment 13 fits it to real flights.
+    rotor_drag_scale : float
+        Further factor on the rotor drag alone (H-force and induced inflow,
+        :data:`~uavwind.sim.rotor_params.ROTOR_DRAG_KEYS`, linear in the airspeed at a rotor
+        speed), in (0, 100]; default 1 (the
+        preset's ratio of rotor to frame drag). With ``drag_scale`` it sets the linear and the
+        quadratic drag apart: Experiment 13 fits both on the real flights' force per wind.
     lift_scale : float
         Factor on the translational lift ``k_h`` [-], in [0, 100]; default 1 (the preset's).
         Experiment 13 fits it to the real flights' vertical force.
@@ -228,6 +235,7 @@ class Multirotor:
     substeps: int = 4
     drag_scale: float = 1.0
     lift_scale: float = 1.0
+    rotor_drag_scale: float = 1.0
     position_control: PositionControl | None = None
     hover_throttle: float | None = None
 
@@ -274,7 +282,7 @@ class Multirotor:
     def packed(self) -> np.ndarray:
         """The kernels' parameter vector (read-only)."""
         return _packed(self.preset, self.mass, self.drag_scale, self.lift_scale,
-                       self.position_control, self.hover_throttle)
+                       self.position_control, self.hover_throttle, self.rotor_drag_scale)
 
     @property
     def gravity(self) -> float:
@@ -373,6 +381,8 @@ class Multirotor:
         qp = rotorpy_params(self.preset, self.mass)
         if self.drag_scale != 1.0:
             qp.update({k: qp.get(k, 0.0) * self.drag_scale for k in DRAG_KEYS})
+        if self.rotor_drag_scale != 1.0:
+            qp.update({k: qp.get(k, 0.0) * self.rotor_drag_scale for k in ROTOR_DRAG_KEYS})
         if self.lift_scale != 1.0:
             qp["k_h"] = qp.get("k_h", 0.0) * self.lift_scale
         if self.hover_throttle is not None:

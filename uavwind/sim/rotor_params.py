@@ -25,7 +25,7 @@ from .vehicle import PAPER_UAV
 
 __all__ = ["PRESETS", "EXTRA", "BASE_MASS", "GRAVITY", "NEURAL_FLY", "SE3_KP_POS", "SE3_KD_POS",
            "PositionControl", "PX4_LIKE", "NEURAL_FLY_CONTROL", "default_mass",
-           "rotorpy_params", "DRAG_KEYS"]
+           "rotorpy_params", "DRAG_KEYS", "ROTOR_DRAG_KEYS"]
 
 #: Presets: RotorPy's full aerodynamics (scaled), the paper's frame drag alone, or Neural-Fly's
 #: quadrotor with RotorPy's aerodynamics.
@@ -184,3 +184,8 @@ def rotorpy_params(preset: str = "rotorpy", mass: float | None = None) -> dict:
 #: The drag coefficients a vehicle's :attr:`~uavwind.sim.multirotor.Multirotor.drag_scale`
 #: multiplies: frame drag (``c_D``), rotor drag (``k_d``) and induced inflow (``k_z``).
 DRAG_KEYS = ("c_Dx", "c_Dy", "c_Dz", "k_d", "k_z")
+#: The rotor-drag coefficients a vehicle's
+#: :attr:`~uavwind.sim.multirotor.Multirotor.rotor_drag_scale` multiplies on top of its drag
+#: factor: the rotors' H-force (``k_d``) and induced inflow (``k_z``), each linear in the
+#: airspeed at a rotor speed, beside the frame's parasitic drag (``c_D``), quadratic in it.
+ROTOR_DRAG_KEYS = ("k_d", "k_z")

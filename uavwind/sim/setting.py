@@ -407,7 +407,8 @@ class Setting:
         if isinstance(self.uav, Multirotor):  # the point mass keeps its earlier keys
             fields["uav"] = {"vehicle": "multirotor, rotorpy==3.0.0", **fields["uav"]}
             for k, default in (("drag_scale", 1.0), ("lift_scale", 1.0),
-                               ("position_control", None), ("hover_throttle", None)):
+                               ("position_control", None), ("hover_throttle", None),
+                               ("rotor_drag_scale", 1.0)):
                 if fields["uav"].get(k, default) == default:  # added later: earlier keys kept
                     fields["uav"].pop(k, None)
             control = fields["uav"].get("position_control")

@@ -44,7 +44,7 @@ from ..core.seeding import child_rng, child_seed
 from .dryden import W20_MIN, DrydenWind
 from .multirotor import Multirotor
 
-__all__ = ["FlightVariability", "VARIABILITY_KEY"]
+__all__ = ["FlightVariability", "VARIABILITY_KEY", "gauss_markov", "burn_in"]
 
 #: Spawn key of a loop's variability draws under its wind seed (the noise is ``2``): the
 #: vehicle ``(3, 0)``, the state errors ``(3, 1)``, the gusts ``(3, 2)``.
@@ -55,6 +55,31 @@ _FIELDS = {"attitude_error": Range(0.0, 10.0), "thrust_error": Range(0.0, 0.2),
            "gain_spread": Range(0.0, 2.0), "integral_spread": Range(0.0, 2.0),
            "gust_scale": Range(0.0, 10.0),
            "error_time": Range(0.0, 100.0, low_inclusive=False)}
+
+
+def burn_in(rate: float, tau: float) -> int:
+    """Samples :func:`gauss_markov` drops before its output: ten time constants ``tau`` [s]
+    at ``rate`` [Hz], after which the lags have forgotten their zero start."""
+    return int(np.ceil(10 * tau * rate))
+
+
+def gauss_markov(white: np.ndarray, rate: float, tau: float, sd, axis: int = 0) -> np.ndarray:
+    """A second-order Gauss-Markov process from white noise: ``white`` (standard normal,
+    :func:`burn_in` samples longer along ``axis`` than the output) through two first-order
+    lags of time constant ``tau`` [s] at ``rate`` [Hz], the burn-in dropped, each last-axis
+    column scaled to its SD ``sd`` (the cascade's own SD is ``(1 - a)^2 sqrt((1 + a^2) /
+    (1 - a^2)^3)``, ``a = exp(-1 / (rate tau))``). The twin's state errors
+    (:mod:`uavwind.analysis.figure8`) and a loop's (:meth:`FlightVariability.state_errors`)
+    are both drawn through it."""
+    from scipy.signal import lfilter
+
+    a = float(np.exp(-1.0 / (rate * tau)))
+    burn = burn_in(rate, tau)
+    z = white
+    for _ in range(2):
+        z = lfilter([1.0 - a], [1.0, -a], z, axis=axis)
+    unit = np.sqrt((1.0 - a) ** 4 * (1.0 + a * a) / (1.0 - a * a) ** 3)  # the cascade's SD
+    return np.delete(z, np.s_[:burn], axis=axis) * (np.asarray(sd) / unit)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -143,15 +168,9 @@ class FlightVariability:
     def state_errors(self, n_env: int, n_ctrl: int, rate: float, seed) -> np.ndarray:
         """(n_env, n_ctrl, 6) errors at ``rate`` [Hz] control steps (columns as :meth:`sds`),
         each environment its own second-order Gauss-Markov draw from ``seed``."""
-        from scipy.signal import lfilter
-
-        a = float(np.exp(-1.0 / (rate * self.error_time)))
-        burn = int(np.ceil(10 * self.error_time * rate))
+        burn = burn_in(rate, self.error_time)
         z = child_rng(seed, 1).standard_normal((n_env, n_ctrl + burn, 6))
-        for _ in range(2):
-            z = lfilter([1.0 - a], [1.0, -a], z, axis=1)
-        unit = np.sqrt((1.0 - a) ** 4 * (1.0 + a * a) / (1.0 - a * a) ** 3)  # the cascade's SD
-        return z[:, burn:] * (self.sds() / unit)
+        return gauss_markov(z, rate, self.error_time, self.sds(), axis=1)
 
     def gusts(self, speeds, altitude: float, dt: float, seed) -> DrydenWind | None:
         """Dryden gusts on environments of mean wind ``speeds`` (n_env,) [m/s], ``W20 =
