@@ -112,7 +112,7 @@ def _tilt_quaternion(b3: np.ndarray) -> np.ndarray:
     return np.concatenate([math.sin(half) * axis, [math.cos(half)]])
 
 
-def _rotvec_quaternions(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
+def rotvec_quaternions(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
     """Quaternions [i, j, k, w] (..., 4) of the rotations by the rotation vectors
     ``(ex, ey, 0)`` [rad] (the same rotation as the kernels' ``_tilt_error``)."""
     th = np.hypot(ex, ey)
@@ -121,7 +121,7 @@ def _rotvec_quaternions(ex: np.ndarray, ey: np.ndarray) -> np.ndarray:
     return np.stack([s * ex, s * ey, np.zeros_like(ex), np.cos(half)], axis=-1)
 
 
-def _quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+def quaternion_product(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton products ``a b`` of quaternions [i, j, k, w] (rotation ``a`` after ``b``), a
     (n, 4) and b (4,) or (n, 4)."""
     ax, ay, az, aw = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
@@ -501,7 +501,7 @@ class Multirotor:
                 raise ValueError("state_errors must have small attitude and thrust errors: each "
                                  "|error| of columns 0-2 below 0.5 (rad, or a share of the "
                                  "thrust)")
-            q_err = _rotvec_quaternions(-state_errors[..., 0], -state_errors[..., 1])  # E^T
+            q_err = rotvec_quaternions(-state_errors[..., 0], -state_errors[..., 1])  # E^T
             gain = 1.0 + state_errors[..., 2]
             if record_all:
                 held_thrust = np.empty((n_env, n))
@@ -516,7 +516,7 @@ class Multirotor:
                 C[:] = quat_k
             else:  # the thrust the rotors make, the command the true attitude flies
                 T[:] = thrust_k * gain[:, k]
-                C[:] = _quaternion_product(q_err[:, k], quat_k)
+                C[:] = quaternion_product(q_err[:, k], quat_k)
             S[:, S_WIND] = wind._velocity(t, S[:, S_POS])
             last = (k + 1) % per == 0
             j = (k + 1) // per - 1

@@ -12,10 +12,15 @@ know?" from the states it has reached. A row's state is the vehicle's: ``(r, v_a
 
 The steps are :func:`uavwind.simulate`'s own, operation for operation, so a flight chained
 segment by segment through :meth:`Rollout.advance` equals the open-loop simulation of the
-same thrust sequence bit for bit (the tests hold it to ``==``). The wind comes from a
+same thrust sequence bit for bit (the tests hold it to ``==``), with a multirotor's
+``state_errors`` too (:meth:`~uavwind.sim.multirotor.Multirotor.fly`'s: the thrust the rotors
+make and the attitude estimate, what a real vehicle adds; :mod:`uavwind.sim.variability`).
+The wind comes from a
 :class:`WindTable`: every environment of a :class:`~uavwind.sim.wind.WindModel` as arrays,
 looked up per row (constant and shear winds from their parameters, winds that do not depend
-on the position, such as Dryden gusts, tabulated at every step time).
+on the position, such as Dryden gusts, tabulated at every step time), optionally with gusts
+added to every environment's wind (``gusts``: the variability's Dryden gusts on a mean wind,
+as :class:`~uavwind.sim.wind.SumWind` adds them).
 """
 
 from __future__ import annotations
@@ -28,7 +33,7 @@ import numpy as np
 from ..core.checks import check_array, check_instance, check_scalar
 from ._rotor_layout import _kernels
 from ._slots import N_STATE, S_POS, S_QUAT, S_WIND
-from .multirotor import Multirotor, force_command
+from .multirotor import Multirotor, force_command, quaternion_product, rotvec_quaternions
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindGroups, ConstantWind, ShearWind, WindModel, libm_pow
 
@@ -61,6 +66,10 @@ class WindTable:
     times : array_like, shape (n_times,)
         Every time [s] the wind will be asked for (the step starts of the whole flight); a
         position-independent model is tabulated there.
+    gusts : WindModel, optional
+        A wind of the same environments that does not depend on the position (Dryden
+        gusts), tabulated at ``times`` and added to each environment's wind (``wind + gusts``
+        as :class:`~uavwind.sim.wind.SumWind` evaluates it). Default None: none.
 
     Notes
     -----
@@ -71,10 +80,21 @@ class WindTable:
     on the position) and refused for a model that says it does (a ``ShearWind`` subclass).
     """
 
-    def __init__(self, wind: WindModel, times: ArrayLike):
+    def __init__(self, wind: WindModel, times: ArrayLike, gusts: WindModel | None = None):
         check_instance(wind, "wind", WindModel)
         self.times = check_array(times, "times", ndim=1)
         self.n_env = wind.n_env
+        self.added = None  # (n_times, n_env, 3): the gusts added to every environment
+        if gusts is not None:
+            check_instance(gusts, "gusts", WindModel)
+            if gusts.n_env != self.n_env:
+                raise ValueError(f"gusts must describe the wind's {self.n_env} environments, "
+                                 f"got n_env {gusts.n_env}")
+            if isinstance(gusts, (ConstantWind, ShearWind, WindGroups)):
+                raise TypeError(f"gusts must be a wind that does not depend on the position "
+                                f"(Dryden gusts), got {type(gusts).__name__}")
+            zeros = np.zeros((self.n_env, 3))
+            self.added = np.stack([gusts._velocity(float(t), zeros) for t in self.times])
         self.kind = np.empty(self.n_env, dtype=np.int8)
         self.base = np.zeros((self.n_env, 3))      # constant velocity, or shear reference
         self.shear = np.zeros((self.n_env, 3))     # alpha, reference height, floor
@@ -143,6 +163,8 @@ class _Lookup:
         self.ref = self.base[self.sh]
         self.env_tb = env[self.tb]
         self.table = table.table
+        self.added = table.added
+        self.env = env
 
     def __call__(self, k, positions):
         out = self.base.copy()
@@ -151,6 +173,8 @@ class _Lookup:
             out[self.sh] = self.ref * libm_pow(z / self.height, self.alpha)[:, None]
         if self.tb.size:
             out[self.tb] = self.table[k, self.env_tb]
+        if self.added is not None:  # as SumWind: (0 + wind) + gusts
+            out = out + self.added[k, self.env]
         return out
 
 
@@ -187,9 +211,9 @@ class Rollout:
 
     @classmethod
     def for_flight(cls, uav: UAV | Multirotor, wind: WindModel, dt: float = 0.1,
-                   duration: float = 12.0) -> Rollout:
+                   duration: float = 12.0, gusts: WindModel | None = None) -> Rollout:
         """A rollout of ``wind``'s environments over a flight of ``duration`` [s] sampled
-        every ``dt`` [s]."""
+        every ``dt`` [s]; ``gusts`` added to every environment's wind (:class:`WindTable`)."""
         check_instance(uav, "uav", (UAV, Multirotor))
         dt = check_scalar(dt, "dt", low=0, low_inclusive=False)
         duration = check_scalar(duration, "duration", low=0, low_inclusive=False, high=1e6)
@@ -199,7 +223,7 @@ class Rollout:
             times = np.arange(n * per) * (1.0 / uav.control_rate)
         else:
             times = np.arange(n) * dt
-        return cls(uav, WindTable(wind, times), float(dt), n)
+        return cls(uav, WindTable(wind, times, gusts), float(dt), n)
 
     def with_substeps(self, substeps: int) -> Rollout:
         """The same rollout with a multirotor integrated in ``substeps`` RK4 steps per
@@ -227,7 +251,8 @@ class Rollout:
         return s
 
     def advance(self, states: np.ndarray, env: np.ndarray, forces: np.ndarray, sample0: int,
-                n: int) -> tuple[np.ndarray, np.ndarray]:
+                n: int, state_errors: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray]:
         """Fly every row ``n`` samples on from sample ``sample0``, holding its thrust.
 
         Parameters
@@ -241,6 +266,12 @@ class Rollout:
             :func:`~uavwind.sim.multirotor.force_command`).
         sample0, n : int
             First sample and number of samples; ``sample0 + n <= n_samples``.
+        state_errors : ndarray, shape (n_rows, n * steps_per_sample, 6), optional
+            A multirotor's errors over the control steps flown, as
+            :meth:`~uavwind.sim.multirotor.Multirotor.fly`'s: the attitude loop reads an
+            estimate tilted by ``(e_x, e_y, 0)`` [rad] (columns 0, 1) and the rotors make
+            ``1 + e_t`` times the thrust (column 2); columns 3-5 are not read. None (default):
+            the thrust as held, the same code path as before the errors existed.
 
         Returns
         -------
@@ -255,8 +286,19 @@ class Rollout:
             raise ValueError(f"sample0 = {sample0} and n = {n}: samples {sample0}.."
                              f"{sample0 + n} lie outside the flight's 0..{self.n_samples}")
         states, env, forces = self.check_rows(states, env, forces)
+        if state_errors is not None:
+            if not isinstance(self.uav, Multirotor):
+                raise ValueError("state_errors needs a multirotor (the point mass flies its "
+                                 "thrust exactly and has no attitude loop)")
+            state_errors = check_array(state_errors, "state_errors",
+                                       shape=(states.shape[0], n * self.steps_per_sample, 6))
+            if not np.all(np.abs(state_errors[..., :3]) < 0.5):
+                raise ValueError("state_errors must have small attitude and thrust errors: each "
+                                 "|error| of columns 0-2 below 0.5 (rad, or a share of the "
+                                 "thrust)")
         if isinstance(self.uav, Multirotor):
-            states, positions = self._advance_multirotor(states, env, forces, sample0, n)
+            states, positions = self._advance_multirotor(states, env, forces, sample0, n,
+                                                         state_errors)
         else:
             states, positions = self._advance_point_mass(states, env, forces, sample0, n)
         if not (np.all(np.isfinite(positions)) and np.all(np.isfinite(states))):
@@ -314,7 +356,7 @@ class Rollout:
             positions[:, j] = r
         return np.concatenate([r, v_air], axis=1), positions
 
-    def _advance_multirotor(self, states, env, forces, sample0, n):
+    def _advance_multirotor(self, states, env, forces, sample0, n, errors=None):
         control_step = _kernels().control_step
 
         uav = self.uav
@@ -334,9 +376,16 @@ class Rollout:
         P = uav.packed
         k0 = sample0 * per
         wind = self.table.lookup(env)
+        if errors is not None:  # as Multirotor.fly: the rotors' thrust, the command flown
+            q_err = rotvec_quaternions(-errors[..., 0], -errors[..., 1])  # E^T
+            gain = 1.0 + errors[..., 2]
         for k in range(n * per):
             S[:, S_WIND] = wind(k0 + k, S[:, S_POS])
-            control_step(P, S, T, C, 0, uav.substeps, h, clipped)
+            if errors is None:
+                control_step(P, S, T, C, 0, uav.substeps, h, clipped)
+            else:
+                control_step(P, S, T * gain[:, k], quaternion_product(q_err[:, k], C), 0,
+                             uav.substeps, h, clipped)
             if (k + 1) % per == 0:
                 positions[:, (k + 1) // per - 1] = S[:, S_POS]
         return S, positions

@@ -15,6 +15,13 @@ environment (the *replays*, which the UAV can compute: it knows its actions and 
 started); the world's positions plus the episode's noise are the observations; the belief
 is reported every ``report_interval``. Every policy of one episode meets the same test
 environment under the same noise draws (its gusts are built once).
+
+With a setting's ``variability`` the world is flown apart from the replays, by
+:func:`truth_rollout`: the vehicle drawn for the episode (its battery), the test wind plus
+Dryden gusts on its mean, and the attitude-estimate and thrust errors within the flight,
+all from spawn key ``(5, episode)``, the same for every policy; the replays and the planner
+keep the steady vehicle (:mod:`~uavwind.method.closed_loop.problem`: a model-mismatch test).
+Without it (or with every source 0) the episode is flown exactly as before it existed.
 """
 
 from __future__ import annotations
@@ -30,12 +37,14 @@ from ...core.io import refuse_to_compute
 from ...core.parallel import check_jobs, pin_threads, stop_workers
 from ...core.seeding import child_rng, child_seed, root_seed
 from ...sim.rollout import Rollout
+from ...sim.vehicle import n_steps as _n_steps
 from ...sim.wind import WindGroups
 from .belief import Evidence
 from .policies import Policy, Situation, get_policy
-from .problem import SEED_NOISE, SEED_POLICY, SEED_TEST, ClosedLoop
+from .problem import SEED_NOISE, SEED_POLICY, SEED_TEST, SEED_TRUTH, ClosedLoop
 
-__all__ = ["fly_episode", "episode_environment", "run_episodes", "EPISODE_COLUMNS"]
+__all__ = ["fly_episode", "episode_environment", "truth_rollout", "run_episodes",
+           "EPISODE_COLUMNS"]
 
 #: The columns of an episode's rows (one row per policy and reported belief).
 EPISODE_COLUMNS = ("episode", "policy", "test_group", "test_speed", "time", "segment",
@@ -79,7 +88,15 @@ def fly_episode(problem: ClosedLoop, policy: str | Policy, episode: int,
     world = Rollout.for_flight(s.uav, WindGroups(known, test_wind), s.dt, s.duration)
     n_known = known.n_env
     rows_env = np.arange(n_known + 1)  # the known environments, then the world
-    states = world.start(rows_env, np.array([0.0, 0.0, s.start_altitude]))
+    start = np.array([0.0, 0.0, s.start_altitude])
+    states = world.start(rows_env, start)
+    truth = None
+    if s.varies:  # the world flies apart: the unsteady vehicle; the replays stay steady
+        truth, errors = _truth_rollout(problem, episode, root, env, test_wind)
+        rows_env = rows_env[:n_known]
+        states = states[:n_known]
+        truth_state = truth.start(np.zeros(1, dtype=np.intp), start)
+        per = truth.steps_per_sample
     noise = problem.sigma * child_rng(root, SEED_NOISE, episode).standard_normal(
         (problem.n_samples, 3))
     evidence = Evidence(problem.groups, problem.sigma, random=problem.random_groups,
@@ -101,8 +118,14 @@ def fly_episode(problem: ClosedLoop, policy: str | Policy, episode: int,
                              f"({m}, 3), got {forces.shape}")
         pos = np.empty((n_known + 1, m, 3))
         for a, b in _runs(forces):
-            f = np.repeat(forces[a][None], n_known + 1, axis=0)
-            states, pos[:, a:b] = world.advance(states, rows_env, f, j * m + a, b - a)
+            f = np.repeat(forces[a][None], rows_env.size, axis=0)
+            states, pos[:rows_env.size, a:b] = world.advance(states, rows_env, f, j * m + a,
+                                                             b - a)
+            if truth is not None:
+                k0, k1 = (j * m + a) * per, (j * m + b) * per
+                truth_state, pos[n_known:, a:b] = truth.advance(
+                    truth_state, np.zeros(1, dtype=np.intp), forces[a][None], j * m + a,
+                    b - a, state_errors=None if errors is None else errors[:, k0:k1])
         observed = pos[n_known] + noise[j * m:(j + 1) * m]
         for a in range(0, m, every):
             evidence.add(observed[a:a + every], pos[:n_known, a:a + every])
@@ -128,6 +151,40 @@ def episode_environment(problem: ClosedLoop, episode: int,
     check_instance(problem, "problem", ClosedLoop)
     episode = check_scalar(episode, "episode", low=0, high=10 ** 9, integer=True)
     return _episode_environment(problem, episode, root_seed(seed))
+
+
+def truth_rollout(problem: ClosedLoop, episode: int, seed: int | np.random.SeedSequence = 0,
+                  ) -> tuple[Rollout, np.ndarray | None]:
+    """``(rollout, state_errors)`` of the vehicle that flies episode ``episode`` of a problem
+    whose setting has ``variability``: one row, the episode's vehicle
+    (:meth:`~uavwind.sim.variability.FlightVariability.vehicle`, its battery) in its test
+    wind plus Dryden gusts on the test environment's mean speed (none on a turbulence
+    group's zero mean, beyond the floor), and its state errors (1, control steps of the
+    flight, 6) or None, all drawn from spawn key ``(5, episode)`` of ``seed``
+    (:mod:`~uavwind.method.closed_loop.episode`). ``ValueError`` without variability."""
+    check_instance(problem, "problem", ClosedLoop)
+    episode = check_scalar(episode, "episode", low=0, high=10 ** 9, integer=True)
+    if not problem.setting.varies:
+        raise ValueError("problem.setting has no variability (None or every source 0): the "
+                         "world flies with the replays, there is no separate truth")
+    root = root_seed(seed)
+    _, env, test_wind = _episode_environment(problem, episode, root)
+    return _truth_rollout(problem, episode, root, env, test_wind)
+
+
+def _truth_rollout(problem, episode, root, env, test_wind):
+    s = problem.setting
+    var = s.variability
+    vs = child_seed(root, SEED_TRUTH, episode)
+    uav = var.vehicle(s.uav, vs)
+    mean = 0.0 if env.kind == "turbulence" else float(env.speeds[0])
+    gusts = var.gusts(np.array([mean]), s.start_altitude, s.dt, vs)
+    rollout = Rollout.for_flight(uav, test_wind, s.dt, s.duration, gusts=gusts)
+    errors = None
+    if var.has_errors:
+        n_ctrl = _n_steps(s.dt, s.duration) * uav.check_grid(s.dt)
+        errors = var.state_errors(1, n_ctrl, uav.control_rate, vs)
+    return rollout, errors
 
 
 def _episode_environment(problem, episode, root):

@@ -11,8 +11,18 @@ seed).
 
 Seeds (spawn keys under the run's root, :mod:`uavwind.core.seeding`): the known turbulence
 ``(0,)``; episode ``i``'s test environment ``(1, i)``, its observation noise ``(2, i)``, its
-policy's draws ``(3, i)``; the open-loop plan ``(4,)``. Episode ``i`` is flown in group
-``i % 2``. So every policy meets the same test environments under the same noise draws.
+policy's draws ``(3, i)``; the open-loop plan ``(4,)``; with a setting's ``variability``,
+the flying vehicle's draws ``(5, i)``. Episode ``i`` is flown in group ``i % 2``. So every
+policy meets the same test environments under the same noise draws (and the same vehicle).
+
+A setting with ``variability`` (:class:`~uavwind.sim.variability.FlightVariability`: an
+attitude estimate and a thrust off the true ones, the battery, gusts on the test wind) makes
+the vehicle that *flies* (the truth, in the test environment) as unsteady as a real one,
+drawn per episode; the replays the UAV predicts with (the known environments, its belief
+and its planning) keep the setting's steady vehicle and winds: a belief built on a steady
+model, tested on an unsteady vehicle (a model-mismatch test). A position controller's
+spread does not apply: the closed loop flies thrust segments open loop (the setting
+refuses it).
 """
 
 from __future__ import annotations
@@ -33,10 +43,10 @@ from ...sim.setting import EnvironmentGroup, Setting
 from ...sim.wind import WindGroups
 
 __all__ = ["ClosedLoop", "held_out", "segment_actions", "SEED_KNOWN", "SEED_TEST", "SEED_NOISE",
-           "SEED_POLICY", "SEED_PLAN"]
+           "SEED_POLICY", "SEED_PLAN", "SEED_TRUTH"]
 
 #: Spawn keys of the closed loop's draws (see the module text).
-SEED_KNOWN, SEED_TEST, SEED_NOISE, SEED_POLICY, SEED_PLAN = 0, 1, 2, 3, 4
+SEED_KNOWN, SEED_TEST, SEED_NOISE, SEED_POLICY, SEED_PLAN, SEED_TRUTH = 0, 1, 2, 3, 4, 5
 
 
 def segment_actions(magnitude_step: float = 10.0, max_magnitude: float = MAX_THRUST) -> np.ndarray:
@@ -112,7 +122,8 @@ class ClosedLoop:
     setting : Setting
         The known environments (``group_a``, ``group_b``, at least two each), the vehicle,
         the time grid (``dt``, ``duration``, ``start_altitude``) and the observation noise
-        (``setting.noise.position`` [m], white, per axis; none: only the models' own spread).
+        (``setting.noise.position`` [m], white, per axis; none: only the models' own spread);
+        its ``variability``, if any, acts on the flying vehicle only (see the module text).
     decision_interval : float
         Seconds between decisions [s]: the flight is ``duration / decision_interval``
         segments, each one thrust vector; must divide the flight into whole segments of
