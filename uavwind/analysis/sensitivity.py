@@ -378,17 +378,40 @@ def _cell(r, side):
     return mean
 
 
-def _change(r) -> str:
+def _change(r, units: str = "loops") -> str:
     """The paired change of the score with its 95% CI; none on fewer than
-    :data:`~uavwind.core.stats.MIN_INTERVAL` loops, and where every loop moved alike (a
-    zero-width interval is no interval) that, in words."""
+    :data:`~uavwind.core.stats.MIN_INTERVAL` loops (``units``), and where every one moved
+    alike (a zero-width interval is no interval) that, in words."""
     n = int(r["with_n_loops"])
     text = f"{r['change']:+.1f}"
     if n < MIN_INTERVAL:
         return text
     if r["change_low"] == r["change_high"]:
-        return f"{text} (the same on all {n} loops)"
+        return f"{text} (the same on all {n} {units})"
     return f"{text} [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
+
+
+def _survivors(table, count, units):
+    """The opening both sentences share: ``(decided, changed, text)``: the rows decided
+    without the variability, those whose verdict changed, and the count that survive (or,
+    where no row decides either way, that the ``count`` (loops or episodes) decide nothing,
+    ``changed`` then None)."""
+    n = len(table)
+    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
+    changed = decided[~decided["survives"].astype(bool)]
+    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
+    if undecided.all():
+        k = int(table["with_n_loops"].min())
+        return decided, None, (
+            f"On {k} {count if k == 1 else count + 's'} a {units[:-1]} neither side decides a "
+            f"verdict (one needs {MIN_DECIDE}): the rows show the "
+            f"{'scores' if count == 'loop' else 'numbers'} only; the paper profile's count "
+            f"decides.")
+    kept = int(decided["survives"].sum())
+    return decided, changed, (
+        f"{kept} of {len(decided)} headline verdicts survive the real vehicle's variability"
+        + (f" ({n - len(decided)} of the {n} {units} decide nothing without it, so have no "
+           f"verdict to keep)" if len(decided) < n else ""))
 
 
 def shown(table: pd.DataFrame, chapter: str) -> pd.DataFrame:
@@ -423,18 +446,10 @@ def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
     if chapter == "exp12":
         return _closed_loop_sentence(table)
     n = len(table)
-    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
-    kept = int(decided["survives"].sum())
-    changed = decided[~decided["survives"].astype(bool)]
-    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
-    if undecided.all():
-        n_loops = int(table["with_n_loops"].min())
-        return (f"On {n_loops} loop{'' if n_loops == 1 else 's'} a case neither side decides "
-                f"a verdict (one needs {MIN_DECIDE}): the rows show the scores only; the paper "
-                f"profile's count decides.")
-    parts = [f"{kept} of {len(decided)} headline verdicts survive the real vehicle's "
-             f"variability" + (f" ({n - len(decided)} of the {n} cases decide nothing without "
-                               f"it, so have no verdict to keep)" if len(decided) < n else "")]
+    decided, changed, opening = _survivors(table, "loop", "cases")
+    if changed is None:
+        return opening
+    parts = [opening]
     for _, r in changed.iterrows():
         parts.append(f"**{r['scenario'].lower()}, {_case_name(r, chapter)}: "
                      f"{r['without_verdict']} without it, {r['with_verdict']} with it** "
@@ -497,9 +512,7 @@ def _shown_closed_loop(table):
             "verdict without": r["without_verdict"],
             "with [95% CI]": _closed_loop_cell(r, "with"),
             "verdict with": r["with_verdict"],
-            "change, points [95% CI]": (f"{_signed(r['change'])}" + (
-                f" [{_signed(r['change_low'])}, {_signed(r['change_high'])}]"
-                if int(r["with_n_loops"]) >= MIN_INTERVAL else "")),
+            "change, points [95% CI]": _change(r, "episodes"),
             "episodes": f"{int(r['with_n_loops'])}",
             "survives": ("no verdict to keep" if r["without_verdict"] == UNDECIDED
                          else "yes" if r["survives"] else "no")}  # a DataFrame: no Markdown
@@ -510,18 +523,10 @@ def _closed_loop_sentence(table):
     """:func:`verdict_sentence` of Exp 12's rows: only a verdict decided without the
     variability can be kept or lost (a row that decides nothing without it has none)."""
     n = len(table)
-    decided = table[table["without_verdict"] != UNDECIDED]  # a verdict to keep or lose
-    kept = int(decided["survives"].sum())
-    changed = decided[~decided["survives"].astype(bool)]
-    undecided = (table["without_verdict"] == UNDECIDED) & (table["with_verdict"] == UNDECIDED)
-    if undecided.all():
-        n_ep = int(table["with_n_loops"].min())
-        return (f"On {n_ep} episode{'' if n_ep == 1 else 's'} a row neither side decides a "
-                f"verdict (one needs {MIN_DECIDE}): the rows show the numbers only; the paper "
-                f"profile's count decides.")
-    parts = [f"{kept} of {len(decided)} headline verdicts survive the real vehicle's "
-             f"variability" + (f" ({n - len(decided)} of the {n} rows decide nothing without "
-                               f"it, so have no verdict to keep)" if len(decided) < n else "")]
+    decided, changed, opening = _survivors(table, "episode", "rows")
+    if changed is None:
+        return opening
+    parts = [opening]
     for _, r in changed.iterrows():
         unit = ((lambda v: f"{v:.0f}%") if r["kind"] == "identifies"
                 else (lambda v: f"{_signed(v)} points"))
