@@ -477,13 +477,12 @@ _COMPARISONS = {"best - random": "planning before take-off (open-loop best - ran
 
 
 def _closed_loop_name(r, sentence=False):
-    """A row's name: the table's (``vs light shear: open-loop best, right at 12 s``) or, in
-    a sentence, the whole scenario (``light constant vs light shear, open-loop best, right at
-    12 s``)."""
+    """A row's name: the table's (``Light constant vs light shear: open-loop best, right at
+    12 s``) or, in a sentence, the same in lower case (``light constant vs light shear,
+    open-loop best, right at 12 s``)."""
     from .closed_loop import POLICY_NAMES
 
-    scen = (r["scenario"].lower() + "," if sentence
-            else r["scenario"].replace("Light constant vs ", "vs ") + ":")
+    scen = r["scenario"].lower() + "," if sentence else r["scenario"] + ":"
     if r["kind"] == "identifies":
         return f"{scen} {POLICY_NAMES.get(r['row'], r['row'])}, right at {r['time']:g} s"
     return f"{scen} {_COMPARISONS.get(r['row'], r['row'])} at {r['time']:g} s"
