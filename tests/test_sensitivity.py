@@ -310,3 +310,18 @@ def test_a_change_every_loop_shares_shows_no_interval():
     assert se.shown(moved, "exp10").iloc[0]["change [95% CI]"] == "-3.0 [-5.0, -1.0]"
     few = _table(("cannot decide", 1.0), ("cannot decide", 1.0), n=2)
     assert se.shown(few, "exp10").iloc[0]["change [95% CI]"] == "-3.0"
+
+
+def test_a_verdict_that_flips_on_noise_is_not_called_the_steadiness():
+    """A changed verdict whose paired change holds 0 (one loop of a few) is not blamed on the
+    simulator's steadiness; a decided change is; a mix says which."""
+    noise = _table(("separates", 1.0), ("cannot decide", 0.83), n=6, change=(-16.7, -50.0, 0.0))
+    text = se.verdict_sentence(noise, "exp10")
+    assert "No change of verdict is itself decided" in text and "more loops decide" in text
+    assert "was the simulator's steadiness:" not in text
+    firm = _table(("separates", 0.9), ("cannot decide", 0.6), change=(-3.0, -5.0, -1.0))
+    assert "Each verdict that changes was the simulator's steadiness" in se.verdict_sentence(
+        firm, "exp10")
+    both = pd.concat([firm, noise.assign(scenario="Light constant vs light shear")],
+                     ignore_index=True)
+    assert "1 of the 2 changes of verdict are decided" in se.verdict_sentence(both, "exp10")

@@ -391,6 +391,25 @@ def _change(r, units: str = "loops") -> str:
     return f"{text} [{r['change_low']:+.1f}, {r['change_high']:+.1f}]"
 
 
+def _steadiness(changed, holds, units) -> str:
+    """What the changed verdicts say of the simulator's steadiness. A verdict that changes
+    was the steadiness only where the paired change itself is decided (its 95% interval,
+    on at least :data:`~uavwind.core.stats.MIN_INTERVAL` ``units``, excludes 0): a verdict
+    can flip on one loop of a few while the change is no more than noise."""
+    if not len(changed):
+        return " None was the simulator's steadiness."
+    firm = changed[((changed["change_high"] < 0) | (changed["change_low"] > 0))
+                   & (changed["with_n_loops"] >= MIN_INTERVAL)]
+    if len(firm) == len(changed):
+        return f" Each verdict that changes was the simulator's steadiness: {holds}."
+    if not len(firm):
+        return (" No change of verdict is itself decided (each paired change's 95% interval "
+                f"holds 0): more {units} decide whether it was the simulator's steadiness.")
+    return (f" {len(firm)} of the {len(changed)} changes of verdict are decided (their paired "
+            f"change's 95% interval excludes 0): those were the simulator's steadiness, and "
+            f"{holds}; the others need more {units} to say.")
+
+
 def _survivors(table, count, units):
     """The opening both sentences share: ``(decided, changed, text)``: the rows decided
     without the variability, those whose verdict changed, and the count that survive (or,
@@ -458,9 +477,8 @@ def verdict_sentence(table: pd.DataFrame, chapter: str) -> str:
     moved = table[((table["change_high"] < 0) | (table["change_low"] > 0))
                   & (table["with_n_loops"] >= MIN_INTERVAL)]
     text = "; ".join(parts) + "."
-    text += (" Each verdict that changes was the simulator's steadiness: the chapter's verdict "
-             "on that case holds for the steady simulator only." if len(changed) else
-             " None was the simulator's steadiness.")
+    text += _steadiness(changed, "the chapter's verdict on that case holds for the steady "
+                                 "simulator only", "loops")
     if len(moved):
         big = moved.loc[moved["change"].abs().idxmax()]
         text += (f" The score moves decidedly in {len(moved)} of {n} cases, most on "
@@ -535,9 +553,8 @@ def _closed_loop_sentence(table):
                      f"{r['with_verdict']} with it** ({what} {unit(r['without_mean'])} and "
                      f"{unit(r['with_mean'])}{of})")
     text = "; ".join(parts) + "."
-    text += (" Each verdict that changes was the simulator's steadiness: there the chapter's "
-             "verdict holds only for a vehicle as steady as the model its belief predicts "
-             "with." if len(changed) else " None was the simulator's steadiness.")
+    text += _steadiness(changed, "there the chapter's verdict holds only for a vehicle as "
+                                 "steady as the model its belief predicts with", "episodes")
     moved = table[((table["change_high"] < 0) | (table["change_low"] > 0))
                   & (table["with_n_loops"] >= MIN_INTERVAL)]
     if len(moved):
