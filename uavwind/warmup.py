@@ -20,8 +20,11 @@ from __future__ import annotations
 import sys
 import time
 
+import numpy as np
+
 from . import PAPER_EXAMPLE, ConstantWind, Multirotor, make_setting, simulate
 from .analysis import figure8
+from .method.clustering import score_loop
 from .method.softdtw import warmup as engine_warmup
 
 __all__ = ["warm", "PARTS"]
@@ -39,9 +42,6 @@ def warm(part: str) -> float:
     if part == "engine":
         engine_warmup(parallel=True, every=True)
     elif part == "reference":
-        import numpy as np
-
-        from .method.clustering import score_loop
         s = make_setting("light constant", "strong shear", 3, dt=0.2, duration=4.0, n_changes=3)
         score_loop(s.simulate(s.sample_thrust(np.random.default_rng(0))), s.groups,
                    engine="tslearn")

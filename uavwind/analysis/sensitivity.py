@@ -46,6 +46,7 @@ from ..study.profiles import DEFAULT_SEED, get_profile
 from ..study.readings import get_reading
 from ..study.registry import EXPERIMENTS, computes
 from ..study.runner import check_seed_engine, experiment_entries, run_experiment
+from .closed_loop import POLICY_NAMES
 from .memo import memo
 
 __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPTERS",
@@ -498,8 +499,6 @@ def _closed_loop_name(r, sentence=False):
     """A row's name: the table's (``Light constant vs light shear: open-loop best, right at
     12 s``) or, in a sentence, the same in lower case (``light constant vs light shear,
     open-loop best, right at 12 s``)."""
-    from .closed_loop import POLICY_NAMES
-
     scen = r["scenario"].lower() + "," if sentence else r["scenario"] + ":"
     if r["kind"] == "identifies":
         return f"{scen} {POLICY_NAMES.get(r['row'], r['row'])}, right at {r['time']:g} s"

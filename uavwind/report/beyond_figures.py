@@ -31,6 +31,7 @@ import numpy as np
 
 from ..analysis.closed_loop import POLICY_NAMES
 from ..core.stats import MIN_INTERVAL
+from ..data.neuralfly import condition_label
 from ..analysis.wind_estimates import BASELINE, PROTOCOL_NAMES, estimates
 from ._drawing import GROUP_COLOURS, _errors, _legend_above, _mark_zero_bars, _plt
 from .display import channel_name
@@ -479,8 +480,6 @@ def channel_pair_heatmap(pairs, title: str = "") -> Figure:
     """Exp 13: mean score over controllers of every pair of wind conditions (rows) in every
     channel (columns) (``pairs``: :func:`uavwind.analysis.real_flights.pair_table`)."""
     plt = _plt()
-    from ..data.neuralfly import condition_label
-
     pairs = pairs.assign(pair=pairs["condition_a"].map(condition_label) + " vs "
                          + pairs["condition_b"].map(condition_label))
     grid = pairs.pivot(index="pair", columns="channel", values="mean")
