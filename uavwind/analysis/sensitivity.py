@@ -242,16 +242,11 @@ def sensitivity_table(chapter: str, profile="quick", seed: int = DEFAULT_SEED, r
                                   results, n_jobs)
 
     def compute():
-        own = run_experiment(chapter, profile=prof, seed=seed, n_jobs=n_jobs, results=results,
-                             progress=False, cases=chosen, reading=rd.name)
         entries = experiment_entries(exp, prof, rd, seed, engine, results_dir(results), {},
                                      chosen)
         out = []
-        for ci in chosen:
-            mine = [e for e in entries if e.labels["case"] == ci]
-            varied = pd.concat([replace(e, setting=replace(e.setting, variability=var))
-                                .compute(n_jobs=n_jobs) for e in mine], ignore_index=True)
-            before = own[own["case"] == ci]
+        for ci, before, varied in _flown_both_ways(chapter, prof, seed, rd, chosen, entries,
+                                                   var, results, n_jobs):
             row = {k: v for k, v in cases[ci].labels.items()}
             row.update({f"without_{k}": v for k, v in _summary(before).items()})
             row.update({f"with_{k}": v for k, v in _summary(varied).items()})
@@ -260,15 +255,33 @@ def sensitivity_table(chapter: str, profile="quick", seed: int = DEFAULT_SEED, r
             row["change"], row["change_low"], row["change_high"] = paired_difference(a, b)
             row["survives"] = row["with_verdict"] == row["without_verdict"]
             out.append(row)
-        df = pd.DataFrame(out)
-        df.attrs.update(chapter=chapter, profile=str(prof), seed=seed,
-                        variability=str(var.to_dict()))
-        return df
+        return _frame(out, chapter, prof, seed, var)
 
     return memo(f"{chapter}_sensitivity", {
         "profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
         "cases": [cases[i].setting.key() for i in chosen], "version": SENSITIVITY_VERSION},
         compute, results)
+
+
+def _flown_both_ways(chapter, prof, seed, rd, chosen, entries, var, results, n_jobs):
+    """Per headline case ``(case index, without, with)``: the chapter's own rows of the case
+    (read from the cache, or computed as the chapter computes them) and its cache entries
+    flown again with the variability ``var`` (the same loops or episodes, so paired)."""
+    own = run_experiment(chapter, profile=prof, seed=seed, n_jobs=n_jobs, results=results,
+                         progress=False, cases=chosen, reading=rd.name)
+    for ci in chosen:
+        mine = [e for e in entries if e.labels["case"] == ci]
+        varied = pd.concat([replace(e, setting=replace(e.setting, variability=var))
+                            .compute(n_jobs=n_jobs) for e in mine], ignore_index=True)
+        yield ci, own[own["case"] == ci], varied
+
+
+def _frame(rows, chapter, prof, seed, var):
+    """The rows as a table, with what made them in its ``attrs``."""
+    df = pd.DataFrame(rows)
+    df.attrs.update(chapter=chapter, profile=str(prof), seed=seed,
+                    variability=str(var.to_dict()))
+    return df
 
 
 def _episode_verdict(values, above, below, threshold):
@@ -320,14 +333,10 @@ def _closed_loop_table(chapter, prof, seed, engine, var, exp, rd, chosen, cases,
         return out
 
     def compute():
-        own = run_experiment(chapter, profile=prof, seed=seed, n_jobs=n_jobs, results=results,
-                             progress=False, cases=chosen, reading=rd.name)
         out = []
-        for ci in chosen:
-            mine = [e for e in entries if e.labels["case"] == ci]
-            varied = pd.concat([replace(e, setting=replace(e.setting, variability=var))
-                                .compute(n_jobs=n_jobs) for e in mine], ignore_index=True)
-            before, after = values(own[own["case"] == ci]), values(varied)
+        for ci, own, varied in _flown_both_ways(chapter, prof, seed, rd, chosen, entries, var,
+                                                results, n_jobs):
+            before, after = values(own), values(varied)
             for key, (ep_b, b) in before.items():
                 ep_a, a = after[key]
                 if not np.array_equal(ep_a, ep_b):
@@ -346,10 +355,7 @@ def _closed_loop_table(chapter, prof, seed, engine, var, exp, rd, chosen, cases,
                 row["change"], row["change_low"], row["change_high"] = paired_difference(a, b)
                 row["survives"] = row["with_verdict"] == row["without_verdict"]
                 out.append(row)
-        df = pd.DataFrame(out)
-        df.attrs.update(chapter=chapter, profile=str(prof), seed=seed,
-                        variability=str(var.to_dict()))
-        return df
+        return _frame(out, chapter, prof, seed, var)
 
     return memo(f"{chapter}_sensitivity", {
         "profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
