@@ -9,14 +9,7 @@ import pandas as pd
 import pytest
 
 from uavwind.analysis import figure8, real_flights as rf
-
-STUDY = rf.RealFlightStudy(max_laps=2)
-#: A twin flown on an imperfect state: its velocity estimate's error moves the attitude above
-#: the cutoff (about 0.0015 in the attitude's x in still air) before any noise is added.
-VARIED = figure8.TwinCalibration(drag_scale=0.73, lift_scale=0.62, gust_scale=0.08,
-                                 axis_offset=-2.6, gain_spread=0.25, integral_spread=0.25,
-                                 hover_throttle=0.48, hover_throttle_sd=0.02,
-                                 attitude_error=0.3, thrust_error=0.03, velocity_error=0.04)
+from twin_helpers import STUDY, VARIED, training_rows
 
 
 def _mean_square(cal, column, condition="nowind"):
@@ -47,20 +40,7 @@ def test_the_fitted_noise_tops_the_twins_own_content_up_to_the_target():
 
 def _rows():
     """Two training controllers' flight rows at every wind."""
-    rows = []
-    for i, c in enumerate(("A", "B")):
-        for cond in figure8.CONDITIONS:
-            row = {"kind": "flight", "controller": c, "condition": cond,
-                   "aero_force_x": 0.0, "aero_force_z": 0.0, "pitch_deg": 0.0,
-                   "fa_x_spread": 0.0, **dict.fromkeys(rf.noise_columns(), 0.01 + 0.002 * i)}
-            if cond == "nowind":
-                row.update(pitch_deg=-2.5, aero_force_x=1.0)
-            if cond == figure8.FIT_CONDITION:
-                row.update(aero_force_x=-6.0, aero_force_z=-0.4)
-            if cond == figure8.SPREAD_CONDITION:
-                row.update(fa_x_spread=0.3)
-            rows.append(row)
-    return pd.DataFrame(rows)
+    return training_rows(0.3, noise_step=0.002)
 
 
 def test_off_is_the_twin_before_to_the_double_and_on_is_the_noise_fit_of_it(monkeypatch):

@@ -8,31 +8,13 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.analysis import figure8, real_flights as rf
+from uavwind.analysis import figure8
 from uavwind.core.seeding import child_rng
 from uavwind.data.neuralfly import split_noise
 from uavwind.sim.multirotor import Multirotor
 from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL, PositionControl
-
-STUDY = rf.RealFlightStudy(max_laps=2)
-DURATION = 27.0
-BASE = figure8.TwinCalibration(drag_scale=0.73, lift_scale=0.62, gust_scale=0.08,
-                               axis_offset=-2.6)
-VARIED = replace(BASE, gain_spread=0.25, integral_spread=0.25, hover_throttle=0.48,
-                 hover_throttle_sd=0.02, attitude_error=0.3, thrust_error=0.03,
-                 velocity_error=0.04)
-
-
-def _fly(cal, condition="70wind", seed=0):
-    return figure8.simulated_flight(cal.vehicle(), condition, seed, DURATION, cal)
-
-
-def _same(a, b):
-    return all(np.array_equal(a.arrays[k], b.arrays[k]) for k in a.arrays)
-
-
-def _row(cal, condition="nowind", seed=0):
-    return rf.flight_summaries([_fly(cal, condition, seed)], STUDY)[0]
+from twin_helpers import BASE, STUDY, VARIED, training_rows
+from twin_helpers import fly as _fly, row as _row, same as _same
 
 
 def test_scale_zero_is_todays_twin_to_the_double_and_a_seed_repeats_bit_for_bit():
@@ -148,22 +130,9 @@ def test_bad_input_names_the_parameter():
 
 def _target_rows():
     """Two training controllers' flight rows, still-air spreads included."""
-    rows = []
-    for i, c in enumerate(("A", "B")):
-        for cond in figure8.CONDITIONS:
-            row = {"kind": "flight", "controller": c, "condition": cond,
-                   "aero_force_x": 0.0, "aero_force_z": 0.0, "pitch_deg": 0.0,
-                   "fa_x_spread": 0.0, "pitch_spread": 0.5, "z_tracking_spread": 0.01,
-                   "tracking_rms": 0.06 + 0.03 * i, "hover_throttle": 0.47 + 0.02 * i,
-                   **dict.fromkeys(rf.noise_columns(), 0.01)}
-            if cond == "nowind":
-                row.update(pitch_deg=-2.5, aero_force_x=1.0, fa_x_spread=0.12)
-            if cond == figure8.FIT_CONDITION:
-                row.update(aero_force_x=-6.0, aero_force_z=-0.4)
-            if cond == figure8.SPREAD_CONDITION:
-                row.update(fa_x_spread=0.45)
-            rows.append(row)
-    return pd.DataFrame(rows)
+    return training_rows(0.45, still_air={"fa_x_spread": 0.12}, per_controller=lambda i: {
+        "pitch_spread": 0.5, "z_tracking_spread": 0.01, "tracking_rms": 0.06 + 0.03 * i,
+        "hover_throttle": 0.47 + 0.02 * i})
 
 
 def test_the_variability_fit_hits_its_still_air_targets():

@@ -9,17 +9,7 @@ import pandas as pd
 import pytest
 
 from uavwind.analysis import figure8, real_flights as rf
-
-STUDY = rf.RealFlightStudy(max_laps=2)
-DURATION = 27.0
-VARIED = figure8.TwinCalibration(drag_scale=0.73, lift_scale=0.62, gust_scale=0.08,
-                                 axis_offset=-2.6, gain_spread=0.25, integral_spread=0.25,
-                                 hover_throttle=0.48, hover_throttle_sd=0.02,
-                                 attitude_error=0.3, thrust_error=0.03, velocity_error=0.04)
-
-
-def _fly(cal, condition, seed=0):
-    return figure8.simulated_flight(cal.vehicle(), condition, seed, DURATION, cal)
+from twin_helpers import STUDY, VARIED, fly as _fly
 
 
 def _rows(cal, condition):

@@ -10,31 +10,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uavwind.analysis import figure8, real_flights as rf
+from uavwind.analysis import figure8
 from uavwind.core.seeding import child_rng
 from uavwind.sim.multirotor import Multirotor
-from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL, ROTOR_DRAG_KEYS
+from uavwind.sim.rotor_params import ROTOR_DRAG_KEYS
 from uavwind import make_setting
-
-STUDY = rf.RealFlightStudy(max_laps=2)
-DURATION = 27.0
-BASE = figure8.TwinCalibration(drag_scale=0.73, lift_scale=0.62, gust_scale=0.08,
-                               axis_offset=-2.6)
-VARIED = replace(BASE, gain_spread=0.25, integral_spread=0.25, hover_throttle=0.48,
-                 hover_throttle_sd=0.02, attitude_error=0.3, thrust_error=0.03,
-                 velocity_error=0.04)
-
-
-def _fly(cal, condition="70wind", seed=0):
-    return figure8.simulated_flight(cal.vehicle(), condition, seed, DURATION, cal)
-
-
-def _same(a, b):
-    return all(np.array_equal(a.arrays[k], b.arrays[k]) for k in a.arrays)
-
-
-def _row(cal, condition="nowind", seed=0):
-    return rf.flight_summaries([_fly(cal, condition, seed)], STUDY)[0]
+from twin_helpers import BASE, STUDY, VARIED
+from twin_helpers import fly as _fly, row as _row, same as _same
 
 
 # --------------------------------------------------------------------------- #
