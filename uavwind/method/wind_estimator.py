@@ -184,8 +184,8 @@ def _lowpass(x, dt, cutoff):
 def _signals(flight, cutoff):
     """What the model reads of a flight, low-passed at ``cutoff`` [Hz] (None: raw): the
     body-frame force over the thrust ``f`` (n, 2) [N], the body-frame ground velocity ``vb``
-    (n, 3), the thrust in hovers ``tau`` (n,), ``RT`` (n, 3, 3) world -> body and ``dp`` (n, 3)
-    [m] the offset from the path's centre."""
+    (n, 3), the thrust in hovers ``tau`` (n,), ``RT`` (n, 3, 3) world -> body, ``dp`` (n, 3)
+    [m] the offset from the path's centre and ``fz`` (n,) the body z force over the thrust."""
     a = flight.arrays
     R = np.asarray(a["R"], dtype=float)
     fa_b = np.einsum("nji,nj->ni", R, a["fa"])
@@ -195,8 +195,10 @@ def _signals(flight, cutoff):
     if cutoff is not None:
         X = _lowpass(X, _dt(flight), cutoff)
     RT = np.transpose(X[:, 6:15].reshape(-1, 3, 3), (0, 2, 1))
+    fz = fa_b[:, 2] if cutoff is None else _lowpass(fa_b[:, 2], _dt(flight), cutoff)
     return {"t": np.asarray(a["t"], dtype=float), "f": X[:, :2] / X[:, 5:6], "tau": X[:, 5],
-            "vb": np.einsum("nij,nj->ni", RT, X[:, 2:5]), "RT": RT, "dp": X[:, 15:18]}
+            "vb": np.einsum("nij,nj->ni", RT, X[:, 2:5]), "RT": RT, "dp": X[:, 15:18],
+            "fz": fz / X[:, 5]}
 
 
 @dataclass(frozen=True)
@@ -212,6 +214,10 @@ class DragModel:
 
     def _scale(self, sig):
         return np.clip(1.0 + sig["dp"] @ np.asarray(self.jet), *_JET_RANGE)
+
+    def inplane(self, sig, W):
+        """The in-plane airspeed ``u`` (n, 2) [m/s] for a wind ``W`` (2,) world."""
+        return (self._scale(sig)[:, None] * (sig["RT"][:, :2, :2] @ W)) - sig["vb"][:, :2]
 
     def measurement(self, sig, W):
         """``(z, H)``: the equation as ``z = H W_xy`` per sample, z (n, 2), H (n, 2, 2); with
@@ -330,6 +336,95 @@ def _kalman(model, sig, starts, q, noise):
     return out, var
 
 
+def _z_features(model, sig, W):
+    """A flight's mean of the z model's columns ``[1, |u|^2, |u|^3]`` for a wind ``W`` (2,)."""
+    u2 = np.sum(model.inplane(sig, W) ** 2, axis=1)
+    return np.array([1.0, u2.mean(), (u2 ** 1.5).mean()])
+
+
+def _z_terms(sig, weight):
+    """A flight's mean body z force over the thrust and its mean ``gamma`` (2,): the in-plane
+    force over the whole force along the body z axis (``f_xy / (f_z + m g)``), what an
+    attitude offset moves the z force by per unit of the in-plane offset it makes."""
+    whole = sig["fz"] + weight
+    if not np.all(whole > 0):
+        raise ValueError(f"mass is too small: the body z force plus the weight (mass * g = "
+                         f"{weight:g} N per hover thrust) must be positive at every sample, "
+                         f"got {float(np.min(whole)):g}")
+    gamma = sig["f"] / whole[:, None]
+    return float(sig["fz"].mean()), gamma.mean(axis=0)
+
+
+def _fit_tilt(model, items, wind, held, weight):
+    """The z model of the module text fitted on the training flights ``items`` ``[(flight,
+    sig, keep), ...]`` (raw signals), with their winds ``wind`` (n, 2) and controllers
+    ``held``: ``(coef (3,), z_var, reach, speeds)``. ``z_var``: its flight-level residual
+    variance with each controller left out of the fit in turn; ``reach`` [N^2 s^2/m^2 per
+    hover thrust^2]: how that variance grows with the square of the distance from the
+    nearest training wind speed, fitted with each wind speed left out in turn (where three
+    others remain; else ``inf``: the curve is not trusted off the winds it was fitted at);
+    ``speeds`` the training wind speeds (nested: the flight predicted has no say)."""
+    X, z = [], []
+    for (f, sig, keep), W in zip(items, wind):
+        s = {k: v[keep] for k, v in sig.items()}
+        r = (s["f"] - np.asarray(model.offset) - model.gain * model.inplane(s, W)).mean(axis=0)
+        fz, gamma = _z_terms(s, weight)
+        X.append(_z_features(model, s, W))
+        z.append(fz + gamma @ r)
+    X, z, held = np.array(X), np.array(z), np.asarray(held)
+    speeds = np.round(np.linalg.norm(wind, axis=1), 9)
+    trained = np.unique(speeds)
+    if len(trained) < 3:  # the curve has three parameters: no z equation, the prior alone
+        return None, math.nan, math.inf, tuple(trained.tolist())
+    coef = np.linalg.lstsq(X, z, rcond=None)[0]
+
+    def left_out(groups):
+        out = []
+        for g in np.unique(groups):
+            o = groups == g
+            if len(np.unique(speeds[~o])) >= 3:
+                c = np.linalg.lstsq(X[~o], z[~o], rcond=None)[0]
+                out.append((o, z[o] - X[o] @ c))
+        return out
+
+    res = [e for _, e in left_out(held)]
+    z_var = float(np.mean(np.concatenate(res) ** 2)) if res else float(np.mean((z - X @ coef) ** 2))
+    reach = math.inf
+    far = left_out(speeds)
+    if far:
+        d2 = np.concatenate([np.full(o.sum(), np.min((trained[trained != speeds[o][0]]
+                                                       - speeds[o][0]) ** 2)) for o, _ in far])
+        e2 = np.concatenate([e for _, e in far]) ** 2
+        reach = max(float(np.sum(d2 * np.maximum(e2 - z_var, 0.0)) / np.sum(d2 ** 2)), 1e-12)
+    return coef, z_var, reach, tuple(trained.tolist())
+
+
+def _tilted(model, sig, coef, z_var, r_var, weight, steps=20):
+    """``(offset (2,), var (2, 2))``: the flight's own offset ``r`` [N per hover thrust] (its
+    posterior mean and covariance, module text) for signals ``sig``: the prior ``N(0,
+    diag(r_var))``, the in-plane equation solved for the wind given ``r``, the z equation
+    ``mean f_z + gamma . r = z model(W(r))`` with variance ``z_var`` (Gauss-Newton)."""
+    W0 = model.invert(sig).mean(axis=0)
+    H = model.gain * model._scale(sig)[:, None, None] * sig["RT"][:, :2, :2]
+    Hi = np.linalg.inv(H).mean(axis=0)
+    fz, gamma = _z_terms(sig, weight)
+
+    def resid(r):
+        return fz + gamma @ r - _z_features(model, sig, W0 - Hi @ r) @ coef
+
+    r, h = np.zeros(2), 1e-4
+    prec = 1.0 / np.asarray(r_var)
+    for _ in range(steps):
+        e = resid(r)
+        J = np.array([(resid(r + h * np.eye(2)[i]) - e) / h for i in range(2)])
+        A = np.outer(J, J) / z_var + np.diag(prec)
+        step = np.linalg.solve(A, -(J * e / z_var + prec * r))
+        r = r + step
+        if np.max(np.abs(step)) < 1e-8:
+            break
+    return r, np.linalg.inv(A)
+
+
 class WindEstimator:
     """The wind a multirotor flew through, estimated from its flight (see the module text).
 
@@ -381,7 +476,7 @@ class WindEstimator:
                  cutoff: float = 1.0, sigma_wind_rate: float = 0.3,
                  update_period: float = 0.5, jet: bool = True, parasitic: bool = False,
                  channels=("aero_force", "attitude"), neighbours: int = 1,
-                 skip: float = 2 * np.pi):
+                 skip: float = 2 * np.pi, tilt: bool = True, mass: float = 2.6):
         self.method = check_choice(method, "method", ESTIMATORS)
         self.direction = _unit(direction)
         self.cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=10.0)
@@ -402,6 +497,10 @@ class WindEstimator:
         self.channels = tuple(channels)
         self.neighbours = check_scalar(neighbours, "neighbours", low=1, high=100, integer=True)
         self.skip = check_scalar(skip, "skip", low=0.0, high=1e4)
+        if not isinstance(tilt, (bool, np.bool_)):
+            raise TypeError(f"tilt must be a bool, got {type(tilt).__name__}")
+        self.tilt = bool(tilt)
+        self.mass = check_scalar(mass, "mass", low=0.01, high=1e4)
 
     def __repr__(self):
         return f"WindEstimator(method={self.method!r})"
@@ -436,7 +535,7 @@ class WindEstimator:
         else:
             state = self._fit_drag(flights)
         for k in ("model_", "noise_", "flight_", "block_noise_", "laps_", "lap_winds_",
-                  "scale_"):
+                  "scale_", "tilt_"):
             self.__dict__.pop(k, None)
         self.__dict__.update(state)
         return self
@@ -481,6 +580,11 @@ class WindEstimator:
         if self.method == "ekf":
             blocks = np.array(blocks)
             state["block_noise_"] = _variance_curve(sp, blocks.mean(axis=1))
+        if self.tilt:
+            raw = items if cut is None else [(f, _signals(f, None), k) for f, _, k in items]
+            state["tilt_"] = _fit_tilt(model, raw,
+                                       [f.wind_speed * self.direction[:2] for f in usable],
+                                       [f.controller for f in usable], self.mass * 9.81)
         return state
 
     def _lap_windows(self, flight):
@@ -517,10 +621,13 @@ class WindEstimator:
                                  "wind): it gives no std; use 'drag' or 'ekf'")
             return self._predict_laps(flight)
         self._check_cutoff(flight)
+        model, offset_var = self.model_, None
+        if self.tilt:
+            model, offset_var = self._offset_model(flight)
         if self.method == "drag":
-            W, var = self._predict_drag(flight)
+            W, var = self._predict_drag(flight, model)
         else:
-            W, var = self._predict_ekf(flight)
+            W, var = self._predict_ekf(flight, model)
         mean = np.zeros((flight.n_samples, 3))
         mean[:, :2] = W
         if not np.all(np.isfinite(mean)):
@@ -532,21 +639,62 @@ class WindEstimator:
         speed = np.linalg.norm(W, axis=1)
         for ax in (0, 1):
             a, b = self.flight_[ax]
-            std[:, ax] = np.sqrt(var[:, ax] + a + b * speed ** 2)
+            # the flight mean's error: the controllers' spread, or with tilt=True what is
+            # left of it once the flight's own offset is estimated (its posterior)
+            std[:, ax] = np.sqrt(var[:, ax] + (a + b * speed ** 2 if offset_var is None
+                                               else offset_var[ax]))
         return mean, std
 
-    def _predict_drag(self, flight):
-        W = self.model_.invert(_signals(flight, self.cutoff))
+    def offset(self, flight: RealFlight):
+        """``tilt=True``: the flight's own offset ``(mean, std)``, each (2,) [N per hover
+        thrust], estimated from the flight without its wind (module text)."""
+        check_flight(flight)
+        if not hasattr(self, "tilt_"):
+            raise ValueError("offset needs an estimator fitted with tilt=True (method 'drag' "
+                             "or 'ekf')")
+        r, P = self._offset(flight)
+        return r, np.sqrt(np.diag(P))
+
+    def _offset(self, flight):
+        sig = _signals(flight, None)
+        keep = sig["t"] >= self.skip
+        if keep.sum() < MIN_SAMPLES:
+            keep[:] = True
+        sig = {k: v[keep] for k, v in sig.items()}
+        coef, z_var, reach, trained = self.tilt_
+        speed2 = float(np.sum(self.model_.invert(sig).mean(axis=0) ** 2))
+        r_var = [self.model_.gain ** 2 * max(a + b * speed2, 1e-12) for a, b in self.flight_]
+        d2 = float(np.min((np.asarray(trained) - math.sqrt(speed2)) ** 2))
+        z_var = z_var + (reach * d2 if d2 > 0 else 0.0)
+        if coef is None or not math.isfinite(z_var):
+            return np.zeros(2), np.diag(r_var)  # off the fitted winds: the prior alone
+        return _tilted(self.model_, sig, coef, z_var, r_var, self.mass * 9.81)
+
+    def _offset_model(self, flight):
+        """The model with the flight's own offset added, and the variance (2,) it adds to
+        the wind [m^2/s^2]."""
+        from dataclasses import replace
+
+        r, P = self._offset(flight)
+        sig = _signals(flight, None)
+        H = self.model_.gain * self.model_._scale(sig)[:, None, None] * sig["RT"][:, :2, :2]
+        Hi = np.linalg.inv(H).mean(axis=0)
+        model = replace(self.model_, offset=tuple(float(x) for x in
+                                                  np.asarray(self.model_.offset) + r))
+        return model, np.diag(Hi @ P @ Hi.T)
+
+    def _predict_drag(self, flight, model):
+        W = model.invert(_signals(flight, self.cutoff))
         speed2 = np.sum(W ** 2, axis=1)
         var = np.column_stack([a + b * speed2 for a, b in self.noise_])
         return W, var
 
-    def _predict_ekf(self, flight):
+    def _predict_ekf(self, flight, model):
         sig = _signals(flight, None)
         starts = _blocks(len(sig["t"]), _dt(flight), self.update_period)
         a, b = self.block_noise_
         q = self.sigma_wind_rate ** 2 * self.update_period
-        return _kalman(self.model_, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
+        return _kalman(model, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
 
     def _predict_laps(self, flight):
         dtw = softdtw_engine().dtw  # the kernels load when a lap is compared, not on import
