@@ -38,6 +38,30 @@ carries every channel the autopilot logs). In the body frame ``b`` (``R`` body -
 The model is linear in its six parameters and fitted by least squares on every sample after
 ``skip`` of the training flights, each flight weighted alike.
 
+**Each flight's own offset** (``tilt=True``, the default). On the Neural-Fly flights most of
+a held-out flight's error is its mean's (each flight's logged attitude leans by its own small
+angle, which shifts ``fa_b,xy / tau`` by a constant ``r`` [N per hover thrust] that the
+in-plane equation cannot tell from the wind). A lean also turns the force into the body z axis
+(by ``gamma . r``, ``gamma = f_xy / (f_z + m g)``, ``m`` the ``mass``), and the body z force
+over the thrust ``f_z`` follows the airspeed, so a flight's means obey::
+
+    mean f_z + gamma . r = z(W(r)),   z(W) = a + b mean |u|^2 + c mean |u|^3,
+    W(r) = W_0 - mean(H^-1) r
+
+(``W_0`` the wind the in-plane equation reads, ``H = k s R^T_xy``). ``(a, b, c)`` are fitted
+on the training flights' means, each with its offset known from its label. A held-out flight's
+``r`` is then the posterior of a Gaussian prior ``N(0, k^2 flight(W)^2)`` per axis (the
+controllers' flight-mean spread, below) and that equation (Gauss-Newton), whose variance is
+the curve's flight-level error with each training controller left out of its fit, growing as
+``reach * d^2`` with the distance ``d`` [m/s] from the nearest training wind speed (``reach``
+fitted with each training wind left out in turn; with fewer than four training wind speeds it
+cannot be, the curve is not trusted off them and the prior alone stands: the estimate is then
+the plain model's). Every part is fitted on the training flights only; the held-out flight
+gives its force, attitude and thrust, never its wind. The offset is read from the whole
+flight (after ``skip``): with it the ``"ekf"`` estimate is no longer causal (``tilt=False``
+keeps it causal). The body y offset is barely read (across the wind the force turns little
+into z): it stays near its prior, 0.
+
 **Methods** (``method=``):
 
 * ``"drag"`` -- the model inverted at every sample, on the force, velocity, attitude and thrust
@@ -52,7 +76,9 @@ The model is linear in its six parameters and fitted by least squares on every s
   DTW-nearest training laps. It can only name a wind it was trained on, so it has no std and
   is scored by its accuracy, never by an RMSE.
 
-**Uncertainty** (``return_std=True``): per world axis, ``std^2 = noise(W)^2 + flight(W)^2``.
+**Uncertainty** (``return_std=True``): per world axis, ``std^2 = noise(W)^2 + flight(W)^2``
+(with the flight's own offset, ``flight(W)^2`` is replaced by the offset's posterior variance
+carried into the wind, ``mean(H^-1) P mean(H^-1)^T``).
 ``noise``: the estimate's scatter about its own flight mean on the training flights (for
 ``"ekf"``, the filter's variance with the block noise fitted the same way); ``flight``: the
 error of a flight's mean when its controller is left out of the fit (refitted once per
@@ -456,11 +482,20 @@ class WindEstimator:
     skip : float
         Training samples before this time [s] are not fitted on (the start-up lap), in
         [0, 1e4]; default 2 pi.
+    tilt : bool
+        ``"drag"``, ``"ekf"``: estimate each flight's own offset from its body z force
+        (module text; :meth:`offset`); default True. False: the training flights' offset for
+        every flight (and a causal ``"ekf"``).
+    mass : float
+        The vehicle's mass [kg] (``tilt``: the weight ``m g`` the body z force is measured
+        against), in [0.01, 1e4]; default 2.6, Neural-Fly's quadrotor.
 
     Notes
     -----
     After :meth:`fit`: ``model_`` (:class:`DragModel`), ``noise_`` and ``flight_`` (each per
-    world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]) and ``block_noise_`` (``"ekf"``);
+    world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]), ``block_noise_`` (``"ekf"``),
+    ``tilt_`` (``tilt``: the z curve's ``(a, b, c)``, its variance, ``reach`` and the training
+    wind speeds);
     ``laps_``, ``lap_winds_`` and ``scale_`` (``"clusters"``). A fit that fails leaves the
     estimator as it was.
 
