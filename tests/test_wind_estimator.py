@@ -195,6 +195,13 @@ def test_the_offset_needs_a_fitted_z_curve_and_a_mass_that_holds(leaning_flights
         WindEstimator("drag", tilt=False).fit(leaning_flights).offset(f)
     with pytest.raises(ValueError, match="mass is too small"):
         WindEstimator("drag", mass=0.01).fit(leaning_flights)
+    f = next(g for g in leaning_flights if g.wind_speed == 8.5)
+    R = np.asarray(f.R)
+    fa_b = np.einsum("nji,nj->ni", R, f.fa)
+    fa_b[:, 2] = -40.0 * f.T_sp / f.hover_throttle  # more than the weight, pointing down
+    heavy = _with(f, fa=np.einsum("nij,nj->ni", R, fa_b))
+    with pytest.raises(ValueError, match="flight 'leaning .*mass is too small"):
+        WindEstimator("drag").fit(leaning_flights).predict(heavy)
 
 
 # -- on the twin ---------------------------------------------------------------------- #

@@ -703,7 +703,10 @@ class WindEstimator:
         z_var = z_var + (reach * d2 if d2 > 0 else 0.0)
         if coef is None or not math.isfinite(z_var):
             return np.zeros(2), np.diag(r_var)  # off the fitted winds: the prior alone
-        return _tilted(self.model_, sig, coef, z_var, r_var, self.mass * 9.81)
+        try:
+            return _tilted(self.model_, sig, coef, z_var, r_var, self.mass * 9.81)
+        except ValueError as e:
+            raise ValueError(f"flight {flight.source!r}: {e}") from None
 
     def _offset_model(self, flight):
         """The model with the flight's own offset added, and the variance (2,) it adds to
