@@ -104,7 +104,7 @@ from ..core.checks import check_array, check_choice, check_instance, check_scala
 from ..data.neuralfly import RealFlight, flight_laps
 from .clustering import softdtw_engine
 
-__all__ = ["WindEstimator", "DragModel", "ESTIMATORS", "training_wind", "UNRECORDED",
+__all__ = ["WindEstimator", "DragModel", "ESTIMATORS", "Z_POWERS", "training_wind", "UNRECORDED",
            "check_flight"]
 
 #: The methods of :class:`WindEstimator`.
@@ -362,10 +362,14 @@ def _kalman(model, sig, starts, q, noise):
     return out, var
 
 
-def _z_features(model, sig, W):
-    """A flight's mean of the z model's columns ``[1, |u|^2, |u|^3]`` for a wind ``W`` (2,)."""
+#: The powers of the airspeed the body z force's curve may take (module text).
+Z_POWERS = (2, 3, 4)
+
+
+def _z_features(model, sig, W, power):
+    """A flight's mean of the z curve's columns ``[1, |u|^power]`` for a wind ``W`` (2,)."""
     u2 = np.sum(model.inplane(sig, W) ** 2, axis=1)
-    return np.array([1.0, u2.mean(), (u2 ** 1.5).mean()])
+    return np.array([1.0, (u2 ** (power / 2)).mean()])
 
 
 def _z_terms(sig, weight):
@@ -382,50 +386,52 @@ def _z_terms(sig, weight):
 
 
 def _fit_tilt(model, items, wind, held, weight):
-    """The z model of the module text fitted on the training flights ``items`` ``[(flight,
+    """The z curve of the module text fitted on the training flights ``items`` ``[(flight,
     sig, keep), ...]`` (raw signals), with their winds ``wind`` (n, 2) and controllers
-    ``held``: ``(coef (3,), z_var, reach, speeds)``. ``z_var``: its flight-level residual
-    variance with each controller left out of the fit in turn; ``reach`` [N^2 s^2/m^2 per
-    hover thrust^2]: how that variance grows with the square of the distance from the
-    nearest training wind speed, fitted with each wind speed left out in turn (where three
-    others remain; else ``inf``: the curve is not trusted off the winds it was fitted at);
-    ``speeds`` the training wind speeds (nested: the flight predicted has no say)."""
-    X, z = [], []
+    ``held``: ``(coef (2,), z_var, reach, speeds, power)``. ``power``: of :data:`Z_POWERS`,
+    the one whose curve errs least with each training wind speed left out of its fit in
+    turn; ``z_var``: the curve's flight-level residual variance with each controller left out
+    in turn; ``reach`` [N^2 s^2/m^2 per hover thrust^2]: how that variance grows with the
+    square of the distance from the nearest training wind speed (the errors with each wind
+    left out); ``speeds`` the training wind speeds. Nested: the flight predicted has no say.
+    With fewer than three training wind speeds no curve is fitted (``coef`` None)."""
+    z, rows = [], []
     for (f, sig, keep), W in zip(items, wind):
         s = {k: v[keep] for k, v in sig.items()}
         r = (s["f"] - np.asarray(model.offset) - model.gain * model.inplane(s, W)).mean(axis=0)
         fz, gamma = _z_terms(s, weight)
-        X.append(_z_features(model, s, W))
+        rows.append([_z_features(model, s, W, p) for p in Z_POWERS])
         z.append(fz + gamma @ r)
-    X, z, held = np.array(X), np.array(z), np.asarray(held)
+    z, held, rows = np.array(z), np.asarray(held), np.array(rows)  # rows: (flight, power, 2)
     speeds = np.round(np.linalg.norm(wind, axis=1), 9)
     trained = np.unique(speeds)
-    if len(trained) < 3:  # the curve has three parameters: no z equation, the prior alone
-        return None, math.nan, math.inf, tuple(trained.tolist())
-    coef = np.linalg.lstsq(X, z, rcond=None)[0]
+    if len(trained) < 3:  # each wind left out must leave two for the curve's two parameters
+        return None, math.nan, math.inf, tuple(trained.tolist()), None
 
-    def left_out(groups):
+    def left_out(X, groups):
         out = []
         for g in np.unique(groups):
             o = groups == g
-            if len(np.unique(speeds[~o])) >= 3:
+            if len(np.unique(speeds[~o])) >= 2:
                 c = np.linalg.lstsq(X[~o], z[~o], rcond=None)[0]
                 out.append((o, z[o] - X[o] @ c))
         return out
 
-    res = [e for _, e in left_out(held)]
-    z_var = float(np.mean(np.concatenate(res) ** 2)) if res else float(np.mean((z - X @ coef) ** 2))
-    reach = math.inf
-    far = left_out(speeds)
-    if far:
-        d2 = np.concatenate([np.full(o.sum(), np.min((trained[trained != speeds[o][0]]
-                                                       - speeds[o][0]) ** 2)) for o, _ in far])
-        e2 = np.concatenate([e for _, e in far]) ** 2
-        reach = max(float(np.sum(d2 * np.maximum(e2 - z_var, 0.0)) / np.sum(d2 ** 2)), 1e-12)
-    return coef, z_var, reach, tuple(trained.tolist())
+    far = [left_out(rows[:, i], speeds) for i in range(len(Z_POWERS))]
+    best = int(np.argmin([np.mean(np.concatenate([e for _, e in f]) ** 2) for f in far]))
+    X, far = rows[:, best], far[best]
+    coef = np.linalg.lstsq(X, z, rcond=None)[0]
+    res = [e for _, e in left_out(X, held)]
+    z_var = (float(np.mean(np.concatenate(res) ** 2)) if res
+             else float(np.mean((z - X @ coef) ** 2)))
+    d2 = np.concatenate([np.full(o.sum(), np.min((trained[trained != speeds[o][0]]
+                                                   - speeds[o][0]) ** 2)) for o, _ in far])
+    e2 = np.concatenate([e for _, e in far]) ** 2
+    reach = max(float(np.sum(d2 * np.maximum(e2 - z_var, 0.0)) / np.sum(d2 ** 2)), 1e-12)
+    return coef, z_var, reach, tuple(trained.tolist()), Z_POWERS[best]
 
 
-def _tilted(model, sig, coef, z_var, r_var, weight, steps=20):
+def _tilted(model, sig, coef, power, z_var, r_var, weight, steps=20):
     """``(offset (2,), var (2, 2))``: the flight's own offset ``r`` [N per hover thrust] (its
     posterior mean and covariance, module text) for signals ``sig``: the prior ``N(0,
     diag(r_var))``, the in-plane equation solved for the wind given ``r``, the z equation
@@ -436,7 +442,7 @@ def _tilted(model, sig, coef, z_var, r_var, weight, steps=20):
     fz, gamma = _z_terms(sig, weight)
 
     def resid(r):
-        return fz + gamma @ r - _z_features(model, sig, W0 - Hi @ r) @ coef
+        return fz + gamma @ r - _z_features(model, sig, W0 - Hi @ r, power) @ coef
 
     r, h = np.zeros(2), 1e-4
     prec = 1.0 / np.asarray(r_var)
@@ -696,7 +702,7 @@ class WindEstimator:
         if keep.sum() < MIN_SAMPLES:
             keep[:] = True
         sig = {k: v[keep] for k, v in sig.items()}
-        coef, z_var, reach, trained = self.tilt_
+        coef, z_var, reach, trained, power = self.tilt_
         speed2 = float(np.sum(self.model_.invert(sig).mean(axis=0) ** 2))
         r_var = [self.model_.gain ** 2 * max(a + b * speed2, 1e-12) for a, b in self.flight_]
         d2 = float(np.min((np.asarray(trained) - math.sqrt(speed2)) ** 2))
@@ -704,7 +710,7 @@ class WindEstimator:
         if coef is None or not math.isfinite(z_var):
             return np.zeros(2), np.diag(r_var)  # off the fitted winds: the prior alone
         try:
-            return _tilted(self.model_, sig, coef, z_var, r_var, self.mass * 9.81)
+            return _tilted(self.model_, sig, coef, power, z_var, r_var, self.mass * 9.81)
         except ValueError as e:
             raise ValueError(f"flight {flight.source!r}: {e}") from None
 
