@@ -45,19 +45,21 @@ in-plane equation cannot tell from the wind). A lean also turns the force into t
 (by ``gamma . r``, ``gamma = f_xy / (f_z + m g)``, ``m`` the ``mass``), and the body z force
 over the thrust ``f_z`` follows the airspeed, so a flight's means obey::
 
-    mean f_z + gamma . r = z(W(r)),   z(W) = a + b mean |u|^2 + c mean |u|^3,
+    mean f_z + gamma . r = z(W(r)),   z(W) = a + b mean |u|^p,
     W(r) = W_0 - mean(H^-1) r
 
-(``W_0`` the wind the in-plane equation reads, ``H = k s R^T_xy``). ``(a, b, c)`` are fitted
-on the training flights' means, each with its offset known from its label. A held-out flight's
-``r`` is then the posterior of a Gaussian prior ``N(0, k^2 flight(W)^2)`` per axis (the
-controllers' flight-mean spread, below) and that equation (Gauss-Newton), whose variance is
-the curve's flight-level error with each training controller left out of its fit, growing as
+(``W_0`` the wind the in-plane equation reads, ``H = k s R^T_xy``). ``(a, b)`` are fitted on
+the training flights' means, each with its offset known from its label, and the power ``p``
+(of :data:`Z_POWERS`) is the one whose curve errs least with each training wind left out of
+its fit in turn (4 on every fit of the Neural-Fly flights). A held-out flight's ``r`` is then
+the posterior of a Gaussian prior ``N(0, k^2 flight(W)^2)`` per axis (the controllers'
+flight-mean spread, below) and that equation (Gauss-Newton), whose variance is the curve's
+flight-level error with each training controller left out of its fit, growing as
 ``reach * d^2`` with the distance ``d`` [m/s] from the nearest training wind speed (``reach``
-fitted with each training wind left out in turn; with fewer than four training wind speeds it
-cannot be, the curve is not trusted off them and the prior alone stands: the estimate is then
-the plain model's). Every part is fitted on the training flights only; the held-out flight
-gives its force, attitude and thrust, never its wind. The offset is read from the whole
+fitted on the errors with each training wind left out). With fewer than three training wind
+speeds no curve is fitted and the prior alone stands: the estimate is then the plain
+model's. Every part is fitted on the training flights only; the held-out flight gives its
+force, attitude and thrust, never its wind. The offset is read from the whole
 flight (after ``skip``): with it the ``"ekf"`` estimate is no longer causal (``tilt=False``
 keeps it causal). The body y offset is barely read (across the wind the force turns little
 into z): it stays near its prior, 0.
@@ -500,8 +502,8 @@ class WindEstimator:
     -----
     After :meth:`fit`: ``model_`` (:class:`DragModel`), ``noise_`` and ``flight_`` (each per
     world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]), ``block_noise_`` (``"ekf"``),
-    ``tilt_`` (``tilt``: the z curve's ``(a, b, c)``, its variance, ``reach`` and the training
-    wind speeds);
+    ``tilt_`` (``tilt``: the z curve's ``(a, b)``, its variance, ``reach``, the training wind
+    speeds and the power ``p``);
     ``laps_``, ``lap_winds_`` and ``scale_`` (``"clusters"``). A fit that fails leaves the
     estimator as it was.
 
