@@ -59,7 +59,11 @@ def test_every_pair_channel_and_controller_has_its_row(rows):
     assert (est.protocol == "controller").sum() == 3 * 9
     assert (est.protocol == "wind").sum() == 2 * 9
     variants = rows[(rows.kind == "estimate") & (rows.variant != "default")]
-    assert len(variants) == 2 * 2 * 9  # two variants of the drag model, both protocols
+    # two variants of the drag model and the plain model ("no own offset") of drag and
+    # ekf, both protocols
+    assert len(variants) == (2 + 2) * 2 * 9
+    assert set(variants.groupby("variant")["method"].unique().map(tuple)) == {
+        ("drag",), ("drag", "ekf")}
     base = rows[(rows.kind == "estimate") & (rows.method == "training mean")]
     assert len(base) == 2 * 9  # the trivial baseline under both protocols
     assert len(rows[rows.kind == "series"]) > 0

@@ -109,6 +109,113 @@ def test_a_parasitic_term_is_fitted_when_the_force_has_one():
     assert lin.model_.parasitic == 0.0 and lin.model_.gain > 0.8
 
 
+# -- each flight's own offset, read off its body z force --------------------------------- #
+WEIGHT = 2.6 * 9.81
+Z_CURVE = (-0.3, -0.004, 3)  # the body z force over the thrust: a + b |u|^p, p
+
+
+def leaning_flight(speed, controller, lean, phase=0.0):
+    """A model flight whose body z force follows :data:`Z_CURVE` and whose logged attitude
+    leans by ``lean`` [rad] (pitch) from the vehicle's: its force and attitude are recorded
+    in the logged frame, as an autopilot with a tilted attitude estimate records them.
+    Returns the flight and the in-plane offset [N per hover thrust] the lean makes."""
+    f = model_flight(speed, controller, phase=phase)
+    R = np.asarray(f.R)
+    tau = f.T_sp / f.hover_throttle
+    fa_b = np.einsum("nji,nj->ni", R, f.fa)  # the vehicle's frame (R is its true attitude)
+    sig = we._signals(f, None)
+    u2 = np.sum(TRUTH.inplane(sig, np.array([-speed, 0.0])) ** 2, axis=1)
+    fa_b[:, 2] = tau * (Z_CURVE[0] + Z_CURVE[1] * u2 ** (Z_CURVE[2] / 2))
+    F = fa_b + np.outer(WEIGHT * tau, [0.0, 0.0, 1.0])  # the whole specific force, body
+    tilt = _rot(np.full(len(tau), lean), np.zeros(len(tau)))  # logged body -> vehicle body
+    logged = np.einsum("nji,nj->ni", tilt, F) - np.outer(WEIGHT * tau, [0.0, 0.0, 1.0])
+    R_log = R @ tilt
+    arrays = {**f.arrays, "R": R_log, "fa": np.einsum("nij,nj->ni", R_log, logged)}
+    keep = f.t >= 2 * np.pi
+    offset = ((logged - fa_b)[keep, :2] / tau[keep, None]).mean(axis=0)
+    return (RealFlight(controller=controller, condition=f.condition, wind_speed=f.wind_speed,
+                       source=f"leaning {controller} {speed}", arrays=arrays), offset)
+
+
+@pytest.fixture(scope="module")
+def leaning_flights():
+    """Four controllers at four winds, each flight leaning by its own angle (+-1.5 deg)."""
+    rng = np.random.default_rng(7)
+    return [leaning_flight(w, c, float(rng.uniform(-0.026, 0.026)), phase=i)[0]
+            for i, c in enumerate("abcd") for w in (0.0, 4.2, 8.5, 12.1)]
+
+
+@pytest.mark.parametrize("method", ["drag", "ekf"])
+def test_a_flights_own_lean_is_recovered_without_its_wind(leaning_flights, method):
+    """Fitted on leaning flights, the estimator reads a held-out flight's injected offset off
+    its body z force and removes it from the wind; without it (tilt=False) the lean stays in
+    the estimate. A flight that does not lean (the negative control) is read as not leaning."""
+    est = WindEstimator(method).fit(leaning_flights)
+    plain = WindEstimator(method, tilt=False).fit(leaning_flights)
+    for lean in (0.035, -0.035, 0.0):
+        f, offset = leaning_flight(8.5, "held out", lean, phase=5.0)
+        r, sd = est.offset(f)
+        assert r[0] == pytest.approx(offset[0], abs=0.05 + 0.1 * abs(offset[0]))
+        assert abs(r[1]) < 0.02 and 0 < sd[0] < 0.2  # y: no lean injected
+        late = f.t >= 10.0
+        err = abs(est.predict(f)[late, 0].mean() + 8.5)
+        err_plain = abs(plain.predict(f)[late, 0].mean() + 8.5)
+        if lean:
+            assert abs(offset[0]) > 0.7  # what is injected: 0.035 rad of a 26 N force
+            assert err < 0.15 < 0.6 < err_plain
+        else:
+            assert abs(offset[0]) < 1e-9 and err < 0.15 and err_plain < 0.15
+
+
+def test_the_own_offset_changes_the_estimate_and_its_std(leaning_flights):
+    f, _ = leaning_flight(4.2, "held out", 0.03, phase=2.0)
+    a = WindEstimator("ekf").fit(leaning_flights).predict(f, return_std=True)
+    b = WindEstimator("ekf", tilt=False).fit(leaning_flights).predict(f, return_std=True)
+    assert not np.allclose(a[0], b[0], atol=0.1) and not np.allclose(a[1], b[1])
+
+
+def test_the_z_curves_power_is_chosen_on_the_training_flights(leaning_flights):
+    """The power the flights were built with is the one chosen (each training wind left out),
+    and the curve is the one they were built with."""
+    coef, z_var, reach, trained, power = WindEstimator("drag").fit(leaning_flights).tilt_
+    assert power == Z_CURVE[2] and trained == (0.0, 4.2, 8.5, 12.1)
+    assert coef == pytest.approx(Z_CURVE[:2], rel=0.05) and z_var < 1e-3 and reach < 1e-3
+
+
+def test_the_z_curve_needs_three_training_winds(leaning_flights):
+    """With three training winds the curve and its growth off them are fitted: a lean at a
+    fourth wind, beyond them, is still read. With two none is fitted: the offset is the
+    prior's, 0, and the estimate the plain model's."""
+    three = [f for f in leaning_flights if f.wind_speed != 12.1]
+    f, offset = leaning_flight(12.1, "held out", 0.03, phase=2.0)
+    est = WindEstimator("drag").fit(three)
+    r, _ = est.offset(f)
+    assert r[0] == pytest.approx(offset[0], abs=0.25 * abs(offset[0]))
+    late = f.t >= 10.0
+    err = abs(est.predict(f)[late, 0].mean() + 12.1)
+    plain = abs(WindEstimator("drag", tilt=False).fit(three).predict(f)[late, 0].mean() + 12.1)
+    assert err < 0.3 * plain
+    two = [f for f in leaning_flights if f.wind_speed in (0.0, 8.5)]
+    est = WindEstimator("drag").fit(two)
+    assert est.tilt_[0] is None and np.array_equal(est.offset(f)[0], [0.0, 0.0])
+    assert np.array_equal(est.predict(f), WindEstimator("drag", tilt=False).fit(two).predict(f))
+
+
+def test_the_offset_needs_a_fitted_z_curve_and_a_mass_that_holds(leaning_flights):
+    f = leaning_flights[0]
+    with pytest.raises(ValueError, match="tilt=True"):
+        WindEstimator("drag", tilt=False).fit(leaning_flights).offset(f)
+    with pytest.raises(ValueError, match="mass is too small"):
+        WindEstimator("drag", mass=0.01).fit(leaning_flights)
+    f = next(g for g in leaning_flights if g.wind_speed == 8.5)
+    R = np.asarray(f.R)
+    fa_b = np.einsum("nji,nj->ni", R, f.fa)
+    fa_b[:, 2] = -40.0 * f.T_sp / f.hover_throttle  # more than the weight, pointing down
+    heavy = _with(f, fa=np.einsum("nij,nj->ni", R, fa_b))
+    with pytest.raises(ValueError, match="flight 'leaning .*mass is too small"):
+        WindEstimator("drag").fit(leaning_flights).predict(heavy)
+
+
 # -- on the twin ---------------------------------------------------------------------- #
 @pytest.mark.parametrize("method", ["drag", "ekf"])
 def test_the_estimate_of_a_held_out_flight_is_the_wind_it_flew(twin_flights, method):
@@ -152,9 +259,10 @@ def test_the_clusters_name_the_wind_they_were_trained_on(twin_flights):
 
 @pytest.mark.parametrize("change", [{"jet": False}, {"parasitic": True}, {"cutoff": 0.3},
                                     {"sigma_wind_rate": 2.0}, {"update_period": 0.2},
-                                    {"skip": 12.0}])
+                                    {"skip": 12.0}, {"tilt": False}, {"mass": 3.0}])
 def test_every_parameter_changes_the_estimate(twin_flights, change):
-    method = "drag" if set(change) <= {"jet", "parasitic", "cutoff", "skip"} else "ekf"
+    method = "drag" if set(change) <= {"jet", "parasitic", "cutoff", "skip", "tilt",
+                                       "mass"} else "ekf"
     train = [f for f in twin_flights if f.controller != "seed 3"]
     f = twin_flights[-1]
     a = WindEstimator(method).fit(train).predict(f, return_std=True)
@@ -250,7 +358,8 @@ def test_the_sinusoids_phase_is_read_off_the_force():
     ({"direction": (1e308, 1e308, 0)}, None), ({"direction": (0, 0, 1)}, "horizontal"),
     ({"direction": (np.nan, 0, 0)}, "direction"), ({"sigma_wind_rate": 1e-200}, "sigma_wind_rate"),
     ({"sigma_wind_rate": -1.0}, "sigma_wind_rate"), ({"update_period": 0.0}, "update_period"),
-    ({"skip": -1.0}, "skip"), ({"skip": np.inf}, "skip")])
+    ({"skip": -1.0}, "skip"), ({"skip": np.inf}, "skip"), ({"mass": 1e-300}, "mass"),
+    ({"mass": np.nan}, "mass")])
 def test_bad_settings_are_refused_naming_the_parameter(kw, match):
     if match is None:  # a huge direction is fine: scaled before it is normalised
         assert WindEstimator(**kw).direction.tolist() == pytest.approx(
@@ -262,7 +371,7 @@ def test_bad_settings_are_refused_naming_the_parameter(kw, match):
 
 @pytest.mark.parametrize("kw, match", [
     ({"channels": "attitude"}, "channels"), ({"jet": "yes"}, "jet"), ({"parasitic": 1}, "parasitic"),
-    ({"gain": 2.0}, "unexpected keyword"), ({"mass": 2.6}, "unexpected keyword"),
+    ({"gain": 2.0}, "unexpected keyword"), ({"mass": "2.6"}, "mass"), ({"tilt": 1}, "tilt"),
     ({"sigma_velocity": 1e-200}, "unexpected keyword"), ({"cutoff": "1"}, "cutoff")])
 def test_bad_types_are_refused_naming_the_parameter(kw, match):
     with pytest.raises(TypeError, match=match):

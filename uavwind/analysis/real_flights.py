@@ -64,7 +64,9 @@ __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "SPREADS", "real_flight
 #: kept under the files' bytes, not the parsed arrays. 2: thrust over the hover throttle,
 #: the same-wind controls, the flight rows' lean, vertical force, spread and noise.
 #: 5: the flight rows' hover throttle (the battery), what the twin's draws are fitted on.
-REAL_VERSION = "5"
+#: 6: the wind estimates read each flight's own offset (WindEstimator's tilt, the default),
+#: scored beside the plain model (the variant "no own offset").
+REAL_VERSION = "6"
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -38,7 +38,7 @@ from ..data.neuralfly import CONDITIONS, RealFlight, flight_laps
 from ..method.wind_estimator import ESTIMATORS, UNRECORDED, WindEstimator
 
 __all__ = ["estimation_rows", "estimation_table", "summary_table", "force_phase", "SINUSOID",
-           "TARGETS", "PROTOCOLS", "PROTOCOL_NAMES", "SETTLE", "SERIES_STEP", "VARIANTS", "BASELINE", "estimates",
+           "TARGETS", "PROTOCOLS", "PROTOCOL_NAMES", "SETTLE", "SERIES_STEP", "VARIANTS", "VARIANT_METHODS", "BASELINE", "estimates",
            "error_decomposition", "choose_filter", "FILTER_GRID"]
 
 #: The sinusoidal condition and its amplitude [m/s] and angular frequency [rad/s].
@@ -56,9 +56,12 @@ PROTOCOLS = tuple(PROTOCOL_NAMES)
 SETTLE = 10.0
 #: The series rows keep every this many samples (50 Hz: one per 0.2 s).
 SERIES_STEP = 10
-#: The drag model's variants scored beside the default (``"drag"`` only): why the model is
-#: what it is, on the page.
-VARIANTS = {"no jet": {"jet": False}, "parasitic": {"parasitic": True}}
+#: The drag model's variants scored beside the default (``"drag"`` only unless
+#: :data:`VARIANT_METHODS` says otherwise): why the model is what it is, on the page.
+VARIANTS = {"no jet": {"jet": False}, "parasitic": {"parasitic": True},
+            "no own offset": {"tilt": False}}
+#: The methods a variant is scored with, where not ``"drag"`` alone.
+VARIANT_METHODS = {"no own offset": ("drag", "ekf")}
 #: The trivial baseline's method name: the training flights' mean wind, whatever the flight.
 BASELINE = "training mean"
 
@@ -184,8 +187,9 @@ def estimation_rows(flights: list[RealFlight], methods=ESTIMATORS,
                if (c, SINUSOID[0]) in by and (c, "70wind") in by else np.nan)
            for c in controllers}
     specs = [(m, "default", {}) for m in methods]
-    if variants and "drag" in methods:
-        specs += [("drag", name, kw) for name, kw in VARIANTS.items()]
+    if variants:
+        specs += [(m, name, kw) for name, kw in VARIANTS.items()
+                  for m in VARIANT_METHODS.get(name, ("drag",)) if m in methods]
     if baseline:
         specs.append((BASELINE, "default", {}))
     rows = []

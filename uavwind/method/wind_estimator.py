@@ -38,6 +38,32 @@ carries every channel the autopilot logs). In the body frame ``b`` (``R`` body -
 The model is linear in its six parameters and fitted by least squares on every sample after
 ``skip`` of the training flights, each flight weighted alike.
 
+**Each flight's own offset** (``tilt=True``, the default). On the Neural-Fly flights most of
+a held-out flight's error is its mean's (each flight's logged attitude leans by its own small
+angle, which shifts ``fa_b,xy / tau`` by a constant ``r`` [N per hover thrust] that the
+in-plane equation cannot tell from the wind). A lean also turns the force into the body z axis
+(by ``gamma . r``, ``gamma = f_xy / (f_z + m g)``, ``m`` the ``mass``), and the body z force
+over the thrust ``f_z`` follows the airspeed, so a flight's means obey::
+
+    mean f_z + gamma . r = z(W(r)),   z(W) = a + b mean |u|^p,
+    W(r) = W_0 - mean(H^-1) r
+
+(``W_0`` the wind the in-plane equation reads, ``H = k s R^T_xy``). ``(a, b)`` are fitted on
+the training flights' means, each with its offset known from its label, and the power ``p``
+(of :data:`Z_POWERS`) is the one whose curve errs least with each training wind left out of
+its fit in turn (4 on every fit of the Neural-Fly flights). A held-out flight's ``r`` is then
+the posterior of a Gaussian prior ``N(0, k^2 flight(W)^2)`` per axis (the controllers'
+flight-mean spread, below) and that equation (Gauss-Newton), whose variance is the curve's
+flight-level error with each training controller left out of its fit, growing as
+``reach * d^2`` with the distance ``d`` [m/s] from the nearest training wind speed (``reach``
+fitted on the errors with each training wind left out). With fewer than three training wind
+speeds no curve is fitted and the prior alone stands: the estimate is then the plain
+model's. Every part is fitted on the training flights only; the held-out flight gives its
+force, attitude and thrust, never its wind. The offset is read from the whole
+flight (after ``skip``): with it the ``"ekf"`` estimate is no longer causal (``tilt=False``
+keeps it causal). The body y offset is barely read (across the wind the force turns little
+into z): it stays near its prior, 0.
+
 **Methods** (``method=``):
 
 * ``"drag"`` -- the model inverted at every sample, on the force, velocity, attitude and thrust
@@ -52,7 +78,9 @@ The model is linear in its six parameters and fitted by least squares on every s
   DTW-nearest training laps. It can only name a wind it was trained on, so it has no std and
   is scored by its accuracy, never by an RMSE.
 
-**Uncertainty** (``return_std=True``): per world axis, ``std^2 = noise(W)^2 + flight(W)^2``.
+**Uncertainty** (``return_std=True``): per world axis, ``std^2 = noise(W)^2 + flight(W)^2``
+(with the flight's own offset, ``flight(W)^2`` is replaced by the offset's posterior variance
+carried into the wind, ``mean(H^-1) P mean(H^-1)^T``).
 ``noise``: the estimate's scatter about its own flight mean on the training flights (for
 ``"ekf"``, the filter's variance with the block noise fitted the same way); ``flight``: the
 error of a flight's mean when its controller is left out of the fit (refitted once per
@@ -78,7 +106,7 @@ from ..core.checks import check_array, check_choice, check_instance, check_scala
 from ..data.neuralfly import RealFlight, flight_laps
 from .clustering import softdtw_engine
 
-__all__ = ["WindEstimator", "DragModel", "ESTIMATORS", "training_wind", "UNRECORDED",
+__all__ = ["WindEstimator", "DragModel", "ESTIMATORS", "Z_POWERS", "training_wind", "UNRECORDED",
            "check_flight"]
 
 #: The methods of :class:`WindEstimator`.
@@ -184,8 +212,8 @@ def _lowpass(x, dt, cutoff):
 def _signals(flight, cutoff):
     """What the model reads of a flight, low-passed at ``cutoff`` [Hz] (None: raw): the
     body-frame force over the thrust ``f`` (n, 2) [N], the body-frame ground velocity ``vb``
-    (n, 3), the thrust in hovers ``tau`` (n,), ``RT`` (n, 3, 3) world -> body and ``dp`` (n, 3)
-    [m] the offset from the path's centre."""
+    (n, 3), the thrust in hovers ``tau`` (n,), ``RT`` (n, 3, 3) world -> body, ``dp`` (n, 3)
+    [m] the offset from the path's centre and ``fz`` (n,) the body z force over the thrust."""
     a = flight.arrays
     R = np.asarray(a["R"], dtype=float)
     fa_b = np.einsum("nji,nj->ni", R, a["fa"])
@@ -195,8 +223,10 @@ def _signals(flight, cutoff):
     if cutoff is not None:
         X = _lowpass(X, _dt(flight), cutoff)
     RT = np.transpose(X[:, 6:15].reshape(-1, 3, 3), (0, 2, 1))
+    fz = fa_b[:, 2] if cutoff is None else _lowpass(fa_b[:, 2], _dt(flight), cutoff)
     return {"t": np.asarray(a["t"], dtype=float), "f": X[:, :2] / X[:, 5:6], "tau": X[:, 5],
-            "vb": np.einsum("nij,nj->ni", RT, X[:, 2:5]), "RT": RT, "dp": X[:, 15:18]}
+            "vb": np.einsum("nij,nj->ni", RT, X[:, 2:5]), "RT": RT, "dp": X[:, 15:18],
+            "fz": fz / X[:, 5]}
 
 
 @dataclass(frozen=True)
@@ -212,6 +242,10 @@ class DragModel:
 
     def _scale(self, sig):
         return np.clip(1.0 + sig["dp"] @ np.asarray(self.jet), *_JET_RANGE)
+
+    def inplane(self, sig, W):
+        """The in-plane airspeed ``u`` (n, 2) [m/s] for a wind ``W`` (2,) world."""
+        return (self._scale(sig)[:, None] * (sig["RT"][:, :2, :2] @ W)) - sig["vb"][:, :2]
 
     def measurement(self, sig, W):
         """``(z, H)``: the equation as ``z = H W_xy`` per sample, z (n, 2), H (n, 2, 2); with
@@ -330,6 +364,101 @@ def _kalman(model, sig, starts, q, noise):
     return out, var
 
 
+#: The powers of the airspeed the body z force's curve may take (module text).
+Z_POWERS = (2, 3, 4)
+
+
+def _z_features(model, sig, W, power):
+    """A flight's mean of the z curve's columns ``[1, |u|^power]`` for a wind ``W`` (2,)."""
+    u2 = np.sum(model.inplane(sig, W) ** 2, axis=1)
+    return np.array([1.0, (u2 ** (power / 2)).mean()])
+
+
+def _z_terms(sig, weight):
+    """A flight's mean body z force over the thrust and its mean ``gamma`` (2,): the in-plane
+    force over the whole force along the body z axis (``f_xy / (f_z + m g)``), what an
+    attitude offset moves the z force by per unit of the in-plane offset it makes."""
+    whole = sig["fz"] + weight
+    if not np.all(whole > 0):
+        raise ValueError(f"mass is too small: the body z force plus the weight (mass * g = "
+                         f"{weight:g} N per hover thrust) must be positive at every sample, "
+                         f"got {float(np.min(whole)):g}")
+    gamma = sig["f"] / whole[:, None]
+    return float(sig["fz"].mean()), gamma.mean(axis=0)
+
+
+def _fit_tilt(model, items, wind, held, weight):
+    """The z curve of the module text fitted on the training flights ``items`` ``[(flight,
+    sig, keep), ...]`` (raw signals), with their winds ``wind`` (n, 2) and controllers
+    ``held``: ``(coef (2,), z_var, reach, speeds, power)``. ``power``: of :data:`Z_POWERS`,
+    the one whose curve errs least with each training wind speed left out of its fit in
+    turn; ``z_var``: the curve's flight-level residual variance with each controller left out
+    in turn; ``reach`` [N^2 s^2/m^2 per hover thrust^2]: how that variance grows with the
+    square of the distance from the nearest training wind speed (the errors with each wind
+    left out); ``speeds`` the training wind speeds. Nested: the flight predicted has no say.
+    With fewer than three training wind speeds no curve is fitted (``coef`` None)."""
+    z, rows = [], []
+    for (f, sig, keep), W in zip(items, wind):
+        s = {k: v[keep] for k, v in sig.items()}
+        r = (s["f"] - np.asarray(model.offset) - model.gain * model.inplane(s, W)).mean(axis=0)
+        fz, gamma = _z_terms(s, weight)
+        rows.append([_z_features(model, s, W, p) for p in Z_POWERS])
+        z.append(fz + gamma @ r)
+    z, held, rows = np.array(z), np.asarray(held), np.array(rows)  # rows: (flight, power, 2)
+    speeds = np.round(np.linalg.norm(wind, axis=1), 9)
+    trained = np.unique(speeds)
+    if len(trained) < 3:  # each wind left out must leave two for the curve's two parameters
+        return None, math.nan, math.inf, tuple(trained.tolist()), None
+
+    def left_out(X, groups):
+        out = []
+        for g in np.unique(groups):
+            o = groups == g
+            if len(np.unique(speeds[~o])) >= 2:
+                c = np.linalg.lstsq(X[~o], z[~o], rcond=None)[0]
+                out.append((o, z[o] - X[o] @ c))
+        return out
+
+    far = [left_out(rows[:, i], speeds) for i in range(len(Z_POWERS))]
+    best = int(np.argmin([np.mean(np.concatenate([e for _, e in f]) ** 2) for f in far]))
+    X, far = rows[:, best], far[best]
+    coef = np.linalg.lstsq(X, z, rcond=None)[0]
+    res = [e for _, e in left_out(X, held)]
+    z_var = (float(np.mean(np.concatenate(res) ** 2)) if res
+             else float(np.mean((z - X @ coef) ** 2)))
+    d2 = np.concatenate([np.full(o.sum(), np.min((trained[trained != speeds[o][0]]
+                                                   - speeds[o][0]) ** 2)) for o, _ in far])
+    e2 = np.concatenate([e for _, e in far]) ** 2
+    reach = max(float(np.sum(d2 * np.maximum(e2 - z_var, 0.0)) / np.sum(d2 ** 2)), 1e-12)
+    return coef, z_var, reach, tuple(trained.tolist()), Z_POWERS[best]
+
+
+def _tilted(model, sig, coef, power, z_var, r_var, weight, steps=20):
+    """``(offset (2,), var (2, 2))``: the flight's own offset ``r`` [N per hover thrust] (its
+    posterior mean and covariance, module text) for signals ``sig``: the prior ``N(0,
+    diag(r_var))``, the in-plane equation solved for the wind given ``r``, the z equation
+    ``mean f_z + gamma . r = z model(W(r))`` with variance ``z_var`` (Gauss-Newton)."""
+    W0 = model.invert(sig).mean(axis=0)
+    H = model.gain * model._scale(sig)[:, None, None] * sig["RT"][:, :2, :2]
+    Hi = np.linalg.inv(H).mean(axis=0)
+    fz, gamma = _z_terms(sig, weight)
+
+    def resid(r):
+        return fz + gamma @ r - _z_features(model, sig, W0 - Hi @ r, power) @ coef
+
+    r, h = np.zeros(2), 1e-4
+    prec = 1.0 / np.asarray(r_var)
+    for _ in range(steps):
+        e = resid(r)
+        J = np.array([(resid(r + h * np.eye(2)[i]) - e) / h for i in range(2)])
+        A = np.outer(J, J) / z_var + np.diag(prec)
+        step = np.linalg.solve(A, -(J * e / z_var + prec * r))
+        r = r + step
+        if np.max(np.abs(step)) < 1e-8:
+            break
+    return r, np.linalg.inv(A)
+
+
 class WindEstimator:
     """The wind a multirotor flew through, estimated from its flight (see the module text).
 
@@ -361,11 +490,20 @@ class WindEstimator:
     skip : float
         Training samples before this time [s] are not fitted on (the start-up lap), in
         [0, 1e4]; default 2 pi.
+    tilt : bool
+        ``"drag"``, ``"ekf"``: estimate each flight's own offset from its body z force
+        (module text; :meth:`offset`); default True. False: the training flights' offset for
+        every flight (and a causal ``"ekf"``).
+    mass : float
+        The vehicle's mass [kg] (``tilt``: the weight ``m g`` the body z force is measured
+        against), in [0.01, 1e4]; default 2.6, Neural-Fly's quadrotor.
 
     Notes
     -----
     After :meth:`fit`: ``model_`` (:class:`DragModel`), ``noise_`` and ``flight_`` (each per
-    world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]) and ``block_noise_`` (``"ekf"``);
+    world axis ``(a, b)`` of ``var = a + b W^2`` [m^2/s^2, 1]), ``block_noise_`` (``"ekf"``),
+    ``tilt_`` (``tilt``: the z curve's ``(a, b)``, its variance, ``reach``, the training wind
+    speeds and the power ``p``);
     ``laps_``, ``lap_winds_`` and ``scale_`` (``"clusters"``). A fit that fails leaves the
     estimator as it was.
 
@@ -381,7 +519,7 @@ class WindEstimator:
                  cutoff: float = 1.0, sigma_wind_rate: float = 0.3,
                  update_period: float = 0.5, jet: bool = True, parasitic: bool = False,
                  channels=("aero_force", "attitude"), neighbours: int = 1,
-                 skip: float = 2 * np.pi):
+                 skip: float = 2 * np.pi, tilt: bool = True, mass: float = 2.6):
         self.method = check_choice(method, "method", ESTIMATORS)
         self.direction = _unit(direction)
         self.cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=10.0)
@@ -402,6 +540,10 @@ class WindEstimator:
         self.channels = tuple(channels)
         self.neighbours = check_scalar(neighbours, "neighbours", low=1, high=100, integer=True)
         self.skip = check_scalar(skip, "skip", low=0.0, high=1e4)
+        if not isinstance(tilt, (bool, np.bool_)):
+            raise TypeError(f"tilt must be a bool, got {type(tilt).__name__}")
+        self.tilt = bool(tilt)
+        self.mass = check_scalar(mass, "mass", low=0.01, high=1e4)
 
     def __repr__(self):
         return f"WindEstimator(method={self.method!r})"
@@ -436,7 +578,7 @@ class WindEstimator:
         else:
             state = self._fit_drag(flights)
         for k in ("model_", "noise_", "flight_", "block_noise_", "laps_", "lap_winds_",
-                  "scale_"):
+                  "scale_", "tilt_"):
             self.__dict__.pop(k, None)
         self.__dict__.update(state)
         return self
@@ -481,6 +623,11 @@ class WindEstimator:
         if self.method == "ekf":
             blocks = np.array(blocks)
             state["block_noise_"] = _variance_curve(sp, blocks.mean(axis=1))
+        if self.tilt:
+            raw = items if cut is None else [(f, _signals(f, None), k) for f, _, k in items]
+            state["tilt_"] = _fit_tilt(model, raw,
+                                       [f.wind_speed * self.direction[:2] for f in usable],
+                                       [f.controller for f in usable], self.mass * 9.81)
         return state
 
     def _lap_windows(self, flight):
@@ -517,10 +664,13 @@ class WindEstimator:
                                  "wind): it gives no std; use 'drag' or 'ekf'")
             return self._predict_laps(flight)
         self._check_cutoff(flight)
+        model, offset_var = self.model_, None
+        if self.tilt:
+            model, offset_var = self._offset_model(flight)
         if self.method == "drag":
-            W, var = self._predict_drag(flight)
+            W, var = self._predict_drag(flight, model)
         else:
-            W, var = self._predict_ekf(flight)
+            W, var = self._predict_ekf(flight, model)
         mean = np.zeros((flight.n_samples, 3))
         mean[:, :2] = W
         if not np.all(np.isfinite(mean)):
@@ -532,21 +682,65 @@ class WindEstimator:
         speed = np.linalg.norm(W, axis=1)
         for ax in (0, 1):
             a, b = self.flight_[ax]
-            std[:, ax] = np.sqrt(var[:, ax] + a + b * speed ** 2)
+            # the flight mean's error: the controllers' spread, or with tilt=True what is
+            # left of it once the flight's own offset is estimated (its posterior)
+            std[:, ax] = np.sqrt(var[:, ax] + (a + b * speed ** 2 if offset_var is None
+                                               else offset_var[ax]))
         return mean, std
 
-    def _predict_drag(self, flight):
-        W = self.model_.invert(_signals(flight, self.cutoff))
+    def offset(self, flight: RealFlight):
+        """``tilt=True``: the flight's own offset ``(mean, std)``, each (2,) [N per hover
+        thrust], estimated from the flight without its wind (module text)."""
+        check_flight(flight)
+        if not hasattr(self, "tilt_"):
+            raise ValueError("offset needs an estimator fitted with tilt=True (method 'drag' "
+                             "or 'ekf')")
+        r, P = self._offset(flight)
+        return r, np.sqrt(np.diag(P))
+
+    def _offset(self, flight):
+        sig = _signals(flight, None)
+        keep = sig["t"] >= self.skip
+        if keep.sum() < MIN_SAMPLES:
+            keep[:] = True
+        sig = {k: v[keep] for k, v in sig.items()}
+        coef, z_var, reach, trained, power = self.tilt_
+        speed2 = float(np.sum(self.model_.invert(sig).mean(axis=0) ** 2))
+        r_var = [self.model_.gain ** 2 * max(a + b * speed2, 1e-12) for a, b in self.flight_]
+        d2 = float(np.min((np.asarray(trained) - math.sqrt(speed2)) ** 2))
+        z_var = z_var + (reach * d2 if d2 > 0 else 0.0)
+        if coef is None or not math.isfinite(z_var):
+            return np.zeros(2), np.diag(r_var)  # off the fitted winds: the prior alone
+        try:
+            return _tilted(self.model_, sig, coef, power, z_var, r_var, self.mass * 9.81)
+        except ValueError as e:
+            raise ValueError(f"flight {flight.source!r}: {e}") from None
+
+    def _offset_model(self, flight):
+        """The model with the flight's own offset added, and the variance (2,) it adds to
+        the wind [m^2/s^2]."""
+        from dataclasses import replace
+
+        r, P = self._offset(flight)
+        sig = _signals(flight, None)
+        H = self.model_.gain * self.model_._scale(sig)[:, None, None] * sig["RT"][:, :2, :2]
+        Hi = np.linalg.inv(H).mean(axis=0)
+        model = replace(self.model_, offset=tuple(float(x) for x in
+                                                  np.asarray(self.model_.offset) + r))
+        return model, np.diag(Hi @ P @ Hi.T)
+
+    def _predict_drag(self, flight, model):
+        W = model.invert(_signals(flight, self.cutoff))
         speed2 = np.sum(W ** 2, axis=1)
         var = np.column_stack([a + b * speed2 for a, b in self.noise_])
         return W, var
 
-    def _predict_ekf(self, flight):
+    def _predict_ekf(self, flight, model):
         sig = _signals(flight, None)
         starts = _blocks(len(sig["t"]), _dt(flight), self.update_period)
         a, b = self.block_noise_
         q = self.sigma_wind_rate ** 2 * self.update_period
-        return _kalman(self.model_, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
+        return _kalman(model, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
 
     def _predict_laps(self, flight):
         dtw = softdtw_engine().dtw  # the kernels load when a lap is compared, not on import
