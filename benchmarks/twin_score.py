@@ -3,13 +3,13 @@ mean scaled error over the physical quantities beside the training mean's, and i
 lap-to-lap spread per wind.
 `python benchmarks/twin_score.py [quick|paper] [on|off] [wind|one] [tilt] [fitnoise]
 [vertical=S] [integral=S|bandwidth]` (off: the twin of gusts and noise alone; one: the twin
-fitted at one wind, its correlation time assumed; tilt: with the attitude estimate's error in wind fitted on the pitch
-spread; fitnoise: the recorded noise fitted on the twin's own content above the cutoff;
-vertical=S: share S of the still-air vertical error carried by the vertical velocity
-estimate, not the thrust, instead of the share's fit; vertical=0 is the twin of SIM_VERSION
-7; integral=S|bandwidth: the integral gain's log-SD S, or the bandwidth's, instead of its
-fit; integral=bandwidth is the twin of SIM_VERSION 8); reads and fills
-$UAVWIND_RESULTS."""
+fitted at one wind, its correlation time assumed; tilt: with the attitude estimate's error
+in wind fitted on the pitch spread; fitnoise: the recorded noise fitted on the twin's own
+content above the cutoff; vertical=S: share S of the still-air vertical error carried by the
+vertical velocity estimate, not the thrust, instead of the share's fit; vertical=0 is the
+twin of SIM_VERSION 7; integral=S|bandwidth: the integral gain's log-SD S, or the
+bandwidth's, instead of its fit; integral=bandwidth is the twin of SIM_VERSION 8); reads and
+fills $UAVWIND_RESULTS."""
 import sys
 import time
 
@@ -25,7 +25,8 @@ fit_noise = "fitnoise" in sys.argv[4:]
 share = [float(a.split("=")[1]) for a in sys.argv[4:] if a.startswith("vertical=")]
 share = share[0] if share else "fit"
 integral = [a.split("=")[1] for a in sys.argv[4:] if a.startswith("integral=")]
-integral = ("bandwidth" if integral[0] == "bandwidth" else float(integral[0])) if integral else "fit"
+integral = (("bandwidth" if integral[0] == "bandwidth" else float(integral[0])) if integral
+            else "fit")
 real = rf.real_flight_rows(profile=profile, n_jobs=1)
 t0 = time.process_time(); w0 = time.time()
 sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability,

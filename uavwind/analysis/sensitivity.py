@@ -74,9 +74,10 @@ FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_r
              "hover throttle (the battery), their spread of force along x at 12.1 m/s (the "
              "gusts) and of position there (the integral gain's spread, SIM_VERSION 9: it "
              "takes the bound 0, the integral scaled with the bandwidth alone); figure8.py "
-             "with the drag fitted at every wind and the still-air vertical error's share fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it "
-             "takes the bound, the vertical velocity estimate's error alone, so the thrust "
-             "error is 0 and the vertical velocity error carries the wander), "
+             "with the drag fitted at every wind and the still-air vertical error's share "
+             "fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it takes the bound, "
+             "the vertical velocity estimate's error alone, so the thrust error is 0 and the "
+             "vertical velocity error carries the wander), "
              "the quick profile's fit (the paper profile's correlation time is 0.232 s)")
 #: The decimals :data:`FITTED` keeps: a new fit rounds to them.
 FITTED_DECIMALS = 4
