@@ -21,7 +21,11 @@ pitch spreads at every wind) moves the pitch's spread to higher frequencies but 
 loop answers them with its quasi-static lean, so the force's spread grows with it and the
 score worsens at the fitted length; a true tilt of the body growing with the wind (a
 moment) raises the position's spread and the attitude's noise beyond the real ones. The
-real loops' peak near 0.9 Hz, which the twin's well-damped loop lacks, is what is missing.
+real loops' peak near 0.9 Hz, which the twin's well-damped loop lacks, is what is missing. A
+controller reading its velocity 80 ms late (tried by hand through the kernels' velocity-error
+columns, not in the library) gives the twin such a peak in still air (0.95-1.1 Hz), but its
+wind then damps it (the rotor drag grows with the airspeed), where the real peak grows in
+wind: a loop delay alone is not the vehicle's unsteadiness either.
 `python benchmarks/twin_pitch_spectrum.py [paper|quick] [conditions]` (conditions
 comma-separated, default nowind,70wind,100wind); the twin is :func:`figure8.sim_rows`'
 calibration, read from (or fitted into) $UAVWIND_RESULTS."""
