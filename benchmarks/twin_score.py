@@ -2,13 +2,14 @@
 mean scaled error over the physical quantities beside the training mean's, and its pitch
 lap-to-lap spread per wind.
 `python benchmarks/twin_score.py [quick|paper] [on|off] [wind|one] [tilt] [fitnoise]
-[vertical=S]` (off: the twin of gusts and noise alone; one: the twin fitted at one wind, its
-correlation time assumed; tilt: with the attitude estimate's error in wind fitted on the pitch
-spread; fitnoise: the recorded noise fitted on the twin's own content above the cutoff;
-vertical=S: share S of the still-air vertical error carried by the vertical velocity
-estimate, not the thrust, instead of the share's fit; vertical=0 is the twin of SIM_VERSION
-7); reads and fills
-$UAVWIND_RESULTS."""
+[vertical=S] [integral=S|bandwidth]` (off: the twin of gusts and noise alone; one: the twin
+fitted at one wind, its correlation time assumed; tilt: with the attitude estimate's error
+in wind fitted on the pitch spread; fitnoise: the recorded noise fitted on the twin's own
+content above the cutoff; vertical=S: share S of the still-air vertical error carried by the
+vertical velocity estimate, not the thrust, instead of the share's fit; vertical=0 is the
+twin of SIM_VERSION 7; integral=S|bandwidth: the integral gain's log-SD S, or the
+bandwidth's, instead of its fit; integral=bandwidth is the twin of SIM_VERSION 8); reads and
+fills $UAVWIND_RESULTS."""
 import sys
 import time
 
@@ -23,11 +24,14 @@ tilt = "tilt" in sys.argv[4:]
 fit_noise = "fitnoise" in sys.argv[4:]
 share = [float(a.split("=")[1]) for a in sys.argv[4:] if a.startswith("vertical=")]
 share = share[0] if share else "fit"
+integral = [a.split("=")[1] for a in sys.argv[4:] if a.startswith("integral=")]
+integral = (("bandwidth" if integral[0] == "bandwidth" else float(integral[0])) if integral
+            else "fit")
 real = rf.real_flight_rows(profile=profile, n_jobs=1)
 t0 = time.process_time(); w0 = time.time()
 sim = figure8.sim_rows(real, profile=profile, n_jobs=1, variability=variability,
                        per_wind=per_wind, pitch_turbulence=tilt, fit_noise=fit_noise,
-                       vertical_share=share)
+                       vertical_share=share, integral_spread=integral)
 print(f"twin rows: {time.process_time()-t0:.1f} CPU-s (this process), {time.time()-w0:.1f} s wall")
 val = figure8.validation_table(real, sim)
 c = figure8.calibration_of(sim); print({k: v for k, v in c.to_dict().items() if k != "noise"})

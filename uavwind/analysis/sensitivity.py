@@ -62,8 +62,8 @@ __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPT
 #: are there.
 FITTED = {"attitude_error": 0.3542, "thrust_error": 0.0, "velocity_error": 0.0392,
           "vertical_velocity_error": 0.0263, "hover_throttle": 0.4817,
-          "hover_throttle_sd": 0.0183, "gain_spread": 0.2509, "integral_spread": 0.2509,
-          "gust_scale": 0.0875, "error_time": 0.2592}
+          "hover_throttle_sd": 0.0183, "gain_spread": 0.2509, "integral_spread": 0.0,
+          "gust_scale": 0.0869, "error_time": 0.2592}
 #: Where :data:`FITTED` comes from.
 FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_rows("
              "profile='quick'), STUDIES['quick']): fitted on the four training controllers "
@@ -71,11 +71,13 @@ FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_r
              "($UAVWIND_NEURALFLY), their still-air lap-to-lap spreads of pitch, force along x "
              "and vertical tracking (the state errors) and position (the errors' correlation "
              "time, error_time [s]), their still-air tracking error (the controller), their "
-             "hover throttle (the battery) and their spread of force along x at 12.1 m/s (the "
-             "gusts); figure8.py with the drag fitted at every wind and the still-air vertical "
-             "error's share fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it "
-             "takes the bound, the vertical velocity estimate's error alone, so the thrust "
-             "error is 0 and the vertical velocity error carries the wander), "
+             "hover throttle (the battery), their spread of force along x at 12.1 m/s (the "
+             "gusts) and of position there (the integral gain's spread, SIM_VERSION 9: it "
+             "takes the bound 0, the integral scaled with the bandwidth alone); figure8.py "
+             "with the drag fitted at every wind and the still-air vertical error's share "
+             "fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it takes the bound, "
+             "the vertical velocity estimate's error alone, so the thrust error is 0 and the "
+             "vertical velocity error carries the wander), "
              "the quick profile's fit (the paper profile's correlation time is 0.232 s)")
 #: The decimals :data:`FITTED` keeps: a new fit rounds to them.
 FITTED_DECIMALS = 4
@@ -150,7 +152,8 @@ CLOSED_LOOP_PAIRS = (("best", "random"), ("receding", "best"), ("greedy", "best"
 #: 3: FITTED from the twin of SIM_VERSION 8 (no thrust error, larger gusts and tilt).
 #: 4: the vertical velocity estimate's error, the twin's fit of the still-air height wander,
 #: flown where a position controller flies (Exp 14).
-SENSITIVITY_VERSION = "4"
+#: 5: FITTED from the twin of SIM_VERSION 9 (the integral gain's spread fitted: 0).
+SENSITIVITY_VERSION = "5"
 
 
 def _check_chapter(chapter):
