@@ -35,12 +35,7 @@ READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
 PAGE_THREADS := $(if $(filter-out 1,$(BOOK_JOBS)),UAVWIND_SOFTDTW_PARALLEL=$(or $(UAVWIND_SOFTDTW_PARALLEL),0))
 # every notebook under notebooks/ is a page (tests/test_registry.py: each experiment of the
 # registry has its notebook, and each notebook its line in book/_toc.yml)
-# In the order make starts them: the largest source first, a rough proxy for the longest
-# page, so that the BOOK_JOBS pages side by side end together rather than a long page
-# starting last and running alone (in a quick build the six largest are six of the eight
-# that cost the most CPU; alphabetical order started two of the costliest among the last)
-PAGE_SOURCES := $(wildcard $(NB_DIR)/*.md)
-NOTEBOOKS := $(basename $(notdir $(if $(PAGE_SOURCES),$(shell ls -S $(PAGE_SOURCES)))))
+NOTEBOOKS := $(basename $(notdir $(wildcard $(NB_DIR)/*.md)))
 EXECUTED  := $(addprefix $(GEN)/,$(addsuffix .ipynb,$(NOTEBOOKS)))
 LIBRARY   := $(wildcard uavwind/*.py uavwind/*/*.py uavwind/*/*/*.py uavwind/study/paper_values/*)
 MATHJAX   := $(BOOK)/_vendor/mathjax/MathJax.js
