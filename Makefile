@@ -126,10 +126,12 @@ $(GEN)/.neuralfly: FORCE
 
 $(addprefix $(GEN)/,$(addsuffix .ipynb,$(DATA_PAGES))): $(GEN)/.neuralfly
 
+# a page's driver is run as a script, not `-m uavwind.report.pages`: it then imports none of the
+# package (which its kernel imports): 1 CPU-s a page less (uavwind/report/pages.py)
 $(GEN)/%.ipynb: $(NB_DIR)/%.md $(GEN)/.profile $(LIBRARY) $(STAMP) | results
 	@mkdir -p $(GEN)/.src
 	@echo "page $*"
-	@$(READ_ONLY) $(PAGE_THREADS) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/python -m uavwind.report.pages $< $(GEN)/.src/$*.out.ipynb \
+	@$(READ_ONLY) $(PAGE_THREADS) $(TIMEOUT) $(PAGE_TIMEOUT) $(BIN)/python uavwind/report/pages.py $< $(GEN)/.src/$*.out.ipynb \
 	    --profile $(PROFILE) --jobs $(JOBS) --execution-timeout $(CELL_TIMEOUT) --start-timeout 120 --cwd $(CURDIR) \
 	  || { rc=$$?; echo "book: page $< failed (exit $$rc$$( [ $$rc -ge 124 ] && echo ': over PAGE_TIMEOUT=$(PAGE_TIMEOUT) s' ))" \
 	       "-- the cell is named above; a cell over CELL_TIMEOUT=$(CELL_TIMEOUT) s is shown in full" >&2; exit 1; }

@@ -5,6 +5,7 @@ import json
 import os
 import re
 import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -100,13 +101,55 @@ def test_a_page_runs_with_the_builds_parameters_and_hides_them(tmp_path):
     assert not (tmp_path / "bad.ipynb").exists()
 
 
+def test_the_makefiles_page_driver_imports_none_of_the_package(tmp_path):
+    """The Makefile runs uavwind/report/pages.py as a script: its driver imports no module
+    of uavwind (the page's kernel does), and lifts the read-only flag by the name
+    uavwind.core.io gives it around an exercise-computes cell; the page is written whole."""
+    import nbformat
+
+    from uavwind.core.io import READ_ONLY_ENV
+    from uavwind.report.pages import COMPUTES
+
+    make = (ROOT / "Makefile").read_text()
+    assert "$(BIN)/python uavwind/report/pages.py $<" in make
+    src = tmp_path / "page.md"
+    probe = "import os\nprint(repr(os.environ.get('%s')))\n" % READ_ONLY_ENV
+    src.write_text("---\njupytext:\n  text_representation:\n    extension: .md\n"
+                   "    format_name: myst\n---\n\n# A page\n\n"
+                   f"```{{code-cell}} ipython3\n:tags: [{COMPUTES}]\n\n{probe}```\n\n"
+                   f"```{{code-cell}} ipython3\n{probe}```\n")
+    env = {**os.environ, READ_ONLY_ENV: "1", "PYTHONPATH": str(ROOT)}
+    args = [str(ROOT / "uavwind/report/pages.py"), str(src), str(tmp_path / "page.ipynb"),
+            "--profile", "quick", "--jobs", "1", "--execution-timeout", "60", "--cwd",
+            str(tmp_path)]
+    loaded = tmp_path / "loaded.json"
+    # the script as the Makefile runs it, then the modules its process holds
+    driver = (f"import json, runpy, sys\nsys.argv = {args!r}\ntry:\n"
+              f"    runpy.run_path(sys.argv[0], run_name='__main__')\nfinally:\n"
+              f"    json.dump(sorted(k for k, v in sys.modules.items() if v is not None), "
+              f"open({str(loaded)!r}, 'w'))\n")
+    out = subprocess.run([sys.executable, "-c", driver], capture_output=True, text=True,
+                         env=env, cwd=ROOT, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    tops = {m.split(".")[0] for m in json.loads(loaded.read_text())}
+    assert {"papermill", "jupytext", "nbformat"} <= tops
+    assert not tops & {"uavwind", "jupyter_server", "pyarrow", "pandas"}
+    loaded.unlink()
+    nb = nbformat.read(tmp_path / "page.ipynb", as_version=4)
+    shown = [c for c in nb.cells if c.cell_type == "code"
+             and "remove-cell" not in c.metadata.get("tags", [])]
+    assert [c.outputs[0]["text"] for c in shown] == ["None\n", "'1'\n"]
+    assert [p.name for p in tmp_path.iterdir()] in (["page.md", "page.ipynb"],
+                                                    ["page.ipynb", "page.md"])
+
+
 def test_every_long_build_step_has_a_timeout():
     make = (ROOT / "Makefile").read_text()
     code = [ln for ln in make.replace("\\\n", " ").splitlines() if not ln.lstrip().startswith("#")]
     # a variable holding a step (PIP_INSTALL := ... pip install ...) stands for it where used
     defs = {m.group(1): ln for ln in code if (m := re.match(r"([A-Z_]+)\s*:?=", ln))}
     runs = [ln for ln in code if ln not in defs.values()]
-    for step in ("pip install", "-m uavwind.warmup", "-m uavwind run all", "-m uavwind.report.pages",
+    for step in ("pip install", "-m uavwind.warmup", "-m uavwind run all", "uavwind/report/pages.py",
                  "jupyter-book build", "benchmarks/bench.py"):
         names = [step] + [f"$({n})" for n, ln in defs.items() if step in ln]
         lines = [ln for ln in runs if any(n in ln for n in names)]
@@ -124,7 +167,7 @@ def _page_command(*assignments, parallel=None):
     out = subprocess.run(["make", "-n", "-C", str(ROOT), "-o", "results", "-o", ".venv/.installed",
                           "-W", "notebooks/claims.md", "book/generated/claims.ipynb",
                           *assignments], capture_output=True, text=True, env=env, check=True)
-    (line,) = [ln for ln in out.stdout.splitlines() if "uavwind.report.pages" in ln]
+    (line,) = [ln for ln in out.stdout.splitlines() if "uavwind/report/pages.py" in ln]
     return line
 
 

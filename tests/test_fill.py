@@ -389,3 +389,34 @@ def test_every_analysis_is_a_task_that_says_what_it_reads():
         assert isinstance(a, Analysis) and set(a.reads) <= set(EXPERIMENTS), a.id
     assert {"exp1", "exp10"} <= set(ANALYSES["claims"].reads)
     assert {"exp13", "exp11_filter_table", "explore_grid"} <= set(ANALYSES)
+
+def test_chunks_that_fly_the_same_loops_are_one_task(tmp_path, monkeypatch):
+    """Exp 8's cases of one scenario differ only in what is observed and how noisily: a
+    local fill hands each such group to one worker as one task (which flies each loop once,
+    uavwind.sim.setting keeping the flights), and stores the rows each case computes alone."""
+    from uavwind.sim import setting as st
+
+    keys = []
+
+    class Recorder(_Batch):
+        def put(self, key, priority, fn, *args):
+            keys.append(key)
+            super().put(key, priority, fn, *args)
+
+    monkeypatch.setattr(fill, "_LocalPool", Recorder)
+    monkeypatch.setattr(fill, "pin_threads", lambda: None)
+    prof = {**TINY, "loops": 1}
+    done = fill.fill_cache(["exp8"], profile=prof, results=tmp_path / "pool", n_jobs=2,
+                           readings="inferred", progress=False)
+    groups = [k for k in keys if isinstance(k, tuple) and k[0] == "siblings"]
+    n_scenarios = len({c.labels["scenario"] for c in ex.get_experiment("exp8").cases()})
+    assert len(groups) == len(keys) == n_scenarios < done["entries"]
+    assert done["computed"] == done["entries"] == len(done["times"])
+    pooled = ex.run_experiment("exp8", profile=prof, results=tmp_path / "pool", n_jobs=1,
+                               progress=False)
+    assert pooled.attrs["cached"] == pooled.attrs["chunks"]
+    monkeypatch.setattr(st, "FLIGHTS_KEPT", 0)  # each case flies its own loops
+    monkeypatch.setattr(st, "_FLIGHTS", type(st._FLIGHTS)())
+    alone = ex.run_experiment("exp8", profile=prof, results=tmp_path / "alone", n_jobs=1,
+                              progress=False)
+    assert exact_cells(pooled) == exact_cells(alone)

@@ -16,6 +16,15 @@ script), each paying its own start-up: about 2 CPU-s a page.
 
 ``python -m uavwind.report.pages SOURCE OUTPUT --profile quick --jobs 2
 --execution-timeout 600 --start-timeout 120 --cwd DIR``
+
+The Makefile runs this file as a script instead (``python uavwind/report/pages.py ...``, the
+same arguments): as a module of the package it would import the package first (pandas,
+numpy, the registry: about 1.1 of the driver's 2.2 CPU-s of start-up a page), which the
+page's kernel imports and the driver never uses. As a script it imports nothing of
+uavwind, blocks what its libraries import only when they can (jupytext's notebook-server
+contents managers, papermill's Arrow file system: :data:`NOT_NEEDED`), and writes its
+output to a temporary file renamed into place, as :func:`uavwind.core.store.atomic_write`
+does (the Makefile then moves it to the page's target).
 """
 
 from __future__ import annotations
@@ -26,10 +35,25 @@ import os
 import sys
 from pathlib import Path
 
-from ..core.io import READ_ONLY_ENV
-from ..core.store import atomic_write
+#: What a page's driver run as a script keeps its libraries from importing: they import it
+#: only when they can, for what the driver never does (serve notebooks, read HDFS).
+NOT_NEEDED = ("jupyter_server", "pyarrow")
 
-__all__ = ["run_page", "KERNEL", "NEEDS_ENV", "COMPUTES", "main"]
+if __package__:  # a module of the package
+    from ..core.io import READ_ONLY_ENV
+    from ..core.store import atomic_write
+else:  # run as a script (the Makefile): uavwind is not imported (tests/test_build_timeouts.py
+    # runs a page this way, and checks this name against uavwind.core.io's)
+    READ_ONLY_ENV = "UAVWIND_PAGES_READ_ONLY"
+    atomic_write = None
+    # this file's folder is not a folder of modules: its names (display, plotting) would
+    # shadow any library's of the same name
+    sys.path[:] = [q for q in sys.path
+                   if Path(q or ".").resolve() != Path(__file__).resolve().parent]
+    for _name in NOT_NEEDED:
+        sys.modules.setdefault(_name, None)
+
+__all__ = ["run_page", "KERNEL", "NEEDS_ENV", "COMPUTES", "NOT_NEEDED", "main"]
 
 #: The tag prefix of a cell that needs an environment variable (``needs-env:VAR``).
 NEEDS_ENV = "needs-env:"
@@ -72,7 +96,15 @@ def run_page(source: os.PathLike | str, output: os.PathLike | str, profile: str,
         tags = cell.metadata.setdefault("tags", [])
         if "injected-parameters" in tags and "remove-cell" not in tags:
             tags.append("remove-cell")
-    return atomic_write(output, lambda tmp: nbformat.write(nb, str(tmp)), name="output")
+    if atomic_write is not None:
+        return atomic_write(output, lambda tmp: nbformat.write(nb, str(tmp)), name="output")
+    tmp = output.with_name(f".{output.name}.{os.getpid()}.tmp")  # a script: all or nothing
+    try:
+        nbformat.write(nb, str(tmp))
+        os.replace(tmp, output)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return output
 
 
 def _lift_read_only(cells: list, nbformat) -> list:

@@ -33,7 +33,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from ..core.parallel import check_jobs, pin_threads, stop_workers
@@ -147,6 +147,26 @@ def _fill_one(entry, pin=True, n_jobs=1):
     df, hit = entry.fill(n_jobs=n_jobs, progress=False)
     cpu1 = clock()
     return entry.path, len(df), hit, sum(t - cpu0.get(pid, 0.0) for pid, t in cpu1.items())
+
+
+def _fill_siblings(entries, pin=True):
+    """A task: ``entries`` (chunks of cases that fly the same loops, :func:`_siblings`) one
+    after another in this process, each as :func:`_fill_one` (its own CPU seconds); the
+    first flies the loops, the others read the flights this process kept
+    (:meth:`Setting.observe <uavwind.sim.setting.Setting.observe>`)."""
+    return [_fill_one(e, pin=pin) for e in entries]
+
+
+def _siblings(entry):
+    """What ``entry``'s loops fly (random chunks only; ``None`` for others): its setting but
+    for what is observed, its seed and its loops. Chunks of equal keys fly the same
+    flights, and differ only in the channel and noise they read from them (Exp 11's five
+    channels and two noise levels of one scenario and action, Exp 14's three channels)."""
+    if entry.search != "random":
+        return None
+    s = entry.setting
+    return (replace(s, observation="position", noise=None, baseline=False, name=""),
+            entry.seed, entry.start, entry.stop)
 
 
 def _compute_remote(entry):
@@ -274,6 +294,11 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None, analyses=()
             if isinstance(key, tuple) and key[0] == "analysis":
                 done.append((key, 0, False, res[1], 0, 1))
                 continue
+            if isinstance(key, tuple) and key[0] == "siblings":  # chunks a worker wrote
+                for r in res:
+                    done.append((*r, 0, 1))
+                    put_ready(r[0])
+                continue
             if key is _WARM:  # the kernels are compiled: the clustering tasks may go
                 for task in held:
                     pool.put(*task)
@@ -321,9 +346,25 @@ def _run_tasks(missing, pool, local, stop=None, bar=None, warm=None, analyses=()
     try:
         if warm is not None:
             pool.start(_WARM, warm)
+        # local workers: chunks that fly the same loops are one task, so that one worker
+        # flies them once (their rows are what each computes alone)
+        groups = {}
+        for e in missing if local else ():
+            k = _siblings(e)
+            if k is not None:
+                groups.setdefault(k, []).append(e)
         for e in missing:
             if e.search == "cem":
                 put_iteration(runs.setdefault(e.path, _Stepping(e, e.cem_run())))
+            elif local and e.search == "random":
+                group = groups.pop(_siblings(e), None)
+                if group is None:  # put with the first of its siblings
+                    continue
+                if len(group) == 1:
+                    put(e.path, int(min(e.cost, 2 ** 62)), _fill_one, e)
+                else:
+                    put(("siblings", e.path), int(min(sum(g.cost for g in group), 2 ** 62)),
+                        _fill_siblings, group)
             else:
                 (pool.put if e.search == "closed_loop" else put)(
                     e.path, int(min(e.cost, 2 ** 62)), _fill_one if local else _compute_remote,
