@@ -66,7 +66,8 @@ __all__ = ["RealFlightStudy", "STUDIES", "REAL_VERSION", "SPREADS", "real_flight
 #: 5: the flight rows' hover throttle (the battery), what the twin's draws are fitted on.
 #: 6: the wind estimates read each flight's own offset (WindEstimator's tilt, the default),
 #: scored beside the plain model (the variant "no own offset").
-REAL_VERSION = "6"
+#: 7: the ekf's std raised to what its innovations show (WindEstimator's innovation_window).
+REAL_VERSION = "7"
 
 
 @dataclass(frozen=True, kw_only=True)

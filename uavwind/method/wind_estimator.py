@@ -73,6 +73,9 @@ into z): it stays near its prior, 0.
   noise is coloured: block means are close to white); causal: a sample's estimate uses the
   blocks before its own. Linear in ``W`` without the parasitic term (the filter is then
   exact); with it, the gain is taken at the prior's airspeed.
+  The random walk is set for a steady wind: a wind that changes faster (Neural-Fly's 2.4 m/s
+  sinusoid at 1 rad/s) it follows late, and its variance does not know it; the std does
+  (below).
 * ``"clusters"`` -- causal curiosity's clusters as a *classifier*: each lap (its force and
   attitude, :func:`uavwind.data.flight_laps`) takes the mean wind of its ``neighbours``
   DTW-nearest training laps. It can only name a wind it was trained on, so it has no std and
@@ -82,7 +85,13 @@ into z): it stays near its prior, 0.
 (with the flight's own offset, ``flight(W)^2`` is replaced by the offset's posterior variance
 carried into the wind, ``mean(H^-1) P mean(H^-1)^T``).
 ``noise``: the estimate's scatter about its own flight mean on the training flights (for
-``"ekf"``, the filter's variance with the block noise fitted the same way); ``flight``: the
+``"ekf"``, the filter's variance with the block noise fitted the same way, raised to what the
+filter's innovations show: a block's variance is at least the mean, over the blocks of the
+last ``innovation_window`` s, of the squared innovation (a block's reading less the filter's
+prediction for it) less the reading's noise variance. A block's reading is the truth plus its noise,
+the prediction is what that block's samples are given, so this is the estimate's own mean
+square error, lag included, read without the wind; the training flights' wind is steady, so
+no fitted term could learn the lag); ``flight``: the
 error of a flight's mean when its controller is left out of the fit (refitted once per
 training controller), which carries the controllers' differences and the tunnel labels'
 between-session uncertainty. Each is ``sqrt(a + b W^2)``, fitted on the squared errors.
@@ -339,26 +348,35 @@ def _blocks(n, dt, period):
     return np.arange(0, n, size)
 
 
-def _kalman(model, sig, starts, q, noise):
+def _kalman(model, sig, starts, q, noise, window=0):
     """The causal Kalman filter of the module text: ``(W_xy, var)`` (n, 2) each. Each block's
     measurement is ``model``'s equation averaged over the block, its gain taken at the prior
     (exact for a linear model); ``noise`` (callable of the current speed) is the block
     measurement's std in wind units, ``q`` the random walk's variance per block. The filter
-    starts from the first block's own reading."""
+    starts from the first block's own reading. ``window`` > 0 (blocks): a block's variance is
+    at least the mean square of the ``window`` blocks' innovations before it (in wind units,
+    less their measurement noise) -- the error the filter showed, lag included."""
     n = len(sig["t"])
     out, var = np.empty((n, 2)), np.empty((n, 2))
     ends = np.append(starts[1:], n)
     x, P = model.invert(sig)[:ends[0]].mean(axis=0), np.eye(2) * 100.0
-    for s, e in zip(starts, ends):
+    shown = np.zeros((len(starts), 2))  # each block's innovation^2 less its noise, wind units
+    for i, (s, e) in enumerate(zip(starts, ends)):
         P = P + np.eye(2) * q
         out[s:e], var[s:e] = x, np.diag(P)  # causal: this block's samples see the blocks before
         block = {k: v[s:e] for k, v in sig.items()}
         z, H = model.measurement(block, x)
         zz, HH = z.mean(axis=0), H.mean(axis=0)
-        r = noise(float(np.linalg.norm(x))) ** 2 * (HH @ HH.T)
+        sd = noise(float(np.linalg.norm(x)))
+        r = sd ** 2 * (HH @ HH.T)
         S = HH @ P @ HH.T + r
         K = np.linalg.solve(S.T, (P @ HH.T).T).T
-        x = x + K @ (zz - HH @ x)
+        nu = zz - HH @ x
+        shown[i] = np.linalg.solve(HH, nu) ** 2 - sd ** 2
+        if window and i:
+            past = shown[max(0, i - window):i].mean(axis=0)
+            var[s:e] = np.maximum(var[s:e], past)
+        x = x + K @ nu
         P = (np.eye(2) - K @ HH) @ P
         P = 0.5 * (P + P.T)
     return out, var
@@ -497,6 +515,11 @@ class WindEstimator:
     mass : float
         The vehicle's mass [kg] (``tilt``: the weight ``m g`` the body z force is measured
         against), in [0.01, 1e4]; default 2.6, Neural-Fly's quadrotor.
+    innovation_window : float
+        ``"ekf"``: the std is at least the error the filter's innovations over the last this
+        many seconds show (module text; causal), in [0, 1e4]; default 2 pi, one lap of
+        Neural-Fly's figure-8 (its lap-locked force averages out). 0: the filter's own
+        variance alone. The estimate (the mean) does not depend on it.
 
     Notes
     -----
@@ -519,7 +542,8 @@ class WindEstimator:
                  cutoff: float = 1.0, sigma_wind_rate: float = 0.3,
                  update_period: float = 0.5, jet: bool = True, parasitic: bool = False,
                  channels=("aero_force", "attitude"), neighbours: int = 1,
-                 skip: float = 2 * np.pi, tilt: bool = True, mass: float = 2.6):
+                 skip: float = 2 * np.pi, tilt: bool = True, mass: float = 2.6,
+                 innovation_window: float = 2 * np.pi):
         self.method = check_choice(method, "method", ESTIMATORS)
         self.direction = _unit(direction)
         self.cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=10.0)
@@ -544,6 +568,8 @@ class WindEstimator:
             raise TypeError(f"tilt must be a bool, got {type(tilt).__name__}")
         self.tilt = bool(tilt)
         self.mass = check_scalar(mass, "mass", low=0.01, high=1e4)
+        self.innovation_window = check_scalar(innovation_window, "innovation_window", low=0.0,
+                                              high=1e4)
 
     def __repr__(self):
         return f"WindEstimator(method={self.method!r})"
@@ -740,7 +766,9 @@ class WindEstimator:
         starts = _blocks(len(sig["t"]), _dt(flight), self.update_period)
         a, b = self.block_noise_
         q = self.sigma_wind_rate ** 2 * self.update_period
-        return _kalman(model, sig, starts, q, lambda s: math.sqrt(a + b * s * s))
+        window = (max(1, int(round(self.innovation_window / self.update_period)))
+                  if self.innovation_window > 0 else 0)
+        return _kalman(model, sig, starts, q, lambda s: math.sqrt(a + b * s * s), window)
 
     def _predict_laps(self, flight):
         dtw = softdtw_engine().dtw  # the kernels load when a lap is compared, not on import
