@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.analysis import figure8, real_flights as rf
+from uavwind.analysis import figure8, real_flights as rf, twin, twin_fit
 from uavwind.data.neuralfly import NOISE_CUTOFF, lap_starts, pitch_degrees, split_noise
 from uavwind.sim.multirotor import Multirotor
 from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL, PX4_LIKE, PositionControl
@@ -40,12 +40,12 @@ def test_a_gust_seed_changes_the_twins_flight_and_without_gusts_none_does():
 
 
 def test_the_twins_wind_is_the_mean_plus_gusts():
-    w = figure8._wind("100wind", np.random.SeedSequence(1), 0.25)
+    w = twin._wind("100wind", np.random.SeedSequence(1), 0.25)
     pos = np.array([[0.0, 0.0, 2.15]])
     v = np.array([w.velocity(t, pos)[0] for t in np.arange(8.0, 20.0, 0.02)])
     assert v[:, 0].mean() == pytest.approx(-12.1, abs=0.6)
     assert v[:, 0].std() > 0.05 and v[:, 1].std() > 0.05  # the gusts, not the mean alone
-    calm = figure8._wind("100wind", np.random.SeedSequence(1), 0.0)
+    calm = twin._wind("100wind", np.random.SeedSequence(1), 0.0)
     assert calm.velocity(10.0, pos)[0].tolist() == [-12.1, 0.0, 0.0]
 
 
@@ -266,11 +266,11 @@ def test_the_calibration_hits_its_targets(monkeypatch):
     assert len(cal.noise) == len(figure8.CONDITIONS) * len(rf.noise_columns())
     quiet = figure8.TwinCalibration(drag_scale=cal.drag_scale, lift_scale=cal.lift_scale,
                                     axis_offset=cal.axis_offset)
-    row = figure8._twin_row(quiet, figure8.FIT_CONDITION, study)
-    still = figure8._twin_row(quiet, "nowind", study)
+    row = twin_fit._twin_row(quiet, figure8.FIT_CONDITION, study)
+    still = twin_fit._twin_row(quiet, "nowind", study)
     assert row["aero_force_x"] - still["aero_force_x"] == pytest.approx(-7.0, rel=0.01)
     assert row["aero_force_z"] - still["aero_force_z"] == pytest.approx(-0.4, abs=0.03)
-    spread = figure8._twin_row(figure8.TwinCalibration(**{
+    spread = twin_fit._twin_row(figure8.TwinCalibration(**{
         **quiet.to_dict(), "gust_scale": cal.gust_scale}), figure8.SPREAD_CONDITION, study)
     assert spread["fa_x_spread"] == pytest.approx(0.3, rel=0.03)
 
@@ -296,7 +296,7 @@ def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
                                                if c != figure8.held_out_controller(ctl)])
     quiet = figure8.TwinCalibration(axis_offset=target["offset"])
     start = (NEURAL_FLY_FITTED["drag_scale"], NEURAL_FLY_FITTED["lift_scale"])  # converges soon
-    drag, lift = figure8._fit_forces(quiet, target, study, start)
+    drag, lift = twin_fit._fit_forces(quiet, target, study, start)
     assert drag == pytest.approx(NEURAL_FLY_FITTED["drag_scale"], abs=0.02)
     assert lift == pytest.approx(NEURAL_FLY_FITTED["lift_scale"], abs=0.03)
 

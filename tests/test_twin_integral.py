@@ -7,14 +7,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uavwind.analysis import figure8
+from uavwind.analysis import figure8, twin_fit
 from twin_helpers import STUDY, VARIED, fly, same
 
 HIGH = 0.5  # the stand-in bandwidth's spread: the fit's upper bound
 
 
 def _spread(cal):
-    return figure8._replicate_mean(cal, figure8.SPREAD_CONDITION, STUDY, ("position_spread",))[0]
+    return twin_fit._replicate_mean(cal, figure8.SPREAD_CONDITION, STUDY, ("position_spread",))[0]
 
 
 def _train(value):
@@ -47,24 +47,24 @@ def test_the_fit_recovers_the_spread_that_made_its_target_and_takes_a_bound_beyo
     ends = _spread(build(0.0)), _spread(build(HIGH))
     assert ends[1] > 1.2 * ends[0]  # a slow integral lets the strong wind move the laps
     given = 0.25
-    got = figure8._fit_integral_spread(build, _train(_spread(build(given))), STUDY, HIGH)
+    got = twin_fit._fit_integral_spread(build, _train(_spread(build(given))), STUDY, HIGH)
     assert got.integral_spread == pytest.approx(given, abs=0.08)
     assert ("lap-to-lap spread of position", figure8.SPREAD_CONDITION) in got.fitted_on
     built.clear()
-    low = figure8._fit_integral_spread(build, _train(0.5 * ends[0]), STUDY, HIGH)
+    low = twin_fit._fit_integral_spread(build, _train(0.5 * ends[0]), STUDY, HIGH)
     assert low.integral_spread == 0.0 and built == [HIGH, 0.0]
-    high = figure8._fit_integral_spread(build, _train(2 * ends[1]), STUDY, HIGH)
+    high = twin_fit._fit_integral_spread(build, _train(2 * ends[1]), STUDY, HIGH)
     assert high.integral_spread == HIGH
     assert high.fitted_on.count(("lap-to-lap spread of position",
                                  figure8.SPREAD_CONDITION)) == 1
     with pytest.raises(ValueError, match="position spread"):
-        figure8._fit_integral_spread(build, _train(1.0).drop(columns="position_spread"),
+        twin_fit._fit_integral_spread(build, _train(1.0).drop(columns="position_spread"),
                                      STUDY, HIGH)
 
 
 def test_bad_values_name_the_parameter():
-    assert figure8._check_integral("bandwidth") == "bandwidth"
-    assert figure8._check_integral(np.float64(0.2)) == 0.2
+    assert twin_fit.check_integral_spread("bandwidth") == "bandwidth"
+    assert twin_fit.check_integral_spread(np.float64(0.2)) == 0.2
     rows = pd.DataFrame({"kind": ["flight"], "controller": ["A"]})
     for bad in (-0.1, 2.5, "fitted", np.nan):
         with pytest.raises(ValueError, match="integral_spread"):

@@ -8,12 +8,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uavwind.analysis import figure8, real_flights as rf
+from uavwind.analysis import figure8, real_flights as rf, twin_fit
 from twin_helpers import STUDY, VARIED, training_rows
 
 
 def _mean_square(cal, column, condition="nowind"):
-    rows = [figure8._twin_row(cal, condition, STUDY, s) for s in range(figure8.N_SEEDS)]
+    rows = [twin_fit._twin_row(cal, condition, STUDY, s) for s in range(figure8.N_SEEDS)]
     return float(np.mean([r[column] ** 2 for r in rows]))
 
 
@@ -27,7 +27,7 @@ def test_the_fitted_noise_tops_the_twins_own_content_up_to_the_target():
     cal = replace(VARIED, noise=(("nowind", "noise_attitude_x", high),
                                  ("nowind", "noise_attitude_y", low),
                                  ("nowind", "noise_aero_force_x", 0.2)))
-    fit = figure8._fit_noise(cal, STUDY)
+    fit = twin_fit._fit_noise(cal, STUDY)
     got = dict(((c, col), v) for c, col, v in fit.noise)
     assert got[("nowind", "noise_attitude_x")] == pytest.approx(np.sqrt(high ** 2 - own))
     assert got[("nowind", "noise_attitude_y")] == 0.0
@@ -53,10 +53,10 @@ def test_off_is_the_twin_before_to_the_double_and_on_is_the_noise_fit_of_it(monk
 
     def spy(cal, study):
         calls.append(cal)
-        return figure8.__dict__["_fit_noise_real"](cal, study)
+        return twin_fit.__dict__["_fit_noise_real"](cal, study)
 
-    monkeypatch.setitem(figure8.__dict__, "_fit_noise_real", figure8._fit_noise)
-    monkeypatch.setattr(figure8, "_fit_noise", spy)
+    monkeypatch.setitem(twin_fit.__dict__, "_fit_noise_real", twin_fit._fit_noise)
+    monkeypatch.setattr(twin_fit, "_fit_noise", spy)
     on = figure8.calibrate_twin(rows, STUDY, controllers=("A", "B"), variability=False,
                                 per_wind=False, fit_noise=True)
     assert calls == [off]  # the same fit up to the noise, to the double

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 import uavwind as uw
-from uavwind.analysis import figure8
+from uavwind.analysis import figure8, twin, twin_fit
 from uavwind.core.seeding import child_rng
 from uavwind.data.neuralfly import split_noise
 from uavwind.sim.multirotor import Multirotor
@@ -60,14 +60,14 @@ def test_a_seed_is_one_controller_at_every_wind_and_the_battery_is_drawn_per_fli
 
 def test_the_state_errors_have_their_sd_and_stay_below_the_noise_cutoff():
     cal = replace(BASE, attitude_error=0.5, thrust_error=0.02, velocity_error=0.1)
-    e = figure8._state_errors(cal, child_rng(5, 0), 200_000, 100.0)
+    e = twin._state_errors(cal, child_rng(5, 0), 200_000, 100.0)
     sd = cal.state_error_sds()
     assert e.std(0)[sd > 0] == pytest.approx(sd[sd > 0], rel=0.05)
     assert np.all(e[:, sd == 0] == 0)
     slow, fast = split_noise(e[::2, 0], 0.02)
     assert fast.var() < 0.02 * e[:, 0].var()
-    again = figure8._state_errors(cal, child_rng(5, 0), 1000, 100.0)
-    assert np.array_equal(again, figure8._state_errors(cal, child_rng(5, 0), 1000, 100.0))
+    again = twin._state_errors(cal, child_rng(5, 0), 1000, 100.0)
+    assert np.array_equal(again, twin._state_errors(cal, child_rng(5, 0), 1000, 100.0))
 
 
 def _hover(errors, duration=40.0):
@@ -141,10 +141,10 @@ def test_the_variability_fit_hits_its_still_air_targets():
     assert cal.hover_throttle == pytest.approx(0.48)
     assert cal.hover_throttle_sd == pytest.approx(np.std([0.47, 0.49] * 5, ddof=1))
     assert cal.gain_spread > 0 and cal.integral_spread == cal.gain_spread
-    got = figure8._replicate_mean(replace(cal, gust_scale=0.0), "nowind", STUDY,
-                                  figure8._ERROR_TARGETS)
+    got = twin_fit._replicate_mean(replace(cal, gust_scale=0.0), "nowind", STUDY,
+                                  twin_fit._ERROR_TARGETS)
     assert got == pytest.approx([0.5, 0.12, 0.01], rel=0.06)
-    gusty = figure8._replicate_mean(cal, figure8.SPREAD_CONDITION, STUDY, ("fa_x_spread",))
+    gusty = twin_fit._replicate_mean(cal, figure8.SPREAD_CONDITION, STUDY, ("fa_x_spread",))
     assert gusty[0] == pytest.approx(0.45, rel=0.03)
     with pytest.raises(ValueError, match="pitch_spread"):
         figure8.calibrate_twin(rows.drop(columns="pitch_spread"), STUDY, controllers=("A", "B"),

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uavwind.analysis import figure8, real_flights as rf
+from uavwind.analysis import figure8, real_flights as rf, twin_fit
 from twin_helpers import STUDY, VARIED, fly as _fly
 
 
@@ -17,11 +17,11 @@ def _rows(cal, condition):
 
 
 def test_share_zero_is_the_thrust_error_alone_to_the_double():
-    assert figure8._vertical_fields(0.03, 0.0) == {"thrust_error": 0.03}
-    got = figure8._vertical_fields(0.03, 0.25)
+    assert twin_fit._vertical_fields(0.03, 0.0) == {"thrust_error": 0.03}
+    got = twin_fit._vertical_fields(0.03, 0.25)
     assert got["thrust_error"] == pytest.approx(0.03 * np.sqrt(0.75))
     assert got["vertical_velocity_error"] == pytest.approx(0.015)
-    assert figure8._vertical_fields(0.03, 1.0)["thrust_error"] == 0.0
+    assert twin_fit._vertical_fields(0.03, 1.0)["thrust_error"] == 0.0
     a, b = _fly(VARIED, "nowind", 1), _fly(replace(VARIED, vertical_velocity_error=0.0), "nowind", 1)
     assert all(np.array_equal(a.arrays[k], b.arrays[k]) for k in a.arrays)
 
@@ -63,11 +63,11 @@ def test_the_share_fit_meets_the_position_spread_or_takes_the_bound_it_leans_on(
 
     def build(share):
         built.append(share)
-        return replace(VARIED, **figure8._vertical_fields(0.05, share))
+        return replace(VARIED, **twin_fit._vertical_fields(0.05, share))
 
     def spread(share):
         c = build(share)
-        return figure8._replicate_mean(c, figure8.SPREAD_CONDITION, study,
+        return twin_fit._replicate_mean(c, figure8.SPREAD_CONDITION, study,
                                        ("position_spread",))[0]
 
     ends = spread(0.0), spread(1.0)
@@ -77,15 +77,15 @@ def test_the_share_fit_meets_the_position_spread_or_takes_the_bound_it_leans_on(
         return pd.DataFrame({"condition": [figure8.SPREAD_CONDITION] * 2,
                              "position_spread": [value * 0.9, value * 1.1]})
     built.clear()
-    low = figure8._fit_vertical_share(build, train(0.5 * ends[1]), study)
+    low = twin_fit._fit_vertical_share(build, train(0.5 * ends[1]), study)
     assert built == [1.0] and low.vertical_velocity_error == pytest.approx(0.05)
     assert ("lap-to-lap spread of position", figure8.SPREAD_CONDITION) in low.fitted_on
-    high = figure8._fit_vertical_share(build, train(2 * ends[0]), study)
+    high = twin_fit._fit_vertical_share(build, train(2 * ends[0]), study)
     assert high.vertical_velocity_error == 0.0 and high.thrust_error == 0.05
     mid = 0.5 * (ends[0] + ends[1])
-    got = figure8._fit_vertical_share(build, train(mid), study)
+    got = twin_fit._fit_vertical_share(build, train(mid), study)
     assert 0.0 < got.vertical_velocity_error < 0.05
-    assert figure8._replicate_mean(got, figure8.SPREAD_CONDITION, study,
+    assert twin_fit._replicate_mean(got, figure8.SPREAD_CONDITION, study,
                                    ("position_spread",))[0] == pytest.approx(mid, rel=0.05)
     with pytest.raises(ValueError, match="position spread"):
-        figure8._fit_vertical_share(build, train(mid).drop(columns="position_spread"), study)
+        twin_fit._fit_vertical_share(build, train(mid).drop(columns="position_spread"), study)

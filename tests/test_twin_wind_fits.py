@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from uavwind.analysis import figure8
+from uavwind.analysis import figure8, twin, twin_fit
 from uavwind.core.seeding import child_rng
 from uavwind.sim.multirotor import Multirotor
 from uavwind.sim.rotor_params import ROTOR_DRAG_KEYS
@@ -68,20 +68,20 @@ def test_the_per_wind_force_fit_finds_the_factors_that_made_its_targets():
     rows = []
     for c, off in (("A", -0.1), ("B", 0.1)):
         for cond in ("nowind", "35wind", "70wind", "100wind"):
-            r = figure8._twin_row(truth, cond, STUDY)
+            r = twin_fit._twin_row(truth, cond, STUDY)
             d = 0.0 if cond == "nowind" else off  # the controllers differ in wind
             rows.append({"controller": c, "condition": cond,
                          "aero_force_x": r["aero_force_x"] + d,
                          "aero_force_z": r["aero_force_z"] - d})
     train = pd.DataFrame(rows)
-    targets = figure8._force_targets(train)
+    targets = twin_fit._force_targets(train)
     assert list(targets) == ["35wind", "70wind", "100wind"]
     assert targets["70wind"][1] == pytest.approx(np.std([-0.1, 0.1], ddof=1))
-    got = figure8._fit_forces_per_wind(figure8.TwinCalibration(), targets, STUDY)
+    got = twin_fit._fit_forces_per_wind(figure8.TwinCalibration(), targets, STUDY)
     assert got == pytest.approx((0.8, 0.7, 1.2), rel=0.03)
     flat = train.assign(aero_force_x=1.0, aero_force_z=0.0)
     with pytest.raises(ValueError, match="at least two training controllers"):
-        figure8._force_targets(flat)
+        twin_fit._force_targets(flat)
 
 
 # --------------------------------------------------------------------------- #
@@ -90,8 +90,8 @@ def test_the_per_wind_force_fit_finds_the_factors_that_made_its_targets():
 def test_the_error_time_at_its_default_is_the_first_twin_and_a_slower_one_wanders_more():
     assert _same(_fly(VARIED, "nowind", 1),
                  _fly(replace(VARIED, error_time=figure8.ERROR_TIME), "nowind", 1))
-    e = figure8._state_errors(replace(VARIED, error_time=0.8), child_rng(5, 0), 100_000, 100.0)
-    f = figure8._state_errors(VARIED, child_rng(5, 0), 100_000, 100.0)
+    e = twin._state_errors(replace(VARIED, error_time=0.8), child_rng(5, 0), 100_000, 100.0)
+    f = twin._state_errors(VARIED, child_rng(5, 0), 100_000, 100.0)
     assert e[:, 0].std() == pytest.approx(f[:, 0].std(), rel=0.1)  # the same SD
     lag = 20  # 0.2 s; two first-order lags of time tau: correlation (1 + s/tau) exp(-s/tau)
 
@@ -113,7 +113,7 @@ def test_the_turbulence_tilt_acts_in_wind_alone_and_raises_the_pitch_spread():
     spreads = [np.mean([_row(c, "70wind", s)["pitch_spread"] for s in range(3)])
                for c in (VARIED, tilt)]
     assert spreads[1] > 1.15 * spreads[0]
-    e = figure8._turbulence_tilt(tilt, child_rng(5, 0), 200_000, 100.0, 8.5)
+    e = twin._turbulence_tilt(tilt, child_rng(5, 0), 200_000, 100.0, 8.5)
     assert np.degrees(e[100_000:].std(axis=0)) == pytest.approx([0.85, 0.85], rel=0.1)
     assert np.abs(e[:100]).max() < np.abs(e[100_000:]).max() / 10  # ramped in with the wind
 

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from . import PAPER_EXAMPLE, ConstantWind, Multirotor, make_setting, simulate
-from .analysis import figure8
+from .analysis import twin
 from .method.clustering import score_loop
 from .method.softdtw import warmup as engine_warmup
 
@@ -48,8 +48,8 @@ def warm(part: str) -> float:
     else:
         simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]),
                  uav=Multirotor(preset="rotorpy", start="hover"))
-        bare = figure8.BARE  # the position controller's kernels; > 4 pi, whole 0.02 s steps
-        figure8.simulated_flight(bare.vehicle(), "35wind", 0, 13.0, bare)
+        bare = twin.BARE  # the position controller's kernels; > 4 pi, whole 0.02 s steps
+        twin.simulated_flight(bare.vehicle(), "35wind", 0, 13.0, bare)
     return time.perf_counter() - t0
 
 

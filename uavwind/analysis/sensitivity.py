@@ -54,8 +54,8 @@ __all__ = ["FITTED", "FITTED_BY", "SOURCES", "SOURCE_NAMES", "HEADLINES", "CHAPT
            "sensitivity_table", "SENSITIVITY_VERSION", "FITTED_DECIMALS", "shown",
            "verdict_sentence", "CLOSED_LOOP_AT", "CLOSED_LOOP_PAIRS"]
 
-#: The twin's sources of variability as :func:`uavwind.analysis.figure8.calibrate_twin` fits
-#: them (the :class:`~uavwind.analysis.figure8.TwinCalibration` fields of the same names;
+#: The twin's sources of variability as :func:`uavwind.analysis.twin_fit.calibrate_twin` fits
+#: them (the :class:`~uavwind.analysis.twin.TwinCalibration` fields of the same names;
 #: ``battery`` is ``hover_throttle_sd / hover_throttle``, the battery's spread relative to
 #: its mean, which carries to a vehicle of another thrust-to-weight ratio). See
 #: :data:`FITTED_BY`; ``tests/test_sensitivity.py`` holds them to a new fit when the flights
@@ -65,7 +65,7 @@ FITTED = {"attitude_error": 0.3542, "thrust_error": 0.0, "velocity_error": 0.039
           "hover_throttle_sd": 0.0183, "gain_spread": 0.2509, "integral_spread": 0.0,
           "gust_scale": 0.0869, "error_time": 0.2592}
 #: Where :data:`FITTED` comes from.
-FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_rows("
+FITTED_BY = ("uavwind.analysis.twin_fit.calibrate_twin(real_flights.real_flight_rows("
              "profile='quick'), STUDIES['quick']): fitted on the four training controllers "
              "(L1, NF-C, NF-T, baseline; indi held out) of the 25 Neural-Fly flights "
              "($UAVWIND_NEURALFLY), their still-air lap-to-lap spreads of pitch, force along x "
@@ -73,7 +73,7 @@ FITTED_BY = ("uavwind.analysis.figure8.calibrate_twin(real_flights.real_flight_r
              "time, error_time [s]), their still-air tracking error (the controller), their "
              "hover throttle (the battery), their spread of force along x at 12.1 m/s (the "
              "gusts) and of position there (the integral gain's spread, SIM_VERSION 9: it "
-             "takes the bound 0, the integral scaled with the bandwidth alone); figure8.py "
+             "takes the bound 0, the integral scaled with the bandwidth alone); twin_fit.py "
              "with the drag fitted at every wind and the still-air vertical error's share "
              "fitted on the position spread at 12.1 m/s (SIM_VERSION 8: it takes the bound, "
              "the vertical velocity estimate's error alone, so the thrust error is 0 and the "

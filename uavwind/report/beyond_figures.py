@@ -378,7 +378,7 @@ def manoeuvre_plot(table, scenario: str, vehicle: str) -> Figure:
 
 def twin_validation(table) -> Figure:
     """Exp 13: the calibrated twin against the real flights, one panel per quantity of
-    :data:`uavwind.analysis.figure8.VALIDATION` against wind speed: the five real
+    :data:`uavwind.analysis.twin.VALIDATION` against wind speed: the five real
     controllers' range (bars), the held-out controller (filled), the twin's mean over its
     seeds (open squares); where the twin was fitted, its marker is circled (``table``:
     :func:`uavwind.analysis.figure8.validation_table`)."""

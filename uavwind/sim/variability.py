@@ -10,7 +10,7 @@ environment and the gusts. A :class:`~uavwind.sim.setting.Setting` with ``variab
 every loop so (:meth:`~uavwind.sim.setting.Setting.observe`); which values apply to which
 experiment, and where they were fitted, is :mod:`uavwind.analysis.sensitivity`'s.
 
-How each source acts (the twin's reading, :mod:`uavwind.analysis.figure8`):
+How each source acts (the twin's reading, :mod:`uavwind.analysis.twin`):
 
 * *within a flight*, per environment, each a second-order Gauss-Markov process (white noise
   through two first-order lags of time constant ``error_time``, after a burn-in of ten) at the
@@ -70,7 +70,7 @@ def gauss_markov(white: np.ndarray, rate: float, tau: float, sd, axis: int = 0) 
     lags of time constant ``tau`` [s] at ``rate`` [Hz], the burn-in dropped, each last-axis
     column scaled to its SD ``sd`` (the cascade's own SD is ``(1 - a)^2 sqrt((1 + a^2) /
     (1 - a^2)^3)``, ``a = exp(-1 / (rate tau))``). The twin's state errors
-    (:mod:`uavwind.analysis.figure8`) and a loop's (:meth:`FlightVariability.state_errors`)
+    (:mod:`uavwind.analysis.twin`) and a loop's (:meth:`FlightVariability.state_errors`)
     are both drawn through it."""
     from scipy.signal import lfilter
 
@@ -110,7 +110,7 @@ class FlightVariability:
         Dryden ``W20`` over each environment's mean wind speed [-], in [0, 10].
     error_time : float
         Time constant of each lag of the Gauss-Markov errors [s], in (0, 100]; default 0.2
-        (:data:`uavwind.analysis.figure8.ERROR_TIME`).
+        (:data:`uavwind.analysis.twin.ERROR_TIME`).
     """
 
     attitude_error: float = 0.0

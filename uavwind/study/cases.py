@@ -285,7 +285,7 @@ FUTURE_CEM_SCALE = {"max_iter": 1 / 2}
 
 
 #: The Neural-Fly quadrotor's drag and lift factors as Exp 13 fits them on the real flights
-#: (:func:`uavwind.analysis.figure8.calibrate_twin`, four controllers, paper profile: 0.739
+#: (:func:`uavwind.analysis.twin_fit.calibrate_twin`, four controllers, paper profile: 0.739
 #: and 0.631; tests/test_twin.py holds these to a new fit when the flights are there).
 #: With the preset's own drag (factor 1) the vehicle leans 47.5 degrees and needs 91% of its
 #: thrust to hold still in 13.86 m/s: no room for a manoeuvre.
