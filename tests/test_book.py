@@ -234,3 +234,26 @@ def test_run_exp13_on_the_real_flights_through_the_command_line(built_book, tmp_
         df = uw.run_experiment("exp13", profile="quick", results=results)
         assert df.equals(rf.real_flight_rows(profile="quick", results=results))
     assert set(df["controller"].dropna()) >= {"baseline", "indi", "L1", "NF-C", "NF-T"}
+
+
+@pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
+                    reason="Neural-Fly's flights are not on this machine (set UAVWIND_NEURALFLY)")
+def test_the_fitted_variability_is_the_books_twin(built_book):
+    """sensitivity.FITTED is the twin the book's fill fitted (figure8.sim_rows of the quick
+    real-flight rows: figure8.calibrate_twin(real, STUDIES['quick']) on the training
+    controllers, FITTED_BY), to the decimals it keeps; read from the fill's cache, never
+    fitted again (tests/test_sensitivity.py fits it itself when no book is built beside
+    it)."""
+    from uavwind.analysis import figure8
+    from uavwind.analysis import real_flights as rf
+    from uavwind.analysis import sensitivity as se
+    from uavwind.core.io import READ_ONLY_ENV
+
+    results = built_book.parent / "results"
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv(READ_ONLY_ENV, "1")
+        real = rf.real_flight_rows(profile="quick", results=results)
+        cal = figure8.calibration_of(figure8.sim_rows(real, profile="quick", results=results))
+    half = 0.5 * 10.0 ** -se.FITTED_DECIMALS + 1e-12
+    for k, v in se.FITTED.items():
+        assert abs(getattr(cal, k) - v) <= half, (k, getattr(cal, k), v)

@@ -275,6 +275,54 @@ def test_a_page_that_reads_the_flights_reruns_when_they_arrive(tmp_path):
     assert needs == {"exp13_real_flights.ipynb", "exp14_flyable.ipynb"}
 
 
+def test_the_longest_modules_start_first_and_the_rest_keep_their_order(monkeypatch):
+    """xdist starts the units of work in collection order: the longest named ones first, in
+    the order named, each keeping its tests' order; the others after them as collected."""
+    from types import SimpleNamespace
+
+    import conftest
+
+    named = conftest.LONGEST_FIRST  # each a module of the suite, or the dask tests' group
+    assert all(n == "dask" or (ROOT / n).is_file() for n in named), named
+    monkeypatch.setattr(conftest, "LONGEST_FIRST", ("dask", "tests/test_b.py"))
+    items = [SimpleNamespace(nodeid=f"tests/test_{m}.py::t{i}", group=g)
+             for m, i, g in (("a", 0, None), ("b", 0, None), ("a", 1, None), ("c", 0, "dask"),
+                             ("b", 1, None), ("d", 0, None), ("c", 1, "dask"))]
+    conftest._longest_first(items, lambda i: i.group or i.nodeid.split("::")[0])
+    assert [i.nodeid.split("tests/test_")[1] for i in items] == [
+        "c.py::t0", "c.py::t1", "b.py::t0", "b.py::t1", "a.py::t0", "a.py::t1", "d.py::t0"]
+
+
+def test_each_test_reaches_xdist_with_its_group():
+    """Under --dist loadgroup the scheduler reads a test's unit of work from the '@group'
+    suffix of its node id (pytest-xdist's, which pytest 9 drops: conftest appends it): a
+    module's tests are one unit, the dask tests another; a suffix already there is kept, and
+    without loadgroup nothing changes."""
+    from types import SimpleNamespace
+
+    import conftest
+    NodeId = pytest.importorskip("_pytest.nodeid").NodeId
+    from xdist.scheduler.loadgroup import LoadGroupScheduling
+
+    class Item:
+        def __init__(self, nodeid, fixtures=()):
+            self._id, self.fixturenames = NodeId.parse(nodeid), fixtures
+
+        nodeid = property(lambda self: str(self._id))
+
+    def items():
+        return [Item("tests/test_a.py::t[x@y]"), Item("tests/test_a.py::u"),
+                Item("tests/test_a.py::v", ("client", "dask_client")),
+                Item("tests/test_b.py::w@mine")]
+    got = items()
+    conftest._name_the_groups(SimpleNamespace(option=SimpleNamespace(loadgroup=True)), got)
+    scopes = [LoadGroupScheduling._split_scope(None, i.nodeid) for i in got]
+    assert scopes == ["tests/test_a.py", "tests/test_a.py", "dask", "mine"]
+    plain = items()
+    conftest._name_the_groups(SimpleNamespace(option=SimpleNamespace(loadgroup=False)), plain)
+    assert [i.nodeid for i in plain] == [i.nodeid for i in items()]
+
+
 def test_the_suite_says_where_its_time_went(tmp_path, monkeypatch):
     """make test's summary adds up each module's test time (largest first) and the background
     book's fill CPU by experiment, from the fill's --times record."""

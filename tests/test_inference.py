@@ -63,7 +63,7 @@ def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
     chosen = [i for i, c in enumerate(cases)
               if c.labels["gap_ratio"] in around.get(c.labels["scenario_id"], ())]
     df = ex.run_experiment("fit_layout", profile={**TINY, "fit_loops": 20}, results=tmp_path,
-                           n_jobs=2, progress=False, cases=chosen)
+                           n_jobs=1, progress=False, cases=chosen)
     fits = inf.check_fits(inf.fit_layouts(df))
     assert list(fits.index) == [1, 4] and fits["in_ci"].all()
     # the page reads the same table from the fill's cache, keyed by the loops it is fitted to
@@ -83,7 +83,7 @@ def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
 
 
 def test_the_inferred_turbulence_is_the_closest_candidate(tmp_path):
-    df = ex.run_experiment("fit_turbulence", profile=TINY, results=tmp_path, n_jobs=2,
+    df = ex.run_experiment("fit_turbulence", profile=TINY, results=tmp_path, n_jobs=1,
                            progress=False)
     turb = inf.compare_turbulence(df)
     used = inf.check_turbulence(turb)

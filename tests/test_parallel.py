@@ -15,7 +15,9 @@ def test_dask_local_cluster_is_bit_identical(dask_client):
     s = uw.make_setting("light constant", "strong turbulence", 3, dt=0.2, duration=4.0,
                        n_changes=3)
     local = uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False)
-    dask_client.wait_for_workers(2, timeout=60)  # a worker another test killed is back
+    # a worker test_cluster_fill killed is back (its restart loads the package and the kernels:
+    # over a minute on 2 busy cores; with the groups one unit of work, this runs after it)
+    dask_client.wait_for_workers(2, timeout=300)
     with joblib.parallel_config(backend="dask", client=dask_client):
         remote = uw.random_search(s, n_loops=6, seed=3, progress=False)
         res = uw.cem(s, n_samples=4, n_elite=2, max_iter=2, seed=1, progress=False)

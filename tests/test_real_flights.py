@@ -149,7 +149,6 @@ def test_the_design_and_the_study_are_checked(flights):
 def test_the_cache_is_read_back_and_a_tampered_copy_is_recomputed(flights, rows, tmp_path,
                                                                  monkeypatch):
     monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
-    real_compute = rf.compute_rows
 
     def fixture_rows(fl, study, n_jobs=None):  # the `rows` fixture's own call
         assert fl is flights and study == SMALL and n_jobs == 1
@@ -157,8 +156,9 @@ def test_the_cache_is_read_back_and_a_tampered_copy_is_recomputed(flights, rows,
     monkeypatch.setattr(rf, "compute_rows", fixture_rows)
     first = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights, n_jobs=1)
     path, = (tmp_path / "analyses").glob("exp13_real-*.parquet")
-    calls = []
-    monkeypatch.setattr(rf, "compute_rows", lambda *a, **k: calls.append(1) or real_compute(*a, **k))
+    calls = []  # a recompute is the fixture's rows again (compute_rows' own doubles: the tests
+    # of the workers and of a folder): what is checked here is which copy is read back
+    monkeypatch.setattr(rf, "compute_rows", lambda *a, **k: calls.append(1) or fixture_rows(*a, **k))
     again = rf.real_flight_rows(profile="quick", results=tmp_path, flights=flights)
     assert calls == [] and again.equals(first)
     forged = pd.read_parquet(path)
@@ -423,8 +423,8 @@ def test_run_experiment_exp13_without_its_flights_fails_naming_the_variable(monk
     assert uw.study.needed_entries(["exp13"]) == []  # it reads flights, not experiments
 
 
-def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, tmp_path,
-                                                                      monkeypatch):
+def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, flights, rows,
+                                                                      tmp_path, monkeypatch):
     """run_experiment("exp13") on the flights $UAVWIND_NEURALFLY names (small ones here):
     the real-flight rows, as real_flight_rows caches them, then the simulated twin's rows
     from them (recorded here: these small flights have no 70wind flight to fit the twin on;
@@ -435,12 +435,20 @@ def test_run_experiment_exp13_computes_the_real_rows_and_then_the_twin(folder, t
     twins = []
     monkeypatch.setattr(exp13, "sim_rows", lambda real, **kw: twins.append((real, kw)))
     monkeypatch.setitem(rf.STUDIES, "quick", SMALL)
+    computed = []  # the flights of the folder, with the study: the `rows` fixture's own call
+
+    def fixture_rows(fl, study, n_jobs=None):
+        computed.append(sorted((f.controller, f.condition) for f in fl))
+        assert study == SMALL and n_jobs == 1
+        return rows.copy()
+    monkeypatch.setattr(rf, "compute_rows", fixture_rows)
     monkeypatch.setenv("UAVWIND_NEURALFLY", str(folder))
     df = uw.run_experiment("exp13", profile="quick", results=tmp_path, n_jobs=1)
     assert df.attrs["experiment"] == "exp13" and df.attrs["profile"] == "quick"
     monkeypatch.setenv(READ_ONLY_ENV, "1")  # the rows are cached: reading them computes nothing
     real = rf.real_flight_rows(folder, profile="quick", results=tmp_path)
-    assert df.equals(real) and list(df.columns) == list(real.columns)
+    assert df.equals(real) and list(df.columns) == list(real.columns) and df.equals(rows)
+    assert computed == [sorted((f.controller, f.condition) for f in flights)]
     (twin_of, kw), = twins
     assert twin_of.equals(real) and kw == {"profile": "quick", "results": tmp_path, "n_jobs": 1}
 

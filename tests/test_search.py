@@ -31,19 +31,26 @@ def test_random_search_table_and_determinism():
     assert not a["magnitudes"].equals(c["magnitudes"])
 
 
-def test_workers_do_not_change_results():
+@pytest.fixture(scope="module")
+def two_workers():
+    """6 loops of one setting spread over two worker processes (once for the module): what
+    one process must give, loop by loop and in blocks of any size."""
     s = small("light constant", "strong turbulence")
+    return s, uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
+
+
+def test_workers_do_not_change_results(two_workers):
+    s, two = two_workers
     one = uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False)
-    two = uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
     pd.testing.assert_frame_equal(one, two)
 
 
 @pytest.mark.parametrize("block", [1, 4])
-def test_blocks_of_loops_clustered_side_by_side_do_not_change_results(monkeypatch, block):
+def test_blocks_of_loops_clustered_side_by_side_do_not_change_results(monkeypatch, block,
+                                                                      two_workers):
     """evaluate() with n_jobs=1 clusters search.BLOCK loops side by side: 6 loops in blocks
     of 1 or 4 (the last block short) give the rows of one process per loop."""
-    s = small("light constant", "strong turbulence")
-    spread = uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
+    s, spread = two_workers
     monkeypatch.setattr(search, "BLOCK", block)
     pd.testing.assert_frame_equal(
         uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False), spread)

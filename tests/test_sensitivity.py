@@ -245,6 +245,7 @@ needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
 
 
 @needs_flights
+@pytest.mark.usefixtures("unless_the_book_builds")  # test_book.py reads the fill's fit
 def test_the_fitted_values_are_figure8s_fit(tmp_path):
     """FITTED is what figure8.calibrate_twin returns on the quick study (FITTED_BY), to the
     decimals it keeps."""
