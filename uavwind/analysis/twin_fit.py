@@ -324,31 +324,9 @@ def _fit_integral_spread(build, train, study, high):
     position's spread in a strong wind shows. Only the training
     controllers' flights fix it; it is fitted after the vertical share, on the same target,
     so where both take a bound the twin's spread there stays above theirs either way."""
-    at = train[train["condition"] == SPREAD_CONDITION]
-    target = float(at["position_spread"].mean()) if "position_spread" in at else np.nan
-    if not np.isfinite(target):
-        raise ValueError(f"the integral spread's fit needs the training flights' position "
-                         f"spread at {SPREAD_CONDITION!r} (or calibrate_twin(..., "
-                         f"integral_spread='bandwidth'))")
-    tried, got = {}, {}
-
-    def measure(x):
-        if x not in tried:
-            tried[x] = build(float(x))
-            got[x] = float(_replicate_mean(tried[x], SPREAD_CONDITION, study,
-                                           ("position_spread",))[0])
-        return got[x]
-
-    def done(c):
-        key = ("lap-to-lap spread of position", SPREAD_CONDITION)
-        return c if key in c.fitted_on else replace(c, fitted_on=c.fitted_on + (key,))
-
-    if measure(high) <= target:
-        return done(tried[high])
-    if measure(0.0) >= target:
-        return done(tried[0.0])
-    best = _secant(measure, target, high, 0.0, 0.0, high, 0.05 * target, "integral spread")
-    return done(tried[best])
+    return _fit_on_position_spread(build, train, study, first=high, other=0.0, falls=False,
+                                   what="integral spread",
+                                   instead="integral_spread='bandwidth'")
 
 
 def _fit_vertical_share(build, train, study):
@@ -364,31 +342,44 @@ def _fit_vertical_share(build, train, study):
     where it sits; leaning 29 deg into that wind, a thrust error's share of the thrust
     pushes along x, a vertical velocity error does not, so only the position spread in a
     strong wind tells them apart. Only the training controllers' flights fix it."""
+    return _fit_on_position_spread(build, train, study, first=1.0, other=0.0, falls=True,
+                                   what="vertical share", instead="vertical_share=0.0")
+
+
+def _fit_on_position_spread(build, train, study, *, first, other, falls, what, instead):
+    """The twin ``build(x)`` whose lap-to-lap spread of position at :data:`SPREAD_CONDITION`
+    (mean over :data:`N_SEEDS` replicates) is the training controllers' mean there
+    (``train``), to 5%, by secant steps on ``x`` between the bounds ``first`` and ``other``:
+    ``first`` tried first and kept when even it leaves the twin's spread on the far side
+    (``falls``: the spread falls from ``other`` to ``first``), then ``other`` likewise. The
+    fits of :func:`_fit_vertical_share` and :func:`_fit_integral_spread`; ``what`` names the
+    fit and ``instead`` the ``calibrate_twin`` argument that does without it."""
     at = train[train["condition"] == SPREAD_CONDITION]
     target = float(at["position_spread"].mean()) if "position_spread" in at else np.nan
     if not np.isfinite(target):
-        raise ValueError(f"the vertical share's fit needs the training flights' position "
-                         f"spread at {SPREAD_CONDITION!r} (or calibrate_twin(..., "
-                         f"vertical_share=0.0))")
+        raise ValueError(f"the {what}'s fit needs the training flights' position spread at "
+                         f"{SPREAD_CONDITION!r} (or calibrate_twin(..., {instead}))")
     tried, got = {}, {}
 
-    def measure(share):
-        if share not in tried:  # a twin per share: the secant starts from the bounds tried
-            tried[share] = build(float(share))
-            got[share] = float(_replicate_mean(tried[share], SPREAD_CONDITION, study,
-                                               ("position_spread",))[0])
-        return got[share]
+    def measure(x):
+        if x not in tried:  # a twin per value: the secant starts from the bounds tried
+            tried[x] = build(float(x))
+            got[x] = float(_replicate_mean(tried[x], SPREAD_CONDITION, study,
+                                           ("position_spread",))[0])
+        return got[x]
 
     def done(c):
-        return replace(c, fitted_on=c.fitted_on + (("lap-to-lap spread of position",
-                                                    SPREAD_CONDITION),))
+        key = ("lap-to-lap spread of position", SPREAD_CONDITION)
+        return c if key in c.fitted_on else replace(c, fitted_on=c.fitted_on + (key,))
 
-    if measure(1.0) >= target:
-        return done(tried[1.0])
-    if measure(0.0) <= target:
-        return done(tried[0.0])
-    best = _secant(measure, target, 0.0, 1.0, 0.0, 1.0, 0.05 * target, "vertical share")
-    return done(tried[best])
+    sign = 1.0 if falls else -1.0  # beyond: the twin's spread on the far side of the target
+    if sign * (measure(first) - target) >= 0:
+        return done(tried[first])
+    if sign * (measure(other) - target) <= 0:
+        return done(tried[other])
+    low, high = min(first, other), max(first, other)
+    x0, x1 = (other, first) if falls else (first, other)
+    return done(tried[_secant(measure, target, x0, x1, low, high, 0.05 * target, what)])
 
 
 def _replicate_mean(cal, condition, study, columns):
