@@ -253,17 +253,30 @@ def sensitivity_table(chapter: str, profile="quick", seed: int = DEFAULT_SEED, r
             row = {k: v for k, v in cases[ci].labels.items()}
             row.update({f"without_{k}": v for k, v in _summary(before).items()})
             row.update({f"with_{k}": v for k, v in _summary(varied).items()})
-            a = varied.sort_values("loop")["score"].to_numpy()
-            b = before.sort_values("loop")["score"].to_numpy()
-            row["change"], row["change_low"], row["change_high"] = paired_difference(a, b)
-            row["survives"] = row["with_verdict"] == row["without_verdict"]
-            out.append(row)
+            out.append(_paired(row, varied.sort_values("loop")["score"].to_numpy(),
+                               before.sort_values("loop")["score"].to_numpy()))
         return _frame(out, chapter, prof, seed, var)
 
-    return memo(f"{chapter}_sensitivity", {
-        "profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
-        "cases": [cases[i].setting.key() for i in chosen], "version": SENSITIVITY_VERSION},
-        compute, results)
+    return memo(f"{chapter}_sensitivity", _params(prof, seed, engine, var, cases, chosen),
+                compute, results)
+
+
+def _params(prof, seed, engine, var, cases, chosen, **more):
+    """What a chapter's sensitivity table is cached under (:func:`~.memo.memo`'s params):
+    what made it, its headline cases' settings, ``more`` (the closed loop's) and
+    :data:`SENSITIVITY_VERSION`."""
+    return {"profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
+            "cases": [cases[i].setting.key() for i in chosen], **more,
+            "version": SENSITIVITY_VERSION}
+
+
+def _paired(row, a, b):
+    """``row`` with the paired change from the values without (``b``) to with (``a``) the
+    variability, loop by loop or episode by episode (``change``, ``change_low``,
+    ``change_high``), and whether its verdict survives; returned."""
+    row["change"], row["change_low"], row["change_high"] = paired_difference(a, b)
+    row["survives"] = row["with_verdict"] == row["without_verdict"]
+    return row
 
 
 def _flown_both_ways(chapter, prof, seed, rd, chosen, entries, var, results, n_jobs):
@@ -355,17 +368,13 @@ def _closed_loop_table(chapter, prof, seed, engine, var, exp, rd, chosen, cases,
                     row.update({f"{side}_mean": est, f"{side}_ci_low": lo,
                                 f"{side}_ci_high": hi, f"{side}_n_loops": n,
                                 f"{side}_verdict": word})
-                row["change"], row["change_low"], row["change_high"] = paired_difference(a, b)
-                row["survives"] = row["with_verdict"] == row["without_verdict"]
-                out.append(row)
+                out.append(_paired(row, a, b))
         return _frame(out, chapter, prof, seed, var)
 
-    return memo(f"{chapter}_sensitivity", {
-        "profile": str(prof), "seed": seed, "engine": engine, "variability": var.to_dict(),
-        "cases": [cases[i].setting.key() for i in chosen], "entries": [e.key for e in entries],
-        "at": {k: v for k, v in CLOSED_LOOP_AT.items()},
-        "pairs": [list(p) for p in CLOSED_LOOP_PAIRS], "version": SENSITIVITY_VERSION},
-        compute, results)
+    return memo(f"{chapter}_sensitivity", _params(
+        prof, seed, engine, var, cases, chosen, entries=[e.key for e in entries],
+        at={k: v for k, v in CLOSED_LOOP_AT.items()},
+        pairs=[list(p) for p in CLOSED_LOOP_PAIRS]), compute, results)
 
 
 def _case_name(row, chapter):
