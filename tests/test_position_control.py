@@ -227,3 +227,75 @@ def test_the_sensors_recorded_after_the_flight_are_those_of_each_sample_alone(ki
             T, q, _ = mr.segment_commands(ref)[int(ref.segment(np.array([j * 0.01]))[0])]
             u = _clipped_commands(P, before, np.full(f.n_env, T), np.tile(q, (f.n_env, 1)))
         assert np.array_equal(f.specific_forces[:, j], _specific_force(P, after, u))
+
+
+# --------------------------------------------------------------------------- #
+# a wind that reads no position: the whole flight in the kernel (fly_flat)
+# --------------------------------------------------------------------------- #
+class _Asked(uw.WindModel):
+    """``wind`` asked step by step (not ``position_free``): the same winds, flown by
+    ``fly_reference``'s Python loop, one control step per call."""
+
+    def __init__(self, wind):
+        self.wind, self.n_env = wind, wind.n_env
+
+    def _velocity(self, t, positions):
+        return self.wind._velocity(t, positions)
+
+
+def _gusting(n_env=2, seed=4):
+    from uavwind.sim.dryden import DrydenWind
+    from uavwind.sim.wind import RampedWind, SinusoidalWind
+    mean = SinusoidalWind([[-6.0, 1.0, 0.0]] * n_env, [[-2.0, 0.0, 0.5]] * n_env, period=3.0)
+    gusts = DrydenWind([4.0] * n_env, altitude=2.0, dt=0.01, airspeed=6.0, seed=seed)
+    return RampedWind(mean + gusts, 1.5)
+
+
+def _flight_arrays(flight):
+    return {k: v for k, v in vars(flight).items() if isinstance(v, np.ndarray)}
+
+
+@pytest.mark.parametrize("law", ["se3", "integral", "integral with state errors"])
+def test_the_kernels_loop_flies_as_the_step_by_step_loop(law):
+    """Neural-Fly's figure-8 in a ramped, sinusoidal, gusting wind, two environments: flown
+    whole in the kernel (the wind is position free) and step by step (the same wind asked at
+    each step), every recorded array is the same to the bit, for RotorPy's SE3 law (mode 2),
+    the integral law (mode 3) and the integral law on an imperfect state (mode 4)."""
+    from uavwind.sim.rotor_params import NEURAL_FLY_CONTROL
+    wind = _gusting()
+    assert wind.position_free and not _Asked(wind).position_free
+    if law == "se3":
+        mr, errors = Multirotor(preset="neuralfly"), None
+    else:
+        mr = Multirotor.neural_fly(position_control=NEURAL_FLY_CONTROL)
+        errors = None
+        if law != "integral":
+            n_ctrl = 600 * mr.steps_per_sample(0.01)
+            errors = 0.02 * np.random.default_rng(1).standard_normal((2, n_ctrl, 6))
+    ref = Lemniscate()
+    whole = mr.fly_reference(ref, wind, 0.01, 600, record_all=True, state_errors=errors)
+    asked = mr.fly_reference(ref, _Asked(wind), 0.01, 600, record_all=True,
+                             state_errors=errors)
+    a, b = _flight_arrays(whole), _flight_arrays(asked)
+    assert a.keys() == b.keys() and "aero_forces" in a
+    assert [k for k in a if not np.array_equal(a[k], b[k])] == []
+    assert whole.motor_limited == asked.motor_limited
+    assert np.abs(a["positions"][0] - a["positions"][1]).max() > 1e-3  # gusts of their own
+    assert np.array_equal(mr.fly_reference(ref, wind, 0.01, 600, state_errors=errors),
+                          a["positions"])  # the positions alone, without the record
+    other = mr.fly_reference(ref, _gusting(seed=5), 0.01, 600, state_errors=errors)
+    assert np.abs(other - a["positions"]).max() > 1e-3  # the gusts are flown
+
+
+def test_both_loops_refuse_the_same_ground_contact():
+    """A wind blowing down at 40 m/s in the second environment only: both loops refuse the
+    flight with the same GroundContact, naming environment 1 and the same time and height."""
+    from uavwind.sim.multirotor import GroundContact
+    wind = uw.ConstantWind([[0.0, 0.0, 0.0], [0.0, 0.0, -40.0]])
+    mr, ref = Multirotor(preset="neuralfly"), Lemniscate()
+    messages = []
+    for w in (wind, _Asked(wind)):
+        with pytest.raises(GroundContact, match="environment 1 would go below") as err:
+            mr.fly_reference(ref, w, 0.01, 400)
+        messages.append((str(err.value), err.value.env, err.value.time))
+    assert messages[0] == messages[1]

@@ -23,6 +23,34 @@ def _models():
     }
 
 
+def _twice(model):
+    return model + model  # one term counted twice
+
+
+@pytest.mark.parametrize("name", list(_models()) + ["sinusoidal", "cited", "ramped sum"])
+def test_a_position_free_wind_gives_a_whole_flights_winds_as_its_steps(name):
+    """A wind that reads no position says so (``position_free``) and gives the winds at many
+    times at once, each exactly the one it gives at that time alone (the flight's kernel
+    flies them): the shear, groups of winds and anything summed or ramped with a shear read
+    the position and say so."""
+    extra = {"sinusoidal": uw.SinusoidalWind([[-8.5, 0, 0], [1, 2, 3]], [[-2.4, 0, 0], [0, 1, 0]],
+                                             period=2 * np.pi),
+             "cited": uw.DrydenWind([11.5, 12.5, 13.5], airspeed=12.0, variant="cited", seed=1),
+             "ramped sum": uw.RampedWind(_twice(uw.ConstantWind([[-8.5, 0, 0]] * 2))
+                                         + uw.DrydenWind([8.5, 8.5], dt=0.01, seed=2), ramp=3.0)}
+    model = {**_models(), **extra}[name]
+    reads_position = name in ("shear", "combined", "ramped")
+    assert model.position_free is not reads_position
+    if reads_position:
+        return
+    times = np.arange(4001) * 0.0025  # 10 s, past the ramp, the period and the gust blocks
+    here = np.zeros((model.n_env, 3))
+    want = np.stack([model.velocity(t, here) for t in times])
+    got = model._velocities(times)
+    assert got.shape == (times.size, model.n_env, 3) and np.array_equal(got, want)
+    assert np.ptp(want, axis=0).max() > 0 or name == "constant"
+
+
 @pytest.mark.parametrize("name", list(_models()))
 def test_every_model_honours_the_contract(name):
     model = _models()[name]

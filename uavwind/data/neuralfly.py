@@ -24,6 +24,7 @@ the first column is the row index. Files are ``<vehicle>_<trajectory>_<controlle
 from __future__ import annotations
 
 import errno
+import functools
 import hashlib
 import os
 import re
@@ -325,14 +326,27 @@ def split_noise(series: np.ndarray, dt: float, cutoff: float = NOISE_CUTOFF
     """``(slow, fast)``: a series (n, ...) sampled every ``dt`` [s] split at ``cutoff`` [Hz]
     by a zero-phase 4th-order Butterworth low-pass (``slow``) and the rest (``fast``,
     ``series - slow``): what the wind and the controller do, and measurement noise."""
-    from scipy.signal import butter, sosfiltfilt
+    from scipy.signal import sosfiltfilt
 
     dt = check_scalar(dt, "dt", low=0.0, low_inclusive=False, high=10.0)
     cutoff = check_scalar(cutoff, "cutoff", low=0.0, low_inclusive=False, high=0.5 / dt,
                           high_inclusive=False)
     x = np.asarray(series, dtype=float)
-    slow = sosfiltfilt(butter(4, cutoff, fs=1.0 / dt, output="sos"), x, axis=0)
+    # a copy: scipy's sosfilt takes only a writable array
+    slow = sosfiltfilt(_butter_sos(4, float(cutoff), float(dt)).copy(), x, axis=0)
     return slow, x - slow
+
+
+@functools.lru_cache(maxsize=64)
+def _butter_sos(order, cutoff, dt):
+    """A Butterworth low-pass's second-order sections (read-only), designed once per
+    ``(order, cutoff [Hz], dt [s])``: Experiment 13 splits thousands of series at a few
+    rates, and designing the filter cost as much as running it."""
+    from scipy.signal import butter
+
+    sos = butter(order, cutoff, fs=1.0 / dt, output="sos")
+    sos.flags.writeable = False
+    return sos
 
 
 #: Channel -> (what it is, its unit). Experiment 13 clusters each.

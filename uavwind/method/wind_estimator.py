@@ -106,6 +106,8 @@ functions below trust what they are given.
 
 from __future__ import annotations
 
+import functools
+
 import math
 from dataclasses import dataclass
 
@@ -213,9 +215,22 @@ def _lowpass(x, dt, cutoff):
     value (what an on-board filter could do)."""
     from scipy import signal  # imported when used: `import uavwind` stays cheap
 
+    b, a, zi = _butter_ba(float(cutoff), float(dt))
+    return signal.lfilter(b, a, x, axis=0, zi=zi.reshape((-1,) + (1,) * (x.ndim - 1)) * x[0])[0]
+
+
+@functools.lru_cache(maxsize=64)
+def _butter_ba(cutoff, dt):
+    """:func:`_lowpass`'s filter ``(b, a, zi)`` (read-only), designed once per ``(cutoff [Hz],
+    dt [s])``: the estimator low-passes every flight at one or two rates, hundreds of times
+    in a leave-one-out."""
+    from scipy import signal
+
     b, a = signal.butter(2, cutoff, fs=1.0 / dt)
-    zi = signal.lfilter_zi(b, a).reshape((-1,) + (1,) * (x.ndim - 1)) * x[0]
-    return signal.lfilter(b, a, x, axis=0, zi=zi)[0]
+    zi = signal.lfilter_zi(b, a)
+    for arr in (b, a, zi):
+        arr.flags.writeable = False
+    return b, a, zi
 
 
 def _signals(flight, cutoff):

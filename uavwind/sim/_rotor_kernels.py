@@ -551,6 +551,56 @@ def control_step(P, S, T, C, mode, n_sub, h, clipped):
 
 
 @njit(**_NB)
+def fly_flat(P, S, F, E, W, mode, n_sub, h, per, T, clipped, positions, before, states,
+             commands, record):
+    """Fly every environment through the flat-output rows ``F`` (n_ctrl + 1, N_FLAT), one
+    :func:`control_step` each (modes 2-4), in place: ``Multirotor.fly_reference``'s loop for a
+    wind that reads no position, its winds given per step, ``W`` (n_ctrl, n, 3) [m/s].
+
+    ``E`` (n, n_ctrl, 6), mode 4 only, each step's state errors (copied into the row's
+    ``FLAT_ERR`` columns); ``per`` control steps make a sample. After each sample's last step
+    its positions go to ``positions`` (n, n_samples, 3) and, with ``record``, the state
+    before that step to ``before``, after it to ``states`` (n, n_samples, n_state) and the
+    commanded thrust to ``commands`` (n, n_samples). ``T`` (n,) ends as the last step's
+    command. Returns ``(status, k, i)``: 0 when every step was flown; else the flight stopped
+    after step ``k`` because environment ``i`` (the first) became non-finite (1) or went
+    below z = 0 (2), each checked after every step, the non-finite first."""
+    n = S.shape[0]
+    width = N_FLAT + (FLAT_ERR.stop - FLAT_ERR.start) if mode == 4 else N_FLAT
+    C = np.empty((n, width))
+    n_ctrl = F.shape[0] - 1
+    for k in range(n_ctrl):
+        for i in range(n):
+            for c in range(N_FLAT):
+                C[i, c] = F[k, c]
+            if mode == 4:
+                for c in range(FLAT_ERR.stop - FLAT_ERR.start):
+                    C[i, FLAT_ERR.start + c] = E[i, k, c]
+            for c in range(3):
+                S[i, S_WIND.start + c] = W[k, i, c]
+        last = (k + 1) % per == 0
+        j = (k + 1) // per - 1
+        if record and last:
+            before[:, j] = S
+        control_step(P, S, T, C, mode, n_sub, h, clipped)
+        for i in range(n):
+            for c in range(S.shape[1]):
+                if not math.isfinite(S[i, c]):
+                    return 1, k, i
+        for i in range(n):
+            if S[i, S_POS.start + 2] < 0.0:
+                return 2, k, i
+        if last:
+            for i in range(n):
+                for c in range(3):
+                    positions[i, j, c] = S[i, S_POS.start + c]
+            if record:
+                states[:, j] = S
+                commands[:, j] = T
+    return 0, n_ctrl, 0
+
+
+@njit(**_NB)
 def state_derivative(P, S, U):
     """``Multirotor._s_dot_fn`` for a batch (n, 20) with clipped motor speeds U (n, 4)."""
     out = np.empty_like(S)

@@ -241,5 +241,11 @@ class _CitedGusts:
         o = self.options
         return self._mean + self._series[:, int(t * o.rate + 1e-9) % o.grid_samples]
 
+    def at_times(self, times):
+        """:meth:`at` of each of ``times`` (m,) [s], shape (m, n_env, 3)."""
+        o = self.options
+        k = (times * o.rate + 1e-9).astype(np.int64) % o.grid_samples
+        return self._mean + self._series[:, k].transpose(1, 0, 2)
+
     def first(self, n_samples, dt):
         return np.stack([self.at(k * dt) for k in range(n_samples)], axis=1)

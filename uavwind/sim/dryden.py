@@ -182,8 +182,13 @@ class DrydenWind(WindModel):
             return self._gusts.first(n_samples, self.dt)
         return self._gusts.first(n_samples)
 
+    position_free = True  # the gusts at the altitude the wind was made for
+
     def _velocity(self, t, positions):
         return self._gusts.at(t)
+
+    def _velocities(self, times):
+        return self._gusts.at_times(np.asarray(times, dtype=float))
 
     def __repr__(self):
         return (f"DrydenWind(n_env={self.n_env}, variant={self.variant!r}, "

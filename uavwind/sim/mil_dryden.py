@@ -264,3 +264,10 @@ class _FilteredGusts:
         if k >= self._history.shape[1]:
             self._extend(k + 1)
         return self._history[:, k]
+
+    def at_times(self, times):
+        """:meth:`at` of each of ``times`` (m,) [s], shape (m, n_env, 3)."""
+        k = np.floor(times / self.dt + 1e-9).astype(np.int64)
+        if k.size and k.max() >= self._history.shape[1]:
+            self._extend(int(k.max()) + 1)
+        return self._history[:, k].transpose(1, 0, 2)

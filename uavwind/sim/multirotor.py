@@ -175,6 +175,21 @@ _RANGES = {"mass": Range(0.0, 1e3, low_inclusive=False),
            "hover_throttle": Range(0.01, 1.0)}
 
 
+def _refuse_step(status, k, i, S, h_ctrl):
+    """The refusal of :meth:`Multirotor.fly_reference` when environment ``i`` became
+    non-finite (``status`` 1) or went below the ground (2) in control step ``k``."""
+    t = (k + 1) * h_ctrl
+    if status == 1:
+        raise ValueError(f"environment {i}: the multirotor's state became non-finite at "
+                         f"t = {t:.4g} s flying the reference (winds or forces too large for "
+                         f"float64); check the wind speeds")
+    z = S[i, S_POS.start + 2]
+    raise GroundContact(
+        f"environment {i} would go below the ground (z = {z:.4g} m) at t = {t:.4g} s flying "
+        f"the reference: the flight is refused (a multirotor does not fly through the floor); "
+        f"check the winds and the reference's height", env=i, time=t)
+
+
 @dataclass(frozen=True, kw_only=True)
 class Multirotor:
     """RotorPy's quadrotor, scaled to ``mass``, as a vehicle of uavwind (see the module text).
@@ -625,36 +640,40 @@ class Multirotor:
             states = np.empty((n_env, n, S.shape[1]))  # from: the sensors, after the flight
             before = np.empty((n_env, n, S.shape[1]))
             commands = np.empty((n_env, n))
-        for k in range(n_ctrl):
-            C[:, :N_FLAT] = F[k]
-            if mode == 4:
-                C[:, FLAT_ERR] = state_errors[:, k]
-            S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
-            last = (k + 1) % per == 0
-            j = (k + 1) // per - 1
-            if record_all and last:  # the state the held command is computed from
-                before[:, j] = S
-            control_step(P, S, T, C, mode, self.substeps, h, clipped)
-            finite = np.isfinite(S).all(axis=1)
-            if not finite.all():
-                i = int(np.argmin(finite))
-                raise ValueError(f"environment {i}: the multirotor's state became non-finite at "
-                                 f"t = {(k + 1) * h_ctrl:.4g} s flying the reference (winds or "
-                                 f"forces too large for float64); check the wind speeds")
-            z = S[:, S_POS.start + 2]
-            below = z < 0.0
-            if below.any():
-                i = int(np.argmax(below))
-                raise GroundContact(
-                    f"environment {i} would go below the ground (z = {z[i]:.4g} m) at "
-                    f"t = {(k + 1) * h_ctrl:.4g} s flying the reference: the flight is refused "
-                    f"(a multirotor does not fly through the floor); check the winds and the "
-                    f"reference's height", env=i, time=(k + 1) * h_ctrl)
-            if last:
-                positions[:, j] = S[:, S_POS]
-                if record_all:
-                    states[:, j] = S
-                    commands[:, j] = T
+        if wind.position_free:  # the whole loop in the kernel, the winds computed at once
+            W = np.ascontiguousarray(wind._velocities(t_ctrl), dtype=float)
+            E = (np.ascontiguousarray(state_errors, dtype=float) if mode == 4
+                 else np.empty((n_env, 0, 6)))
+            if not record_all:
+                states = before = np.empty((0, 0, 0))
+                commands = np.empty((0, 0))
+            status, k, i = _kernels().fly_flat(P, S, F, E, W, mode, self.substeps, h, per, T,
+                                               clipped, positions, before, states, commands,
+                                               record_all)
+            if status:
+                _refuse_step(status, k, i, S, h_ctrl)
+        else:  # a wind that reads where the vehicle is: asked step by step
+            for k in range(n_ctrl):
+                C[:, :N_FLAT] = F[k]
+                if mode == 4:
+                    C[:, FLAT_ERR] = state_errors[:, k]
+                S[:, S_WIND] = wind._velocity(t_ctrl[k], S[:, S_POS])
+                last = (k + 1) % per == 0
+                j = (k + 1) // per - 1
+                if record_all and last:  # the state the held command is computed from
+                    before[:, j] = S
+                control_step(P, S, T, C, mode, self.substeps, h, clipped)
+                finite = np.isfinite(S).all(axis=1)
+                if not finite.all():
+                    _refuse_step(1, k, int(np.argmin(finite)), S, h_ctrl)
+                below = S[:, S_POS.start + 2] < 0.0
+                if below.any():
+                    _refuse_step(2, k, int(np.argmax(below)), S, h_ctrl)
+                if last:
+                    positions[:, j] = S[:, S_POS]
+                    if record_all:
+                        states[:, j] = S
+                        commands[:, j] = T
         if not record_all:
             return positions
         last_steps = np.arange(per - 1, n_ctrl, per)  # each sample's last control step

@@ -103,6 +103,18 @@ class WindModel(ABC):
     def _velocity(self, t: float, positions: np.ndarray) -> np.ndarray:
         """Unchecked :meth:`velocity` used on the hot path of the integrator."""
 
+    #: Whether the wind depends on the time alone, never on where the UAV is: then a
+    #: flight's winds are known before it is flown (:meth:`_velocities`), and a position
+    #: controlled flight runs whole in its kernel (``Multirotor.fly_reference``).
+    position_free = False
+
+    def _velocities(self, times: np.ndarray) -> np.ndarray:
+        """The winds (len(times), n_env, 3) [m/s] at ``times`` [s] of a :attr:`position_free`
+        wind, each exactly :meth:`_velocity` at that time; a model overrides it to compute
+        them at once."""
+        nowhere = np.zeros((self.n_env, 3))
+        return np.stack([self._velocity(t, nowhere) for t in times])
+
     def __len__(self):
         return self.n_env
 
@@ -155,8 +167,13 @@ class ConstantWind(WindModel):
         self.velocities = _check_velocities(velocities, "velocities")
         self.n_env = self.velocities.shape[0]
 
+    position_free = True
+
     def _velocity(self, t, positions):
         return self.velocities
+
+    def _velocities(self, times):
+        return np.broadcast_to(self.velocities, (len(times), *self.velocities.shape))
 
     def __repr__(self):
         return f"ConstantWind(n_env={self.n_env})"
@@ -190,8 +207,14 @@ class SinusoidalWind(WindModel):
         self.period = check_scalar(period, "period", low=0.0, low_inclusive=False, high=1e6)
         self.n_env = self.mean.shape[0]
 
+    position_free = True
+
     def _velocity(self, t, positions):
         return self.mean + self.amplitude * np.sin(2 * np.pi * t / self.period)
+
+    def _velocities(self, times):
+        phase = np.sin(2 * np.pi * np.asarray(times, dtype=float) / self.period)
+        return self.mean + self.amplitude * phase[:, None, None]
 
     def __repr__(self):
         return f"SinusoidalWind(n_env={self.n_env}, period={self.period:g})"
@@ -357,6 +380,17 @@ class SumWind(WindModel):
             out += v if k == 1 else float(k) * v
         return out
 
+    @property
+    def position_free(self):
+        return all(m.position_free for m in self.models)
+
+    def _velocities(self, times):
+        out = np.zeros((len(times), self.n_env, 3))
+        for m, k in self.terms:
+            v = m._velocities(times)
+            out += v if k == 1 else float(k) * v
+        return out
+
     def with_seed(self, seed: int | np.random.SeedSequence | None) -> SumWind:
         """This sum with each distinct model reseeded from its own child of ``seed``."""
         kids = _child_seeds(seed, len(self.terms))
@@ -403,6 +437,14 @@ class RampedWind(WindModel):
     def _velocity(self, t, positions):
         u = min(t / self.ramp, 1.0)
         return self.model._velocity(t, positions) * (u * u * (3.0 - 2.0 * u))
+
+    @property
+    def position_free(self):
+        return self.model.position_free
+
+    def _velocities(self, times):
+        u = np.minimum(np.asarray(times, dtype=float) / self.ramp, 1.0)
+        return self.model._velocities(times) * (u * u * (3.0 - 2.0 * u))[:, None, None]
 
     def with_seed(self, seed: int | np.random.SeedSequence | None) -> RampedWind:
         """This ramp over its model reseeded with ``seed`` (the same gusts as
