@@ -601,6 +601,59 @@ def fly_flat(P, S, F, E, W, mode, n_sub, h, per, T, clipped, positions, before, 
 
 
 @njit(**_NB)
+def fly_rows(P, S, T, C, Tk, Ck, n_sub, h, per, k0, n_steps, base, sh, ref, height, floor,
+             alpha, tb, env_tb, table, added, env, positions, clipped):
+    """Fly rows ``S`` (n, 20) for ``n_steps`` control steps of attitude commands (mode 0), in
+    place: ``uavwind.sim.rollout.Rollout``'s multirotor loop, each step's wind computed here
+    as its wind table's lookup computes it (the same operations in the same order, so the
+    same doubles).
+
+    Commands: ``T`` (n,) [N] and ``C`` (n, 4) held, or, where ``Tk`` (n, n_steps) and ``Ck``
+    (n, n_steps, 4) have columns, each step's own (state errors). Wind of step ``k`` (the
+    table's step ``k0 + k``): ``base`` (n, 3) [m/s]; rows ``sh`` a shear, ``ref[a] * pow(max(z,
+    floor[a]) / height[a], alpha[a])`` with the C library's ``pow`` (``wind.libm_pow``'s);
+    rows ``tb`` the table's ``table[k0 + k, env_tb[a]]``; then, if ``added`` has steps,
+    ``+ added[k0 + k, env[i]]`` (gusts added to every row). After each sample's last step
+    the positions go to ``positions`` (n, n_steps // per, 3)."""
+    n = S.shape[0]
+    Tn = T.copy()
+    Cn = C.copy()
+    varying = Tk.shape[1] > 0
+    w0 = S_WIND.start
+    for k in range(n_steps):
+        kk = k0 + k
+        for i in range(n):
+            for c in range(3):
+                S[i, w0 + c] = base[i, c]
+        for a in range(sh.size):
+            i = sh[a]
+            z = S[i, S_POS.start + 2]
+            if not z >= floor[a]:  # np.maximum's: the floor, or a NaN height kept
+                z = floor[a] if z == z else z
+            f = math.pow(z / height[a], alpha[a])
+            for c in range(3):
+                S[i, w0 + c] = ref[a, c] * f
+        for a in range(tb.size):
+            for c in range(3):
+                S[tb[a], w0 + c] = table[kk, env_tb[a], c]
+        if added.shape[0] > 0:
+            for i in range(n):
+                for c in range(3):
+                    S[i, w0 + c] = S[i, w0 + c] + added[kk, env[i], c]
+        if varying:
+            for i in range(n):
+                Tn[i] = Tk[i, k]
+                for c in range(4):
+                    Cn[i, c] = Ck[i, k, c]
+        control_step(P, S, Tn, Cn, 0, n_sub, h, clipped)
+        if (k + 1) % per == 0:
+            j = (k + 1) // per - 1
+            for i in range(n):
+                for c in range(3):
+                    positions[i, j, c] = S[i, S_POS.start + c]
+
+
+@njit(**_NB)
 def state_derivative(P, S, U):
     """``Multirotor._s_dot_fn`` for a batch (n, 20) with clipped motor speeds U (n, 4)."""
     out = np.empty_like(S)

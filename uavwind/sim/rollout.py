@@ -357,8 +357,6 @@ class Rollout:
         return np.concatenate([r, v_air], axis=1), positions
 
     def _advance_multirotor(self, states, env, forces, sample0, n, errors=None):
-        control_step = _kernels().control_step
-
         uav = self.uav
         per = self.steps_per_sample
         h = 1.0 / uav.control_rate / uav.substeps
@@ -373,19 +371,19 @@ class Rollout:
             T[rows_u], C[rows_u] = T_u, C_u
         clipped = np.zeros(rows, dtype=np.int64)
         positions = np.empty((rows, n, 3))
-        P = uav.packed
         k0 = sample0 * per
-        wind = self.table.lookup(env)
+        w = self.table.lookup(env)
         if errors is not None:  # as Multirotor.fly: the rotors' thrust, the command flown
             q_err = rotvec_quaternions(-errors[..., 0], -errors[..., 1])  # E^T
-            gain = 1.0 + errors[..., 2]
-        for k in range(n * per):
-            S[:, S_WIND] = wind(k0 + k, S[:, S_POS])
-            if errors is None:
-                control_step(P, S, T, C, 0, uav.substeps, h, clipped)
-            else:
-                control_step(P, S, T * gain[:, k], quaternion_product(q_err[:, k], C), 0,
-                             uav.substeps, h, clipped)
-            if (k + 1) % per == 0:
-                positions[:, (k + 1) // per - 1] = S[:, S_POS]
+            Tk = np.ascontiguousarray(T[:, None] * (1.0 + errors[..., 2]))
+            Ck = np.ascontiguousarray(quaternion_product(q_err, C[:, None, :]))
+        else:
+            Tk, Ck = np.empty((rows, 0)), np.empty((rows, 0, 4))
+        added = np.empty((0, 0, 3)) if w.added is None else w.added
+        # every array C-contiguous: one compiled signature whatever the rows' winds
+        c = np.ascontiguousarray
+        _kernels().fly_rows(uav.packed, S, T, C, Tk, Ck, uav.substeps, h, per, k0, n * per,
+                            c(w.base), c(w.sh), c(w.ref), c(w.height), c(w.floor), c(w.alpha),
+                            c(w.tb), c(w.env_tb), c(w.table), c(added, dtype=float), c(w.env),
+                            positions, clipped)
         return S, positions
