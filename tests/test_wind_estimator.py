@@ -80,6 +80,29 @@ def test_the_fit_recovers_the_model_a_flight_was_built_from(model_flights):
     assert m.jet == pytest.approx(TRUTH.jet, abs=1e-9) and m.parasitic == 0.0
 
 
+def test_a_flights_signals_are_read_once_while_its_columns_stay_the_same():
+    """A flight whose columns are read-only (as read from its files) is read once per cutoff;
+    a column replaced, or a writable one, is read again, so what the model reads is always
+    the flight's data."""
+    f = model_flight(8.5, "kept")
+    assert f.arrays["fa"].flags.writeable  # a flight made in memory: read every time
+    assert we._signals(f, None) is not we._signals(f, None)
+    for a in f.arrays.values():
+        a.flags.writeable = False
+    first = we._signals(f, 2.0)
+    assert we._signals(f, 2.0) is first and we._signals(f, None) is not first
+    assert not first["f"].flags.writeable
+    with pytest.raises(TypeError):
+        first["f"] = None  # a read-only mapping
+    fa = f.arrays["fa"].copy()
+    fa[:, 0] += 1.0
+    fa.flags.writeable = False
+    f.arrays["fa"] = fa
+    again = we._signals(f, 2.0)
+    assert again is not first and not np.array_equal(again["f"], first["f"])
+    assert np.array_equal(again["f"], we._computed_signals(f, 2.0)["f"])
+
+
 def test_the_inverted_model_reads_a_wind_it_was_never_fitted_on(model_flights):
     """Fitted on 0-12.1 m/s, it reads 20 m/s exactly: the model extrapolates (the odd cubic of
     the last round erred by 5.75 m/s at the edge of its range)."""
