@@ -26,6 +26,13 @@ controller's structure, PX4 ``MPC_TILTMAX_AIR`` / ``MPC_THR_MIN`` / ``MPC_THR_MA
 rotation, a thrust that differs from the commanded by a relative error and a velocity
 estimate off by a vector (mode 4, all given
 per control step in the flat-output row's ``FLAT_ERR`` columns; :func:`_se3i` with ``err``).
+
+Two loops run a whole flight of control steps here instead of one Python call per step (a
+step of a few environments costs microseconds; Python's loop around it cost more):
+:func:`fly_flat`, ``Multirotor.fly_reference``'s loop when its wind reads no position (the
+winds of every step given), and :func:`fly_rows`, a rollout's segment of held attitude
+commands (its wind table's lookup computed in the loop). Each gives the doubles of the
+Python loop it replaces (tests/test_position_control.py, tests/test_rollout.py).
 """
 
 import math
