@@ -8,7 +8,7 @@ import pytest
 import uavwind as uw
 from uavwind.analysis import figure8, wind_estimates
 from uavwind.data import RealFlight
-from uavwind.method import wind_estimator as we
+from uavwind.method import drag_model
 from uavwind.method.wind_estimator import ESTIMATORS, DragModel, WindEstimator, training_wind
 
 CONDITIONS = ("nowind", "35wind", "70wind", "100wind")
@@ -86,11 +86,11 @@ def test_a_flights_signals_are_read_once_while_its_columns_stay_the_same():
     the flight's data."""
     f = model_flight(8.5, "kept")
     assert f.arrays["fa"].flags.writeable  # a flight made in memory: read every time
-    assert we._signals(f, None) is not we._signals(f, None)
+    assert drag_model.signals(f, None) is not drag_model.signals(f, None)
     for a in f.arrays.values():
         a.flags.writeable = False
-    first = we._signals(f, 2.0)
-    assert we._signals(f, 2.0) is first and we._signals(f, None) is not first
+    first = drag_model.signals(f, 2.0)
+    assert drag_model.signals(f, 2.0) is first and drag_model.signals(f, None) is not first
     assert not first["f"].flags.writeable
     with pytest.raises(TypeError):
         first["f"] = None  # a read-only mapping
@@ -98,9 +98,9 @@ def test_a_flights_signals_are_read_once_while_its_columns_stay_the_same():
     fa[:, 0] += 1.0
     fa.flags.writeable = False
     f.arrays["fa"] = fa
-    again = we._signals(f, 2.0)
+    again = drag_model.signals(f, 2.0)
     assert again is not first and not np.array_equal(again["f"], first["f"])
-    assert np.array_equal(again["f"], we._computed_signals(f, 2.0)["f"])
+    assert np.array_equal(again["f"], drag_model._computed_signals(f, 2.0)["f"])
 
 
 def test_the_inverted_model_reads_a_wind_it_was_never_fitted_on(model_flights):
@@ -109,7 +109,7 @@ def test_the_inverted_model_reads_a_wind_it_was_never_fitted_on(model_flights):
     est = WindEstimator("ekf").fit(model_flights)
     for speed in (-3.0, 2.0, 20.0):
         f = model_flight(speed, "held out", phase=7.0)
-        W = est.model_.invert(we._signals(f, None))
+        W = est.model_.invert(drag_model.signals(f, None))
         assert np.abs(W - [-speed, 0.0]).max() < 1e-8
         mean, std = est.predict(f, return_std=True)
         late = f.t >= 10.0
@@ -123,7 +123,7 @@ def test_a_parasitic_term_is_fitted_when_the_force_has_one():
                for w in (0.0, 4.2, 8.5, 12.1)]
     # built by the linear code path: add the parasitic part by hand
     for f in flights:
-        sig = we._signals(f, None)
+        sig = drag_model.signals(f, None)
         W = np.array([-f.wind_speed, 0.0, 0.0])
         u = np.einsum("nij,j->ni", sig["RT"], W)[:, :2] - sig["vb"][:, :2]
         extra = truth.parasitic * np.linalg.norm(u, axis=1)[:, None] * u  # tau * (c/tau)|u|u
@@ -151,7 +151,7 @@ def leaning_flight(speed, controller, lean, phase=0.0):
     R = np.asarray(f.R)
     tau = f.T_sp / f.hover_throttle
     fa_b = np.einsum("nji,nj->ni", R, f.fa)  # the vehicle's frame (R is its true attitude)
-    sig = we._signals(f, None)
+    sig = drag_model.signals(f, None)
     u2 = np.sum(TRUTH.inplane(sig, np.array([-speed, 0.0])) ** 2, axis=1)
     fa_b[:, 2] = tau * (Z_CURVE[0] + Z_CURVE[1] * u2 ** (Z_CURVE[2] / 2))
     F = fa_b + np.outer(WEIGHT * tau, [0.0, 0.0, 1.0])  # the whole specific force, body
