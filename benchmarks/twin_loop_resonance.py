@@ -45,29 +45,29 @@ tau_m  att_w  zeta  len x  score   w/o att.     pitch  still-air   training-wind
 0.02   10     0.6   0.02   1.054   1.047        0.886  .437/.786   2.49
 =====  =====  ====  =====  ======  ===========  =====  ==========  ====================
 
-(trivial model 1.232, without the attitude-noise rows 1.072; target <= 1.0; real pitch
-spread at 8.5 m/s 0.911-1.500 deg; training still-air share 0.523, centroid 0.792 Hz.) Unstable or unfittable: ``att_w`` 7 (zeta 0.6), 8
-with zeta 0.4, ``tau_m`` >= 0.06 with RotorPy's attitude loop (ground contact), ``tau_m``
-0.04 with ``att_w`` 8 (the gust fit does not converge), ``att_w`` 10 with zeta 0.5 (unstable
-at 12.1 m/s): the replicates' bandwidth spread (log-SD 0.25-0.32) puts the fastest
-controllers near the loop's edge. What it says: neither part alone helps (the slow loop alone
-1.31, the short gusts alone 1.13); together they move the pitch spread at 8.5 m/s into or to
-the edge of the real range and, without the attitude-noise rows, lower the score from 1.11
-to 1.03-1.07. Both targets are met together only at a point picked by looking at the
-held-out score (``tau_m`` 0.03, ``att_w`` 10, zeta 0.6, length 0.015 x 23 m = 0.35 m: 0.996,
-0.915 deg), not by a training-only fit: the still-air share asks for a slower loop (``att_w``
-about 8: pitch 0.95 deg inside the range, score 1.17), the centroid barely moves (0.76-0.80
-Hz over the whole range), and the training winds' pitch misses fall monotonically as the
-gusts shorten (the length fit takes its bound). Most of the score's rise with a slower loop
-is the attitude-noise rows: the twin of today adds the training mean's noise on top of its
-own content above 2 Hz, which a slow attitude loop no longer has, so the twin's noise falls
-to the training mean, the trivial model's error (-4.7 and -3.7 at 4.2 and 8.5 m/s, where the
-held-out controller is noisier). In the spectrum (``att_w`` 8, ``tau_m`` 0.03, length 0.015)
-the 0.7-1.2 Hz band grows with the wind (0.49, 0.63, 0.70, 0.72 deg at 0, 4.2, 8.5, 12.1
-m/s; the training controllers' 0.46, 0.68, 0.88, 0.87) but the twin still holds too much
-below 0.3 Hz (0.34-0.50 against 0.16-0.28), and its force spread lies flat to falling with
-frequency where the real one rises (8.5 m/s, 0-0.3/0.3-0.7/0.7-1.2/1.2-2 Hz: twin 0.17 0.15
-0.13 0.11 N, training mean 0.08 0.11 0.16 0.16).
+(trivial model 1.232, without the attitude-noise rows 1.072; target <= 1.0; real pitch spread
+at 8.5 m/s 0.911-1.500 deg; training still-air share 0.523, centroid 0.792 Hz.) Unstable or
+unfittable: ``att_w`` 7 (zeta 0.6), 8 with zeta 0.4, ``tau_m`` >= 0.06 with RotorPy's attitude
+loop (ground contact), ``tau_m`` 0.04 with ``att_w`` 8 (the gust fit does not converge),
+``att_w`` 10 with zeta 0.5 (unstable at 12.1 m/s): the replicates' bandwidth spread (log-SD
+0.25-0.32) puts the fastest controllers near the loop's edge. What it says: neither part alone
+helps (the slow loop alone 1.31, the short gusts alone 1.13); together they move the pitch
+spread at 8.5 m/s into or to the edge of the real range and, without the attitude-noise rows,
+lower the score from 1.11 to 1.03-1.07. Both targets are met together only at a point picked by
+looking at the held-out score (``tau_m`` 0.03, ``att_w`` 10, zeta 0.6, length 0.015 x 23 m =
+0.35 m: 0.996, 0.915 deg), not by a training-only fit: the still-air share asks for a slower
+loop (``att_w`` about 8: pitch 0.95 deg inside the range, score 1.17), the centroid barely
+moves (0.76-0.80 Hz over the whole range), and the training winds' pitch misses fall
+monotonically as the gusts shorten (the length fit takes its bound). Most of the score's rise
+with a slower loop is the attitude-noise rows: the twin of today adds the training mean's noise
+on top of its own content above 2 Hz, which a slow attitude loop no longer has, so the twin's
+noise falls to the training mean, the trivial model's error (-4.7 and -3.7 at 4.2 and 8.5 m/s,
+where the held-out controller is noisier). In the spectrum (``att_w`` 8, ``tau_m`` 0.03, length
+0.015) the 0.7-1.2 Hz band grows with the wind (0.49, 0.63, 0.70, 0.72 deg at 0, 4.2, 8.5, 12.1
+m/s; the training controllers' 0.46, 0.68, 0.88, 0.87) but the twin still holds too much below
+0.3 Hz (0.34-0.50 against 0.16-0.28), and its force spread lies flat to falling with frequency
+where the real one rises (8.5 m/s, 0-0.3/0.3-0.7/0.7-1.2/1.2-2 Hz: twin 0.17 0.15 0.13 0.11 N,
+training mean 0.08 0.11 0.16 0.16).
 
 ``python benchmarks/twin_loop_resonance.py [paper|quick] tau_m att_w att_zeta len_factor``;
 reads the real rows from (or fills) $UAVWIND_RESULTS, writes no twin rows there."""
