@@ -65,9 +65,9 @@ noise falls to the training mean, the trivial model's error (-4.7 and -3.7 at 4.
 where the held-out controller is noisier). In the spectrum (``att_w`` 8, ``tau_m`` 0.03, length
 0.015) the 0.7-1.2 Hz band grows with the wind (0.49, 0.63, 0.70, 0.72 deg at 0, 4.2, 8.5, 12.1
 m/s; the training controllers' 0.46, 0.68, 0.88, 0.87) but the twin still holds too much below
-0.3 Hz (0.34-0.50 at 8.5-12.1 m/s against 0.16-0.37), and its force spread lies flat to falling with frequency
-where the real one rises (8.5 m/s, 0-0.3/0.3-0.7/0.7-1.2/1.2-2 Hz: twin 0.17 0.15 0.13 0.11 N,
-training mean 0.08 0.11 0.16 0.16).
+0.3 Hz (0.34-0.50 at 8.5-12.1 m/s against 0.16-0.37), and its force spread lies flat to falling
+with frequency where the real one rises (8.5 m/s, 0-0.3/0.3-0.7/0.7-1.2/1.2-2 Hz: twin 0.17
+0.15 0.13 0.11 N, training mean 0.08 0.11 0.16 0.16).
 
 ``python benchmarks/twin_loop_resonance.py [paper|quick] tau_m att_w att_zeta len_factor``;
 reads the real rows from (or fills) $UAVWIND_RESULTS, writes no twin rows there."""
