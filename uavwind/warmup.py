@@ -9,7 +9,8 @@ can compile them side by side on two cores:
 * ``"engine"`` -- the soft-DTW engine (:func:`uavwind.method.softdtw.warmup`): k-means, the
   barycentres, the silhouettes, serial and threaded (about a minute on one core);
 * ``"sim"`` -- the multirotor (RotorPy's physics in :mod:`uavwind.sim._rotor_kernels`): an
-  open-loop flight and a figure-8 flown under the position controller (the real-flight twin);
+  open-loop flight, a rollout's segment (the closed loops') and a figure-8 flown under the
+  position controller (the real-flight twin);
 * ``"reference"`` -- tslearn's own kernels, the ``"tslearn"`` engine the fast one is checked
   against (:func:`uavwind.method.clustering.cache_tslearn_kernels` lets them use numba's cache;
   a few of its kernels, made inside factory functions, are compiled again by every process).
@@ -26,6 +27,7 @@ from . import PAPER_EXAMPLE, ConstantWind, Multirotor, make_setting, simulate
 from .analysis import twin
 from .method.clustering import score_loop
 from .method.softdtw import warmup as engine_warmup
+from .sim.rollout import Rollout
 
 __all__ = ["warm", "PARTS"]
 
@@ -46,8 +48,12 @@ def warm(part: str) -> float:
         score_loop(s.simulate(s.sample_thrust(np.random.default_rng(0))), s.groups,
                    engine="tslearn")
     else:
-        simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]),
-                 uav=Multirotor(preset="rotorpy", start="hover"))
+        uav = Multirotor(preset="rotorpy", start="hover")
+        simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]), uav=uav)
+        # a rollout's segment (Exps 10-12 and 14's closed loops, their sensitivities)
+        ro = Rollout.for_flight(uav, ConstantWind([[1.0, 1.0, 0.0]]), 0.1, 1.0)
+        env = np.zeros(1, dtype=int)
+        ro.advance(ro.start(env, [0.0, 0.0, 10.0]), env, [[0.0, 0.0, uav.weight]], 0, 2)
         bare = twin.BARE  # the position controller's kernels; > 4 pi, whole 0.02 s steps
         twin.simulated_flight(bare.vehicle(), "35wind", 0, 13.0, bare)
     return time.perf_counter() - t0
