@@ -48,10 +48,10 @@ def warm(part: str) -> float:
         score_loop(s.simulate(s.sample_thrust(np.random.default_rng(0))), s.groups,
                    engine="tslearn")
     else:
-        uav = Multirotor(preset="rotorpy", start="hover")
-        simulate(PAPER_EXAMPLE, ConstantWind([[1.0, 1.0, 0.0]]), uav=uav)
+        uav, wind = Multirotor(preset="rotorpy", start="hover"), ConstantWind([[1.0, 1.0, 0.0]])
+        simulate(PAPER_EXAMPLE, wind, uav=uav)
         # a rollout's segment (Exps 10-12 and 14's closed loops, their sensitivities)
-        ro = Rollout.for_flight(uav, ConstantWind([[1.0, 1.0, 0.0]]), 0.1, 1.0)
+        ro = Rollout.for_flight(uav, wind, 0.1, 1.0)
         env = np.zeros(1, dtype=int)
         ro.advance(ro.start(env, [0.0, 0.0, 10.0]), env, [[0.0, 0.0, uav.weight]], 0, 2)
         bare = twin.BARE  # the position controller's kernels; > 4 pi, whole 0.02 s steps

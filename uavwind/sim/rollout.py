@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.checks import check_array, check_instance, check_scalar
 from ._rotor_layout import _kernels
-from ._slots import N_STATE, S_POS, S_QUAT, S_WIND
+from ._slots import N_STATE, S_QUAT
 from .multirotor import Multirotor, force_command, quaternion_product, rotvec_quaternions
 from .vehicle import UAV, n_steps as _n_steps
 from .wind import WindGroups, ConstantWind, ShearWind, WindModel, libm_pow
@@ -75,9 +75,10 @@ class WindTable:
     -----
     A :class:`~uavwind.sim.wind.ConstantWind` and a :class:`~uavwind.sim.wind.ShearWind`
     are evaluated from their parameters with the models' own arithmetic; any other model
-    is asked once per time for all its environments (``model.velocity(t, positions)``
-    with the positions ignored), which is exact for the Dryden gusts (they do not depend
-    on the position) and refused for a model that says it does (a ``ShearWind`` subclass).
+    (and ``gusts``) gives its winds at every time at once (``model._velocities(times)``,
+    each its velocity at that time with the positions ignored), which is exact for the
+    Dryden gusts (they do not depend on the position) and refused for a model that says it
+    does (a ``ShearWind`` subclass).
     """
 
     def __init__(self, wind: WindModel, times: ArrayLike, gusts: WindModel | None = None):
@@ -93,8 +94,7 @@ class WindTable:
             if isinstance(gusts, (ConstantWind, ShearWind, WindGroups)):
                 raise TypeError(f"gusts must be a wind that does not depend on the position "
                                 f"(Dryden gusts), got {type(gusts).__name__}")
-            zeros = np.zeros((self.n_env, 3))
-            self.added = np.stack([gusts._velocity(float(t), zeros) for t in self.times])
+            self.added = np.ascontiguousarray(gusts._velocities(self.times), dtype=float)
         self.kind = np.empty(self.n_env, dtype=np.int8)
         self.base = np.zeros((self.n_env, 3))      # constant velocity, or shear reference
         self.shear = np.zeros((self.n_env, 3))     # alpha, reference height, floor
@@ -114,9 +114,7 @@ class WindTable:
                                 f"way; give the base class")
             else:
                 self.kind[sl] = _TABLE
-                zeros = np.zeros((model.n_env, 3))
-                for k, t in enumerate(self.times):
-                    self.table[k, sl] = model._velocity(float(t), zeros)
+                self.table[:, sl] = model._velocities(self.times)
         self._shear_rows = np.flatnonzero(self.kind == _SHEAR)
         self._table_rows = np.flatnonzero(self.kind == _TABLE)
 
@@ -151,7 +149,8 @@ class WindTable:
 
 
 class _Lookup:
-    """:meth:`WindTable.lookup`: the table's arrays gathered for one set of rows."""
+    """:meth:`WindTable.lookup`: the table's arrays gathered for one set of rows (each
+    C-contiguous: the rollout's kernel, ``fly_rows``, reads them as one compiled signature)."""
 
     def __init__(self, table, env):
         kind = table.kind[env]
@@ -159,12 +158,12 @@ class _Lookup:
         self.sh = np.flatnonzero(kind == _SHEAR)
         self.tb = np.flatnonzero(kind == _TABLE)
         p = table.shear[env[self.sh]]
-        self.floor, self.height, self.alpha = p[:, 2], p[:, 1], p[:, 0]
+        self.floor, self.height, self.alpha = (np.ascontiguousarray(p[:, i]) for i in (2, 1, 0))
         self.ref = self.base[self.sh]
         self.env_tb = env[self.tb]
         self.table = table.table
         self.added = table.added
-        self.env = env
+        self.env = np.ascontiguousarray(env)
 
     def __call__(self, k, positions):
         out = self.base.copy()
@@ -380,10 +379,7 @@ class Rollout:
         else:
             Tk, Ck = np.empty((rows, 0)), np.empty((rows, 0, 4))
         added = np.empty((0, 0, 3)) if w.added is None else w.added
-        # every array C-contiguous: one compiled signature whatever the rows' winds
-        c = np.ascontiguousarray
         _kernels().fly_rows(uav.packed, S, T, C, Tk, Ck, uav.substeps, h, per, k0, n * per,
-                            c(w.base), c(w.sh), c(w.ref), c(w.height), c(w.floor), c(w.alpha),
-                            c(w.tb), c(w.env_tb), c(w.table), c(added, dtype=float), c(w.env),
-                            positions, clipped)
+                            w.base, w.sh, w.ref, w.height, w.floor, w.alpha, w.tb, w.env_tb,
+                            w.table, added, w.env, positions, clipped)
         return S, positions
