@@ -26,6 +26,8 @@ BENCH_TIMEOUT ?= 14400  # [s] a whole `make bench` (FULL=1 builds the paper book
 HTML_TIMEOUT ?= 1200
 PIP_TIMEOUT  ?= 1800
 WARMUP_TIMEOUT ?= 900
+TEST_TIMEOUT ?= 1800  # [s] a whole `make test`
+CHECK_TIMEOUT ?= 5400  # [s] a whole `make check` (CI allows 90 minutes)
 TIMEOUT := timeout --kill-after=20
 # pages read what the fill computed: a page that would compute a result fails, naming it
 READ_ONLY := UAVWIND_PAGES_READ_ONLY=1
@@ -61,7 +63,7 @@ unexport PYTHONDONTWRITEBYTECODE
 PIP_INSTALL := $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps --no-compile
 
 .DEFAULT_GOAL := help
-.PHONY: help venv test bench book results lab clean clean-results FORCE
+.PHONY: help venv test check bench book results lab clean clean-results FORCE
 
 help:  ## list the targets
 	@grep -hE '^[a-zA-Z_-]+:.*## ' $(MAKEFILE_LIST) | sed -E 's/:.*## /\t/' | expand -t 16
@@ -86,9 +88,16 @@ $(STAMP): environment.txt
 
 venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
 
+# two tiers (tests/conftest.py): `make test` runs every test but the slow ones (-m "not slow":
+# the evidence at scale), within 5 minutes on 2 cores of the slower host kind, venv included;
+# `make check` runs them all and builds the quick book beside them: what CI runs (.ci/run).
 # --durations: where the suite's own time goes, printed with every run
-test: $(STAMP)  ## run the test suite (TEST_JOBS processes, the quick book built beside them)
-	$(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder --durations=20
+PYTEST := $(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder --durations=20
+test: $(STAMP)  ## run the tests but the slow ones (TEST_JOBS processes; `make check` runs them all)
+	$(TIMEOUT) $(TEST_TIMEOUT) $(PYTEST) -m "not slow"
+
+check: $(STAMP)  ## run every test, the slow ones too, with the quick book built beside them (what CI runs)
+	$(TIMEOUT) $(CHECK_TIMEOUT) $(PYTEST)
 
 bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
 	$(TIMEOUT) $(BENCH_TIMEOUT) $(BIN)/python benchmarks/bench.py

@@ -415,8 +415,10 @@ def bench_cluster(report):
     report["cluster"] = out
 
 
-#: Targets of the build timings (issue 46): seconds of wall time on the machine's 2 cores.
-BUILD_TARGETS = {"make test": 7 * 60, "quick book": 3 * 60}
+#: Targets of the build timings (issue 69): seconds of wall time on the machine's 2 cores of
+#: the slower host kind (the venv is shared, not built: these are the commands' own times).
+#: `make check` (what CI runs) has CI's limit.
+BUILD_TARGETS = {"make test": 5 * 60, "quick book": 2 * 60, "make check": 90 * 60}
 #: Each build's own timeout [s]: a hung step fails the section instead of hanging it.
 BUILD_TIMEOUT = 1800
 
@@ -457,16 +459,16 @@ def _timed(cmd, cwd, env) -> dict:
 
 
 def bench_builds(report, runs: int = 2):
-    """``make test`` and ``make book PROFILE=quick`` (empty result cache), each on a fresh
-    clone of HEAD, ``runs`` times, taking turns: the README's two commands as CI and a
-    reader run them, against :data:`BUILD_TARGETS`. Neural-Fly's flights are read where
+    """``make test``, ``make book PROFILE=quick`` (empty result cache) and ``make check`` (what
+    CI runs), each on a fresh clone of HEAD, ``runs`` times, taking turns: the README's two
+    commands as a reader runs them and CI's, against :data:`BUILD_TARGETS`. Neural-Fly's flights are read where
     ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
     root = Path(__file__).resolve().parents[1]
     # every run the same commit, whatever is committed meanwhile
     commit = _head_commit(root)
     print(f"\n== the README's commands on a fresh clone of {commit[:7]} ({runs} runs each, "
           "taking turns) ==")
-    rows = {"make test": [], "quick book": []}
+    rows = {name: [] for name in BUILD_TARGETS}
     for i in range(runs):
         for name in rows:
             tmp = Path(tempfile.mkdtemp(prefix="uavwind-build-"))
@@ -474,9 +476,8 @@ def bench_builds(report, runs: int = 2):
                 clone = _fresh_clone(root, tmp / "clone", commit)
                 env = {**os.environ, "UAVWIND_RESULTS": str(tmp / "results")}
                 env.pop("MPLBACKEND", None)
-                cmd = (["make", "test"] if name == "make test" else
-                       ["make", "book", "PROFILE=quick",
-                        f"RUN_FLAGS=--times {tmp / 'times.json'}"])
+                cmd = (["make", "book", "PROFILE=quick", f"RUN_FLAGS=--times {tmp / 'times.json'}"]
+                       if name == "quick book" else name.split())
                 r = _timed(cmd, clone, env)
                 if name == "quick book" and (tmp / "times.json").exists():
                     r["fill_wall_seconds"] = json.loads((tmp / "times.json").read_text())[

@@ -283,6 +283,21 @@ def _group(item):
     return item.nodeid.split("::")[0]
 
 
+# ---- two tiers: `make test` and `make check` ------------------------------------------------
+# `make test` runs `-m "not slow"`: every test but the evidence at scale, within 5 minutes on
+# the slower host kind, venv included. `make check` (what CI runs: .ci/run) runs every test and
+# builds the quick book beside them. A test is slow (``@pytest.mark.slow`` at its definition)
+# when it costs seconds on 2 cores and what it shows at scale is also shown, smaller, by a
+# test `make test` runs: tslearn on every paper scenario (one scenario in `make test`, and the
+# engine's own exactness tests), a dask cluster (the whole group below), worker processes
+# spawned to show that their number changes nothing, a signal sent to a running fill,
+# RotorPy's integrators beside ours, an installed copy of the package, the fits run whole
+# against their targets, and the quick book itself.
+
+#: The units of work whose tests are all slow: the shared dask cluster's and the book's.
+SLOW_GROUPS = ("dask", "book")
+
+
 #: The longest units of work, longest first (the suite's own CPU time by module, measured on
 #: 2 cores of an AMD EPYC): they start first and the short modules fill in behind them, so
 #: that neither process is left with a long module after the other ran out of work
@@ -305,8 +320,12 @@ def _longest_first(items, group=None):
 
 
 def pytest_itemcollected(item):
-    """xdist's unit of work (``--dist loadgroup``): a module, the dask tests, the book's."""
-    item.add_marker(pytest.mark.xdist_group(_group(item)))
+    """xdist's unit of work (``--dist loadgroup``): a module, the dask tests, the book's. The
+    dask cluster's tests and the book's are slow (:data:`SLOW_GROUPS`)."""
+    group = _group(item)
+    item.add_marker(pytest.mark.xdist_group(group))
+    if group in SLOW_GROUPS:
+        item.add_marker(pytest.mark.slow)
 
 
 def _name_the_groups(config, items):

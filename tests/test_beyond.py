@@ -16,6 +16,7 @@ TINY = {"loops": 2, "long_loops": 2, "fit_loops": 2,
 # --------------------------------------------------------------------------- #
 
 
+@pytest.mark.slow
 def test_results_do_not_depend_on_the_number_of_workers(tmp_path):
     kw = dict(profile=TINY, progress=False, cases=[4, 5, 12, 20])
     one = ex.run_experiment("exp7", n_jobs=1, results=tmp_path / "a", **kw)

@@ -69,7 +69,8 @@ def test_cli_keeps_the_times_of_finished_entries_when_interrupted(tmp_path, monk
     assert [p.name for p in tmp_path.iterdir()] == ["times.json"]  # no temporary file left
 
 
-@pytest.mark.parametrize("experiment", ["exp2", "exp10", "exp12"])
+@pytest.mark.parametrize("experiment", ["exp2", pytest.param("exp10", marks=pytest.mark.slow),
+                                        pytest.param("exp12", marks=pytest.mark.slow)])
 def test_a_signal_during_a_serial_run_stops_between_entries_and_keeps_the_record(tmp_path,
                                                                                   experiment):
     """SIGTERM while a kernel runs: the entry under way finishes, is stored and recorded,
@@ -140,6 +141,7 @@ def _group_kill(proc):
         proc.wait()
 
 
+@pytest.mark.slow
 def test_a_signal_stops_a_run_with_two_workers_within_seconds(tmp_path):
     """SIGTERM to the main process of `run exp12 exp6 --jobs 2` on a cold numba cache, as
     on a fresh checkout: one worker compiles the clustering kernels (tens of seconds, which
@@ -209,6 +211,7 @@ def test_a_stopped_run_ends_within_its_grace_even_if_the_shutdown_hangs(tmp_path
         assert err == ""
 
 
+@pytest.mark.slow
 def test_a_silent_scheduler_is_a_clear_error_within_seconds(tmp_path):
     import socket
     import subprocess

@@ -36,6 +36,7 @@ def test_tslearn_engine_is_tslearn(a, b, seed):
     assert res.score == (100 * sil if res.correct else 0.0)
 
 
+@pytest.mark.slow
 def test_worked_example_is_grouped(worked_example):
     res = score_loop(worked_example.simulate(uw.PAPER_EXAMPLE), worked_example.groups,
                      engine="tslearn")
@@ -176,6 +177,7 @@ def test_loops_side_by_side_refuse_bad_input(call, err, match):
         call(X, g)
 
 
+@pytest.mark.slow
 def test_tslearns_kernels_load_from_the_cache_and_give_the_same_doubles():
     """cache_tslearn_kernels lets tslearn's kernels use numba's cache: after this process ran
     tslearn (its kernels compiled into the cache, or loaded from make venv's), a new process

@@ -11,6 +11,7 @@ TINY = {"loops": 2, "long_loops": 3, "fit_loops": 2,
         "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 2}}
 
 
+@pytest.mark.slow
 def test_fill_cache_stores_what_run_experiment_computes(tmp_path):
     from uavwind.study.readings import READINGS
 
@@ -55,6 +56,7 @@ def test_fill_cache_runs_each_entry_once_longest_first(tmp_path, monkeypatch):
         [(e.labels["experiment"], e.labels["case"]) for e in order]
 
 
+@pytest.mark.slow
 def test_times_say_which_readings_and_experiments_share_an_entry(tmp_path, monkeypatch):
     order = record_fills(monkeypatch)
     done = fill.fill_cache("all", profile=TINY, results=tmp_path, n_jobs=1, readings="all",
@@ -86,6 +88,7 @@ def test_a_lone_missing_entry_gets_every_worker_and_their_cpu_time(tmp_path):
     assert exact_cells(pooled) == exact_cells(alone)
 
 
+@pytest.mark.slow
 def test_a_cem_runs_samples_are_tasks_ahead_of_the_chunks(tmp_path, monkeypatch):
     """Two workers, run in this process by an executor that records what it is handed: a
     CEM iteration's samples are tasks of SAMPLES_PER_TASK (here 2: 3 samples make a task of
@@ -267,6 +270,7 @@ def test_the_fills_workers_are_the_ones_joblib_reuses():
         set(pool.executor._processes)
 
 
+@pytest.mark.slow
 def test_another_joblib_backend_keeps_one_task_per_entry(tmp_path, monkeypatch):
     from joblib import parallel_config
 
@@ -347,6 +351,7 @@ def _failing(profile, seed, results):
     raise RuntimeError("this analysis fails")
 
 
+@pytest.mark.slow
 def test_analyses_run_in_the_fills_pool_once_what_they_read_is_stored(tmp_path, monkeypatch):
     """`make results` is one process and one pool: the registry's analyses are tasks of the
     fill beside the experiments' entries, each put once the entries of the experiments it
@@ -392,6 +397,7 @@ def test_every_analysis_is_a_task_that_says_what_it_reads():
     assert {"exp1", "exp10"} <= set(ANALYSES["claims"].reads)
     assert {"exp13", "exp11_filter_table", "explore_grid"} <= set(ANALYSES)
 
+@pytest.mark.slow
 def test_chunks_that_fly_the_same_loops_are_one_task(tmp_path, monkeypatch):
     """Exp 8's cases of one scenario differ only in what is observed and how noisily: a
     local fill hands each such group to one worker as one task (which flies each loop once,

@@ -186,6 +186,7 @@ def test_the_lean_ukfs_models_fall_back_to_rotorpys_where_a_float_would_raise():
         assert not np.isfinite(ukf.f(np.r_[0, 0, 0, 1e200, 0, 0, 0, 0, 0.0], 0.01)).all()
 
 
+@pytest.mark.slow
 @pytest.mark.filterwarnings("ignore:Gimbal lock detected")
 def test_the_lean_ukf_gives_rotorpys_estimates_exactly(monkeypatch):
     """The filter table's UKF (RotorPy's WindUKF with f and h on Python floats) against
@@ -292,6 +293,7 @@ def test_run_filter_names_what_it_cannot_use(short_flight, change, error, word):
         run_filter(**kw)
 
 
+@pytest.mark.slow
 def test_a_cached_filter_table_with_swapped_rows_is_recomputed(tmp_path, forge_parquet):
     from uavwind.analysis.filters import filter_comparison
     from uavwind.study.cache import CorruptChunkWarning

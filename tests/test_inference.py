@@ -53,6 +53,7 @@ def test_fit_layouts_recovers_a_ratio_from_simulated_loops(tmp_path, monkeypatch
     assert fit.loc[1, "ci_low"] <= 8.0 <= fit.loc[1, "ci_high"]
 
 
+@pytest.mark.slow
 def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
     """INFERRED_GAP_RATIOS checked against their fit here, not only in the paper build:
     20 loops of the light pairs, on the three grid ratios around each constant (the same
@@ -82,6 +83,7 @@ def test_the_inferred_constants_agree_with_their_fit_on_a_small_case(tmp_path):
         inf.check_fits(bad)
 
 
+@pytest.mark.slow
 def test_the_inferred_turbulence_is_the_closest_candidate(tmp_path):
     df = ex.run_experiment("fit_turbulence", profile=TINY, results=tmp_path, n_jobs=1,
                            progress=False)

@@ -101,7 +101,11 @@ def test_the_loops_cover_every_scenario_and_both_readings():
     assert {r for _, r in LOOPS} == {"inferred", "halves"}
 
 
-@pytest.mark.parametrize("scenario, reading", LOOPS)
+# `make test` checks the scenario of the fewest iterations (3, inferred; 2.5 s here); the rest
+# are slow (`make check`, what CI runs)
+@pytest.mark.parametrize("scenario, reading", [
+    pytest.param(s, r, marks=() if (s, r) == (3, "inferred") else pytest.mark.slow)
+    for s, r in LOOPS])
 def test_lockstep_loops_equal_tslearn_on_every_scenario(scenario, reading):
     """A whole loop through the engine (lockstep by default) == tslearn's loop, and its
     kernels == tslearn's and the scalar kernels' on the loop's series and centres."""
@@ -351,6 +355,7 @@ def test_the_barycentre_workspace_is_per_thread_and_never_reused_dirty(monkeypat
     assert check(0)
 
 
+@pytest.mark.slow
 def test_the_lanes_follow_the_features_numba_compiles_for(tmp_path):
     """N is 8 where the compiled code may use AVX-512F and 4 otherwise, read from
     NUMBA_CPU_FEATURES where it is set (numba's cache keys on those features, so a kernel of

@@ -30,6 +30,7 @@ def _setting(observation="position", **kw):
     return replace(s, sampler="waypoints", observation=observation, **kw)
 
 
+@pytest.mark.slow
 def test_the_sampler_keeps_every_limit_on_many_draws():
     rng = np.random.default_rng(7)
     t = np.linspace(0.0, 12.0, 12001)
@@ -127,6 +128,7 @@ def test_cem_searches_waypoint_offsets_and_decodes_them_flyable():
     np.testing.assert_array_equal(res.times, np.linspace(0, 12, 8))
 
 
+@pytest.mark.slow
 def test_random_search_on_waypoints_is_seeded_by_address_whatever_n_jobs():
     s = _setting("imu", noise=uw.CONSUMER_SENSORS)
     a = uw.random_search(s, n_loops=2, seed=5, n_jobs=1, progress=False)
@@ -160,6 +162,7 @@ def test_exp14_reuses_exp10_and_exp11_loops_for_its_raw_thrust_rows():
     assert uw.study.PROFILES["paper"].flyable_loops == 20
 
 
+@pytest.mark.slow
 def test_exp14_end_to_end_at_a_tiny_profile():
     tiny = {"loops": 1, "long_loops": 1, "fit_loops": 1, "side_loops": 1, "flyable_loops": 2,
             "cem": {"n_samples": 3, "n_elite": 1, "max_iter": 4}}

@@ -82,6 +82,7 @@ class _Wind(uw.WindModel):
                          np.full_like(z, 0.2)], axis=1)
 
 
+@pytest.mark.slow
 def test_a_flight_integrated_by_rotorpy_agrees_with_ours():
     """RotorPy's own Multirotor.step (RK45, rtol = atol = 1e-10) flown through the same wind
     (our wind, fed through a one-environment adapter) and the same commands, 4 s: our fixed

@@ -190,6 +190,7 @@ def test_a_flight_without_laps_is_refused(tmp_path):
 
 @pytest.mark.skipif(not SHARED.is_dir() and not os.environ.get(nf.ENV_VAR),
                     reason="Neural-Fly's flights are not on this machine (set UAVWIND_NEURALFLY)")
+@pytest.mark.slow
 def test_the_real_flights_read_as_the_data_readme_describes():
     fl = load_neuralfly(os.environ.get(nf.ENV_VAR) or SHARED)
     assert len(fl) == 25

@@ -11,6 +11,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow
 def test_an_installed_package_finds_its_data_and_runs_a_loop(tmp_path):
     # installed from a copy of the sources: setuptools builds in the source tree, and a
     # build/ left in the checkout would put modules deleted since into the installed package
@@ -97,6 +98,7 @@ def test_the_page_runner_does_not_build_jsonschemas_iri_grammar():
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
 
 
+@pytest.mark.slow
 def test_the_venv_holds_the_checkout_editable_and_warmup_names_its_parts(tmp_path):
     """``make venv`` installs the package editable: a script outside the checkout, without
     PYTHONPATH, imports this checkout's sources; ``python -m uavwind.warmup`` refuses a part

@@ -149,7 +149,7 @@ def _rotorpy_flight(mr, reference, wind, duration, integrator_kwargs):
     return np.array(got)
 
 
-@pytest.mark.parametrize("preset", ["rotorpy", "neuralfly"])
+@pytest.mark.parametrize("preset", ["rotorpy", pytest.param("neuralfly", marks=pytest.mark.slow)])
 def test_a_closed_loop_lemniscate_equals_rotorpys_own_flight(preset):
     """12 s of Neural-Fly's figure-8 in a sheared, gusting wind: our Multirotor with the ported
     SE3 controller against RotorPy's Multirotor.step + SE3Control.update, both at 100 Hz with
@@ -163,6 +163,7 @@ def test_a_closed_loop_lemniscate_equals_rotorpys_own_flight(preset):
     assert np.abs(ours - theirs).max() < 1e-9
 
 
+@pytest.mark.slow
 def test_rotorpys_adaptive_integrator_agrees_to_its_tolerance():
     """The same flight (4 s) with RotorPy's RK45 at rtol = atol = 1e-10: the fixed RK4 of 2.5 ms
     is the only difference, and it is small (measured: 1.5e-6 m; RotorPy's default RK45

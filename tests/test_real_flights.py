@@ -121,6 +121,7 @@ def test_the_flight_rows_are_the_laps_means(rows, flights):
     assert (rows.loc[rows.kind == "flight", "n_laps"] == 3).all()
 
 
+@pytest.mark.slow
 def test_rows_do_not_depend_on_the_number_of_workers(flights, rows):
     again = rf.compute_rows(flights, SMALL, n_jobs=2)
     pd.testing.assert_frame_equal(rows, again)
@@ -300,6 +301,7 @@ def test_a_study_that_keeps_some_laps_flies_them_and_no_more():
         assert np.array_equal(full[ch][keep], cut[ch][keep]), ch
 
 
+@pytest.mark.slow
 def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
     """`run exp13` with a bad folder: a clear error; asked for without Neural-Fly's folder: an
     error naming the variable (issue 45: it exited 0); the `analyses` command is gone (issue
@@ -317,6 +319,7 @@ def test_the_command_line_skips_without_data_and_refuses_a_bad_folder(tmp_path):
     assert p.returncode == 2 and "'run'" in p.stderr and "Traceback" not in p.stderr
 
 
+@pytest.mark.slow
 def test_rows_read_from_a_folder_are_found_again_without_parsing_it(folder, rows, tmp_path,
                                                                     monkeypatch):
     from uavwind.data import neuralfly

@@ -67,6 +67,7 @@ def test_settings_shared_by_experiments_are_computed_once(tmp_path):
     assert again.attrs["cached"] == 1  # exp3's 20-environment setting is exp2's
 
 
+@pytest.mark.slow
 def test_cem_experiment_and_worker_independence(tmp_path):
     one = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "a", n_jobs=1, progress=False)
     two = ex.run_experiment("exp6", profile=TINY, results=tmp_path / "b", n_jobs=2, progress=False)

@@ -39,12 +39,14 @@ def two_workers():
     return s, uw.random_search(s, n_loops=6, seed=3, n_jobs=2, progress=False)
 
 
+@pytest.mark.slow
 def test_workers_do_not_change_results(two_workers):
     s, two = two_workers
     one = uw.random_search(s, n_loops=6, seed=3, n_jobs=1, progress=False)
     pd.testing.assert_frame_equal(one, two)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", [1, 4])
 def test_blocks_of_loops_clustered_side_by_side_do_not_change_results(monkeypatch, block,
                                                                       two_workers):
@@ -105,6 +107,7 @@ def test_cem_patience_stops_early():
     assert res.stopped_early and len(res.history) == 4
 
 
+@pytest.mark.slow
 def test_cem_on_the_worked_example_never_loses_its_best():
     s = uw.table3_setting(n_changes=2)
     res = uw.cem(s, n_samples=6, n_elite=2, max_iter=3, seed=1, n_jobs=1, progress=False)
@@ -143,6 +146,7 @@ def test_bad_input(call, err, match):
         call()
 
 
+@pytest.mark.slow
 def test_physics_sanity_on_paper_settings():
     """Strong shear vs light constant is nearly always grouped; light/light scores lower
     than light/strong on the same 20 thrust sequences."""

@@ -218,6 +218,7 @@ def exp10_rows(tmp_path_factory):
     return folder, on, off
 
 
+@pytest.mark.slow
 def test_without_is_the_chapters_own_loops_and_sources_off_give_the_same(exp10_rows):
     folder, on, off = exp10_rows
     own = uw.run_experiment("exp10", "quick", results=folder, progress=False,
@@ -233,6 +234,7 @@ def test_without_is_the_chapters_own_loops_and_sources_off_give_the_same(exp10_r
     assert set(on["with_verdict"]) <= {"separates", "does not separate", "cannot decide"}
 
 
+@pytest.mark.slow
 def test_the_rows_are_cached_and_repeat(exp10_rows, tmp_path):
     folder, on, _ = exp10_rows
     again = se.sensitivity_table("exp10", "quick", results=folder)
@@ -244,6 +246,7 @@ needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
                                    reason="needs the Neural-Fly flights ($UAVWIND_NEURALFLY)")
 
 
+@pytest.mark.slow
 @needs_flights
 @pytest.mark.usefixtures("unless_the_book_builds")  # test_book.py reads the fill's fit
 def test_the_fitted_values_are_figure8s_fit(tmp_path):

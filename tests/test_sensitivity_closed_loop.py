@@ -205,6 +205,7 @@ def exp12_rows(tmp_path_factory):
     return folder, on, off
 
 
+@pytest.mark.slow
 def test_without_is_the_chapters_own_episodes_and_sources_off_give_the_same(exp12_rows):
     folder, on, off = exp12_rows
     own = uw.run_experiment("exp12", TINY, results=folder, progress=False,
@@ -225,6 +226,7 @@ def test_without_is_the_chapters_own_episodes_and_sources_off_give_the_same(exp1
     assert set(on["with_verdict"]) == set(on["without_verdict"]) == {"cannot decide"}
 
 
+@pytest.mark.slow
 def test_the_rows_are_cached_and_repeat(exp12_rows):
     folder, on, _ = exp12_rows
     pd.testing.assert_frame_equal(on, se.sensitivity_table("exp12", TINY, results=folder))

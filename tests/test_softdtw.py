@@ -140,6 +140,7 @@ def test_fast_equals_tslearn_k_means_directly():
     assert sil_soft == pytest.approx(ref_soft, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_fits_side_by_side_are_each_fit_and_tslearn_to_the_double(monkeypatch):
     """fit_many runs several k-means fits in one barycentre kernel call per round; each
     result is the fit's alone, and tslearn's, with ==: loops of 3 and 5 environments a
@@ -191,6 +192,7 @@ def test_parallel_kernels_give_the_same_answer():
     assert np.array_equal(a.labels, b.labels) and a.inertia == b.inertia
 
 
+@pytest.mark.slow
 def test_exact_with_the_libm_replica_forced_off():
     """UAVWIND_SOFTDTW_GLIBC_REPLICA=0: the kernels call libm like tslearn; still equal.
     tslearn's references are computed here, where its kernels are compiled already (it
@@ -413,6 +415,7 @@ HOSTILE = [
 ]
 
 
+@pytest.mark.slow
 def test_no_entry_point_reads_past_an_array_or_crashes():
     """Each case runs in a fresh process, so a kernel reading past an array (which used to
     return garbage, then abort with malloc(): invalid size or SIGSEGV) fails this test

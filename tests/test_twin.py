@@ -282,6 +282,7 @@ needs_flights = pytest.mark.skipif(not os.environ.get("UAVWIND_NEURALFLY"),
                                    reason="needs the Neural-Fly flights ($UAVWIND_NEURALFLY)")
 
 
+@pytest.mark.slow
 @needs_flights
 def test_exp14s_vehicle_has_the_drag_the_real_flights_give():
     """``NEURAL_FLY_FITTED`` (Exp 14's vehicle) is Exp 13's fit of the drag and lift, redone

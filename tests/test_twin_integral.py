@@ -37,6 +37,7 @@ def test_the_integral_spread_changes_the_replicates_controller_and_flight():
     assert c.ki[0] == pytest.approx(base.ki[0] * bw ** 3)
 
 
+@pytest.mark.slow
 def test_the_fit_recovers_the_spread_that_made_its_target_and_takes_a_bound_beyond_it():
     built = []
 

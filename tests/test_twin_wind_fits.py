@@ -60,6 +60,7 @@ def test_the_twins_rotor_drag_moves_its_force_in_wind():
     assert more.vehicle().rotor_drag_scale == 1.2
 
 
+@pytest.mark.slow
 def test_the_per_wind_force_fit_finds_the_factors_that_made_its_targets():
     """Targets made by the twin itself at drag 0.8, lift 0.7 and rotor drag 1.2 (two
     controllers 0.1 N either side of it at each wind): the fit, started from 1, 1, 1, finds

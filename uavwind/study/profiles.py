@@ -132,7 +132,7 @@ PROFILES = {
                      episodes=SIZINGS["exp12"].count,
                      sized_loops={e: SIZINGS[e].count for e in ("exp7", "exp8", "exp9", "exp10")},
                      cem=CEMSize(n_samples=30, n_elite=4, max_iter=20)),
-    # quick: a first look at every page, and what `make test` builds beside the suite. Two
+    # quick: a first look at every page, and what `make check` (CI) builds beside the suite. Two
     # loops a case (the fewest that give a spread), one a case of the wide multirotor sweeps
     # (Exp 11's 80 cases, Exp 14's flyable ones: their cells show single loops), six Exp 12
     # episodes, a CEM of two iterations of four draws
