@@ -71,8 +71,6 @@ with frequency where the real one rises (8.5 m/s, 0-0.3/0.3-0.7/0.7-1.2/1.2-2 Hz
 
 ``python benchmarks/twin_loop_resonance.py [paper|quick] tau_m att_w att_zeta len_factor``;
 reads the real rows from (or fills) $UAVWIND_RESULTS, writes no twin rows there."""
-import functools
-import json
 import sys
 import time
 
@@ -80,55 +78,21 @@ import numpy as np
 import pandas as pd
 from scipy.signal import welch
 
-import uavwind.sim.multirotor as mr
+from twin_patch import fit_and_fly, patch
 from uavwind.analysis import figure8, real_flights as rf, twin, twin_fit
 from uavwind.data.neuralfly import CONDITIONS, cut_laps, load_neuralfly, pitch_degrees, split_noise
-from uavwind.sim._slots import SE3_KD_ATT, SE3_KP_ATT, TAU_M
 
 profile = sys.argv[1]
 tau_m, att_w, att_z, len_f = map(float, sys.argv[2:6])
 study = rf.STUDIES[profile]
-_packed = mr._packed
-
-
-@functools.lru_cache(maxsize=None)
-def patched(*a, **k):  # the kernels' parameter vector with the attitude loop and motors set
-    P = np.array(_packed(*a, **k))
-    P[TAU_M] = tau_m
-    if att_w > 0:
-        P[SE3_KP_ATT], P[SE3_KD_ATT] = att_w ** 2, 2 * att_z * att_w
-    P.setflags(write=False)
-    return P
-
-
-def wind(condition, seed, gust_scale):  # twin._wind with the gusts' time scale times len_f
-    from uavwind.sim.dryden import DrydenWind
-    from uavwind.sim.wind import ConstantWind, RampedWind, SinusoidalWind
-    speed = CONDITIONS[condition]
-    if condition == "70p20sint":
-        mean = SinusoidalWind([[-speed, 0.0, 0.0]], [[-2.4, 0.0, 0.0]], period=2 * np.pi)
-    else:
-        mean = ConstantWind([[-speed, 0.0, 0.0]])
-    if gust_scale > 0 and speed > 0:
-        mean = mean + DrydenWind([gust_scale * speed], altitude=twin.FIGURE8.center[2],
-                                 dt=twin.DT, airspeed=speed / len_f, seed=seed)
-    return RampedWind(mean, twin.RAMP)
-
-
-mr._packed, twin._wind = patched, wind
+patch(tau_m, att_w, att_z, len_f)
 real = rf.real_flight_rows(profile=profile, n_jobs=1)
 fl = real[real.kind == "flight"]
 everyone = sorted(set(fl.controller))
 held = twin_fit.held_out_controller(everyone)
 train = [c for c in everyone if c != held]
 t0 = time.time()
-cal = twin_fit.calibrate_twin(real, study, train)
-conditions = tuple(c for c in CONDITIONS if not study.conditions or c in study.conditions
-                   or c in (twin_fit.FIT_CONDITION, twin_fit.SPREAD_CONDITION))
-flights = twin.simulated_flights(cal, conditions=conditions, duration=twin.flight_duration(study))
-sim = pd.DataFrame(rf.flight_summaries(flights, study))
-sim["kind"] = "flight"
-sim.attrs.update(calibration=json.dumps(cal.to_dict()), held_out=held)
+cal, flights, sim = fit_and_fly(real, study, train, held)
 print(f"refitted in {time.time() - t0:.0f} s:",
       {k: v for k, v in cal.to_dict().items() if k not in ("noise", "fitted_on")})
 val = figure8.validation_table(real, sim)
