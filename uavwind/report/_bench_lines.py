@@ -68,6 +68,9 @@ def _builds_line(b: Mapping[str, Any]) -> str:
                      + " and ".join(f"{w:.0f} s" for w in walls)
                      + f" (target {target / 60:g} min: {verdict})"
                      + (f", **{len(failed)} run(s) failed**" if failed else ""))
+    if "make check" not in b and "make test" in b:  # measured before the two tiers
+        parts[0] += (" (every test with the quick book beside them: what `make check` runs "
+                     "now)")
     when = f" {b['measured']}" if "measured" in b else ""
     return (f"*Measured{when} on {host.get('model', '?')}* ({host.get('lanes', '?')} float64 "
             "lanes), "
