@@ -5,6 +5,10 @@ PYTHON  ?= $(shell command -v python3.11 2>/dev/null || command -v python3)
 VENV    := .venv
 BIN     := $(VENV)/bin
 STAMP   := $(VENV)/.installed
+# numba's on-disk cache of the kernels is kept beside their sources (__pycache__), not in the
+# venv: a fresh clone beside a built venv, or `make clean`, leaves it empty. So the warmup that
+# fills it has its own stamp there, and runs again when the cache is gone
+WARM    := uavwind/__pycache__/uavwind-warmup.done
 PROFILE ?= paper
 JOBS    ?= -1
 BOOK_JOBS ?= $(shell nproc 2>/dev/null || echo 1)
@@ -82,37 +86,41 @@ $(STAMP): environment.txt
 	$(BIN)/python -m pip check --disable-pip-version-check
 	PIP_NO_INDEX=1 $(TIMEOUT) $(PIP_TIMEOUT) $(BIN)/python -m pip install --disable-pip-version-check --quiet --no-deps \
 	  --no-build-isolation --no-compile -e .
-	$(TIMEOUT) $(WARMUP_TIMEOUT) sh -c '$(BIN)/python -m uavwind.warmup engine & a=$$!; \
-	  $(BIN)/python -m uavwind.warmup sim reference || { wait $$a; exit 1; }; wait $$a'
 	touch $@
 
-venv: $(STAMP)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
+$(WARM): $(STAMP)
+	$(TIMEOUT) $(WARMUP_TIMEOUT) sh -c '$(BIN)/python -m uavwind.warmup engine & a=$$!; \
+	  $(BIN)/python -m uavwind.warmup sim reference || { wait $$a; exit 1; }; wait $$a'
+	@mkdir -p $(dir $@)
+	touch $@
+
+venv: $(WARM)  ## build .venv from environment.txt, the package editable, its kernels compiled (only when missing or outdated)
 
 # two tiers (tests/conftest.py): `make test` runs every test but the slow ones (-m "not slow":
 # the evidence at scale), within 5 minutes on 2 cores of the slower host kind, venv included;
 # `make check` runs them all and builds the quick book beside them: what CI runs (.ci/run).
 # --durations: where the suite's own time goes, printed with every run
 PYTEST := $(BIN)/python -m pytest -q -n $(TEST_JOBS) --dist loadgroup --no-loadscope-reorder --durations=20
-test: $(STAMP)  ## run the tests but the slow ones (TEST_JOBS processes; `make check` runs them all)
+test: $(WARM)  ## run the tests but the slow ones (TEST_JOBS processes; `make check` runs them all)
 	$(TIMEOUT) $(TEST_TIMEOUT) $(PYTEST) -m "not slow"
 
-check: $(STAMP)  ## run every test, the slow ones too, with the quick book built beside them (what CI runs)
+check: $(WARM)  ## run every test, the slow ones too, with the quick book built beside them (what CI runs)
 	$(TIMEOUT) $(CHECK_TIMEOUT) $(PYTEST)
 
-bench: $(STAMP)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
+bench: $(WARM)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
 	$(TIMEOUT) $(BENCH_TIMEOUT) $(BIN)/python benchmarks/bench.py
 
 # every result the book shows, under the readings its pages show, and every analysis its pages read (Exp 13
 # with $$UAVWIND_NEURALFLY), in one process and one pool of workers, longest task first;
 # the notebooks then read them from the cache (and compute only what is missing)
-results: $(STAMP)  ## compute every registered entry (experiments under the readings their pages show, and the analyses) into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
+results: $(WARM)  ## compute every registered entry (experiments under the readings their pages show, and the analyses) into UAVWIND_RESULTS (default data/results; PROFILE=paper|quick; cached, resumable)
 	$(TIMEOUT) $(FILL_TIMEOUT) $(BIN)/python -m uavwind run all --reading all --profile $(PROFILE) --jobs $(JOBS) --no-tables $(if $(SCHEDULER),--scheduler $(SCHEDULER)) $(RUN_FLAGS)
 
 # the results first (one pool over every experiment, its progress shown as it goes), then
 # the notebooks BOOK_JOBS at a time (they read the cache, each output kept together), then
 # the HTML. `-o results`: the notebooks' `| results` was just made, so it is not run again
 # (a second run would only re-check the cache, and overwrite the fill's --times record)
-book: $(STAMP)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
+book: $(WARM)  ## run the experiments (papermill) and build the book (PROFILE=paper|quick)
 	@$(MAKE) --no-print-directory results
 	@$(MAKE) --no-print-directory -o results -j$(BOOK_JOBS) --output-sync=target $(HTML)
 	@echo "book: $(HTML)"
@@ -174,7 +182,7 @@ $(HTML): $(EXECUTED) $(GEN)/build_note.md $(MATHJAX) $(PLOTLYJS) $(CSS) $(wildca
 	$(TIMEOUT) $(HTML_TIMEOUT) $(BIN)/jupyter-book build $(BOOK) --warningiserror --keep-going --quiet
 	touch $@
 
-lab: $(STAMP)  ## JupyterLab on the notebooks (open the .md files as notebooks)
+lab: $(WARM)  ## JupyterLab on the notebooks (open the .md files as notebooks)
 	$(BIN)/jupyter lab notebooks/
 
 clean:  ## remove caches and build products (never finished results)

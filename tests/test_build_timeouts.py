@@ -157,6 +157,32 @@ def test_every_long_build_step_has_a_timeout():
     assert "--execution-timeout $(CELL_TIMEOUT)" in make
 
 
+def test_a_missing_numba_cache_is_warmed_before_the_tests_and_the_book(tmp_path):
+    """numba's cache lives in the sources' __pycache__, which `make clean` and a fresh clone
+    beside a built venv lack: the warmup's stamp is kept there, and `make test`, `make check`
+    and `make results` (so `make book`) run the warmup first when it is missing (a dry run,
+    the venv taken as built), and not when it is there."""
+    make = (ROOT / "Makefile").read_text()
+    warm = re.search(r"^WARM\s*:=\s*(\S+)", make, flags=re.M).group(1)
+    assert warm.startswith("uavwind/__pycache__/")  # where `make clean` removes it
+    assert "-name __pycache__" in re.search(r"^clean:.*\n((?:\t.*\n)+)", make,
+                                            flags=re.M).group(1)
+    missing = tmp_path / "warm.done"
+    for target, step in (("test", "pytest"), ("check", "pytest"),
+                         ("results", "-m uavwind run all")):
+        def dry(stamp):
+            out = subprocess.run(["make", "-n", "-C", str(ROOT), "-o", ".venv/.installed",
+                                  target, f"WARM={stamp}"], capture_output=True, text=True,
+                                 check=True).stdout.splitlines()
+            return ([i for i, ln in enumerate(out) if "-m uavwind.warmup" in ln],
+                    [i for i, ln in enumerate(out) if step in ln])
+        warmup, runs = dry(missing)
+        assert warmup and runs and warmup[0] < runs[0], target
+        missing.touch()
+        assert dry(missing)[0] == [], target
+        missing.unlink()
+
+
 def _page_command(*assignments, parallel=None):
     """The command ``make`` runs for one page (a dry run, ``-n``, with the fill taken as
     made), with ``assignments`` such as ``BOOK_JOBS=1`` on the command line and
