@@ -408,6 +408,16 @@ def test_each_hosts_record_stands_in_its_own_column_with_its_date_and_commit():
     assert t.loc[paper, "Xeon (rocketlake, 8 lanes)"] == "20.1 (2026-12-04, accaeb1)"
     assert t.loc[paper, "AMD EPYC (znver3, 4 lanes)"] == "not measured"
     assert (t.loc["cold numba compile, one process [s]"] == "not measured").all()
+    # a builds record from before the two tiers: its make test is the row of make check
+    before = {"make test": {"median_wall_seconds": 268.4}, "quick book": {
+        "median_wall_seconds": 150.0}, "commit": "a6e75f7", "measured": "2026-12-04 03:50 UTC"}
+    now = {"make test": {"median_wall_seconds": 204.5}, "make check": {
+        "median_wall_seconds": 729.6}, "commit": "c9a426d", "measured": "2026-12-07 21:02 UTC"}
+    t = host_records({**report, "builds_hosts": {"Xeon": {**before, "host": x},
+                                                 "AMD EPYC": {**now, "host": a}}})
+    fast, every = list(HOST_FIGURES)[:2]
+    assert t.loc[fast].tolist() == ["204 (2026-12-07, c9a426d)", "not measured"]
+    assert t.loc[every].tolist() == ["730 (2026-12-07, c9a426d)", "268 (2026-12-04, a6e75f7)"]
 
 
 def test_a_section_says_whether_anything_else_ran_beside_it(monkeypatch):
