@@ -107,7 +107,7 @@ test: $(WARM)  ## run the tests but the slow ones (TEST_JOBS processes; `make ch
 check: $(WARM)  ## run every test, the slow ones too, with the quick book built beside them (what CI runs)
 	$(TIMEOUT) $(CHECK_TIMEOUT) $(PYTEST)
 
-bench: $(WARM)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test and the quick book on fresh clones, twice)
+bench: $(WARM)  ## print speed and memory figures (no pass/fail); FULL=1 adds the paper book, ONLY=<section> one section (ONLY=builds: make test, the quick book and make check on fresh clones, twice)
 	$(TIMEOUT) $(BENCH_TIMEOUT) $(BIN)/python benchmarks/bench.py
 
 # every result the book shows, under the readings its pages show, and every analysis its pages read (Exp 13

@@ -461,8 +461,8 @@ def _timed(cmd, cwd, env) -> dict:
 def bench_builds(report, runs: int = 2):
     """``make test``, ``make book PROFILE=quick`` (empty result cache) and ``make check`` (what
     CI runs), each on a fresh clone of HEAD, ``runs`` times, taking turns: the README's two
-    commands as a reader runs them and CI's, against :data:`BUILD_TARGETS`. Neural-Fly's flights are read where
-    ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
+    commands as a reader runs them and CI's, against :data:`BUILD_TARGETS`. Neural-Fly's
+    flights are read where ``UAVWIND_NEURALFLY`` points (as CI finds them), else the Exp 13 parts skip."""
     root = Path(__file__).resolve().parents[1]
     # every run the same commit, whatever is committed meanwhile
     commit = _head_commit(root)

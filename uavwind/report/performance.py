@@ -19,8 +19,8 @@ from typing import Any
 import pandas as pd
 
 from ..study.runner import n_loops_total
-from ._bench_lines import (_builds_line, _by_date, _gradient_split, _hosts_line, _span,
-                           _threads_line, _threads_of)
+from ._bench_lines import (_before_tiers, _builds_line, _by_date, _gradient_split, _hosts_line,
+                           _span, _threads_line, _threads_of)
 from .display import show_missing
 
 __all__ = ["TARGETS", "PAPER_TARGET", "PaperTarget", "load_report", "report_tables",
@@ -65,22 +65,17 @@ def fill_cpu_seconds(report: Mapping[str, Any], experiments) -> float | None:
     return sum(r["cpu_seconds"] for r in rows) if rows else None
 
 
-def _every_test(builds: Mapping[str, Any]) -> Mapping[str, Any]:
-    """A builds record's run of every test with the quick book beside them: ``make check``,
-    or ``make test`` in a record made before the two tiers (it had no ``make check``)."""
-    return builds["make check"] if "make check" in builds else builds["make test"]
-
-
 #: The figures each host's record holds (:func:`host_records`): row label -> (the report's
-#: section, how to read the figure from one record of it, its format). ``make test`` is the
-#: tests but the slow ones only in a record that has ``make check`` (before the two tiers
-#: it ran every test with the quick book: the row of ``make check``).
+#: section, how to read the figure from one record of it (None: the record has none), its
+#: format). A builds record from before the two tiers has its ``make test`` in the row of
+#: ``make check``: it ran every test with the quick book.
 HOST_FIGURES = {
     "make test (the tests but the slow ones), fresh clone [s]": (
-        "builds", lambda r: r["make test" if "make check" in r else "(before the tiers)"][
-            "median_wall_seconds"], "{:.0f}"),
+        "builds", lambda r: None if _before_tiers(r) else r["make test"]["median_wall_seconds"],
+        "{:.0f}"),
     "make check (every test, the quick book beside them; make test before the tiers), "
-    "fresh clone [s]": ("builds", lambda r: _every_test(r)["median_wall_seconds"], "{:.0f}"),
+    "fresh clone [s]": ("builds", lambda r: r["make test" if _before_tiers(r) else "make check"][
+        "median_wall_seconds"], "{:.0f}"),
     "make book PROFILE=quick, fresh clone [s]": (
         "builds", lambda r: r["quick book"]["median_wall_seconds"], "{:.0f}"),
     "make book (paper), empty cache [min]": (
@@ -128,9 +123,12 @@ def host_records(report: Mapping[str, Any]) -> pd.DataFrame:
             key = _host_label(host)
             hosts[key] = host
             try:
-                value = fmt.format(read(rec))
+                figure = read(rec)
             except (KeyError, TypeError, ZeroDivisionError):
                 continue
+            if figure is None:
+                continue
+            value = fmt.format(figure)
             when = str(rec.get("measured", "date not recorded"))[:10]
             commit = rec.get("commit") or rec.get("measured_commit")
             quiet = (rec.get("machine_load") or {}).get("quiet")
