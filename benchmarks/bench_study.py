@@ -492,5 +492,6 @@ def bench_builds(report, runs: int = 2):
                "median_wall_seconds": statistics.median(r["wall_seconds"] for r in rs)}
         for name, rs in rows.items()}
     report["builds"]["host"] = host_cpu()
+    report["builds"]["cores"] = os.cpu_count()  # what a target's wall time leaves of CPU
     report["builds"]["commit"] = commit[:7]
     report["builds"]["neuralfly"] = bool(os.environ.get("UAVWIND_NEURALFLY"))

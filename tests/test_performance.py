@@ -365,6 +365,27 @@ def test_the_builds_sentence_gives_every_run_against_its_target():
     assert " *Measured 2026-12-01 22:00 UTC on EPYC* (4 float64 lanes)" in line
 
 
+def test_the_builds_sentence_sets_each_commands_cpu_against_what_its_target_leaves():
+    """A wall time under T on c cores needs at most T x c CPU seconds: a command that used
+    more misses its target however its work is spread, and the sentence says by how much."""
+    run = lambda w, cpu: {"wall_seconds": w, "cpu_seconds": cpu, "exit": 0,
+                          "last_line": "1075 passed"}
+    b = {"make test": {"runs": [run(200.0, 380.0), run(210.0, 390.0)], "target_seconds": 300},
+         "quick book": {"runs": [run(370.0, 660.0), run(374.0, 672.0)], "target_seconds": 120},
+         "host": {"model": "EPYC", "lanes": 4}, "commit": "abc1234", "cores": 2}
+    line = summary_lines({"builds": b})["builds"]
+    assert ("`make test` 380-390 CPU-s, where 300 s on 2 cores hold 600: the same work fits"
+            in line)
+    assert ("`make book PROFILE=quick` 660-672 CPU-s, where 120 s on 2 cores hold 240: it needs "
+            "2.8x less CPU, however it is spread over the cores" in line)
+    # a record that names no cores takes the report's; one core halves the room
+    del b["cores"]
+    line = summary_lines({"builds": b, "cores": 1})["builds"]
+    assert "`make test` 380-390 CPU-s, where 300 s on 1 core hold 300: it needs 1.3x less" in line
+    # without any count of cores, the CPU alone
+    assert "`make test` 380-390 CPU-s;" in summary_lines({"builds": b})["builds"]
+
+
 def test_the_benchmark_on_file_gives_tables_and_sentences():
     """The performance page reads benchmarks/benchmark.json: every table a DataFrame, every
     sentence a string (a sentence once landed among the tables and the page failed)."""

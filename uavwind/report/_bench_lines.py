@@ -52,12 +52,30 @@ def _before_tiers(builds: Mapping[str, Any]) -> bool:
     return "make check" not in builds
 
 
-def _builds_line(b: Mapping[str, Any]) -> str:
+def _cpu_budget(cpu: list[float], target: float, cores: int | None) -> str:
+    """Whether the CPU seconds ``cpu`` (a command's runs) fit in ``target`` seconds on
+    ``cores`` cores at all: a wall time under the target needs at most ``target x cores`` CPU
+    seconds, so work beyond that misses it however well it is packed on the cores."""
+    used = f"{min(cpu):.0f}" + (f"-{max(cpu):.0f}" if max(cpu) - min(cpu) >= 0.5 else "")
+    if not cores:
+        return f"{used} CPU-s"
+    room = target * cores
+    return (f"{used} CPU-s, where {target:.0f} s on {cores} core{'s' * (cores != 1)} hold "
+            f"{room:.0f}: "
+            + ("the same work fits" if max(cpu) <= room else
+               f"it needs {max(cpu) / room:.1f}x less CPU, however it is spread over the "
+               "cores"))
+
+
+def _builds_line(b: Mapping[str, Any], cores: int | None = None) -> str:
     """The README's two commands and CI's ``make check``, each run on a fresh clone (``make
     bench ONLY=builds``): every run's wall time, against its target, and the host (a record
-    made before ``make check`` existed has the first two only)."""
+    made before ``make check`` existed has the first two only); then each command's CPU
+    against what its target leaves on the record's cores (``cores``: the machine's, for a
+    record that names none: :func:`_cpu_budget`)."""
     host = b.get("host", {})
-    parts = []
+    cores = b.get("cores") or cores
+    parts, budget = [], []
     command = {"make test": "make test", "quick book": "make book PROFILE=quick",
                "make check": "make check"}
     for name in command:
@@ -74,6 +92,9 @@ def _builds_line(b: Mapping[str, Any]) -> str:
                      + " and ".join(f"{w:.0f} s" for w in walls)
                      + f" (target {target / 60:g} min: {verdict})"
                      + (f", **{len(failed)} run(s) failed**" if failed else ""))
+        cpu = [r["cpu_seconds"] for r in rec["runs"] if "cpu_seconds" in r]
+        if cpu:
+            budget.append(f"`{command[name]}` " + _cpu_budget(cpu, target, cores))
     if _before_tiers(b) and "make test" in b:
         parts[0] += (" (every test with the quick book beside them: what `make check` runs "
                      "now)")
@@ -83,7 +104,9 @@ def _builds_line(b: Mapping[str, Any]) -> str:
             f"each on a fresh clone of {b.get('commit', '?')} with an empty result cache, "
             f"the runs taking turns (`make bench ONLY=builds`; the virtual environment "
             f"already built; Neural-Fly's flights {'present' if b.get('neuralfly') else 'absent'}"
-            "): " + "; ".join(parts) + ".")
+            "): " + "; ".join(parts) + "."
+            + (" Their CPU (user and system time of the whole process tree): " + "; ".join(budget)
+               + "." if budget else ""))
 
 def _gradient_split(t: Mapping[str, Any]) -> str:
     """The sentence saying how much of what the gradient adds per cell is the square root of

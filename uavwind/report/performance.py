@@ -470,7 +470,8 @@ def summary_lines(report: Mapping[str, Any]) -> dict[str, str]:
                 "add their own, experiment by experiment below.")
     if "builds" in report:  # each host's latest record, oldest first (bench.BY_HOST)
         hosts = report.get("builds_hosts") or {"": report["builds"]}
-        out["builds"] = " ".join(_builds_line(b) for _, b in _by_date(hosts))
+        out["builds"] = " ".join(_builds_line(b, report.get("cores"))
+                                 for _, b in _by_date(hosts))
     if "closed_loop" in report:
         c = report["closed_loop"]
         line = (f"Experiment 12 at the paper profile: about {c['estimated_cpu_seconds'] / 60:.1f} "
