@@ -74,6 +74,25 @@ def test_lbfgsb_driver_is_bit_identical_to_scipy_minimize(maxiter):
         together = lbfgsb_many(fg_many, [x0 for _, x0 in problems], maxiter, tol, tol)
         assert all(np.array_equal(a, b) for a, b in zip(alone, together))
     assert calls[0] == [0, 1, 2] and any(len(c) < 3 for c in calls)
+    # told the value at a start (a k-means round whose cluster kept its series starts where
+    # the last round's run ended): the same final x, one evaluation fewer for that problem,
+    # and each run's last evaluation returned, which is what the next round is told
+    from uavwind.method.softdtw._lbfgsb import lbfgsb_many_known
+    for tol in (1e-3, 1e-8):
+        first, finals = lbfgsb_many_known(fg_many, [x0 for _, x0 in problems], [None] * 3,
+                                          maxiter, tol, tol)
+        for (fg, _), x, fin in zip(problems, first, finals):
+            assert fin is not None and fin[0] == fg(x)[0] and np.array_equal(fin[1], fg(x)[1])
+        calls.clear()
+        again, _ = lbfgsb_many_known(fg_many, first, finals, maxiter, tol, tol)
+        asked = [k for c in calls for k in c]
+        calls.clear()
+        ref = lbfgsb_many(fg_many, first, maxiter, tol, tol)
+        assert all(np.array_equal(a, b) for a, b in zip(again, ref))
+        assert all(asked.count(k) == [k for c in calls for k in c].count(k) - 1
+                   for k in range(3))
+    with pytest.raises(ValueError, match="known must give one entry per start"):
+        lbfgsb_many_known(fg_many, [x0 for _, x0 in problems], [None], maxiter, 1e-3, 1e-3)
 
 
 def test_barycentre_objective_equals_tslearn():
@@ -138,6 +157,38 @@ def test_fast_equals_tslearn_k_means_directly():
     sil_soft = fk.silhouette(X, labels, metric="softdtw", gamma=0.5)
     ref_soft = silhouette_score(X, labels, metric="softdtw", metric_params={"gamma": 0.5})
     assert sil_soft == pytest.approx(ref_soft, abs=1e-9)
+
+
+def test_a_round_whose_clusters_kept_their_series_reuses_the_last_evaluation(monkeypatch):
+    """A cluster that keeps its series starts its barycentre where the last round's run
+    ended, so that run's last objective and gradient are the first the new run asks: the
+    fit reuses them (lbfgsb_many_known) and evaluates fewer centres, with the same labels,
+    centres, inertia and rounds as without (==) and as tslearn's on the same loop."""
+    from uavwind.method.softdtw import kmeans
+
+    X, _ = _loop(1, seed=5)  # its labels settle early, and it runs tens of rounds more
+    evaluated = []
+    objgrad = kmeans.ObjgradBatch.__call__
+    monkeypatch.setattr(kmeans.ObjgradBatch, "__call__",
+                        lambda self, Zs, ks: evaluated.append(len(Zs)) or objgrad(self, Zs, ks))
+    reusing = fk.fit(X, random_state=0, parallel=False)
+    n_reusing = sum(evaluated)
+    known_many = kmeans.lbfgsb_many_known
+    monkeypatch.setattr(kmeans, "lbfgsb_many_known",  # told nothing: every start computed
+                        lambda fg, x0s, known, *a, **k: known_many(fg, x0s, [None] * len(x0s),
+                                                                   *a, **k))
+    evaluated.clear()
+    alone = fk.fit(X, random_state=0, parallel=False)
+    assert np.array_equal(reusing.labels, alone.labels)
+    assert np.array_equal(reusing.cluster_centers, alone.cluster_centers)
+    assert (reusing.inertia, reusing.n_iter) == (alone.inertia, alone.n_iter)
+    # at most one evaluation a cluster a round saved, and at least one in most rounds
+    assert sum(evaluated) - 2 * alone.n_iter <= n_reusing < sum(evaluated) - alone.n_iter
+    km = TimeSeriesKMeans(n_clusters=2, metric="softdtw", metric_params={"gamma": 0.5},
+                          max_iter=100, max_iter_barycenter=5, random_state=0)
+    assert np.array_equal(km.fit_predict(X), reusing.labels)
+    assert np.array_equal(km.cluster_centers_, reusing.cluster_centers)
+    assert km.n_iter_ == reusing.n_iter
 
 
 @pytest.mark.slow

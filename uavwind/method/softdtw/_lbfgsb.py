@@ -51,21 +51,44 @@ def lbfgsb_many(fg_many, x0s, maxiter, ftol, gtol):
     call can serve them all). Each problem sees exactly the evaluations :func:`lbfgsb`
     would give it, in the same order, so each final ``x`` is the same array; on an untested
     scipy, one ``minimize`` after another."""
+    return lbfgsb_many_known(fg_many, x0s, [None] * len(x0s), maxiter, ftol, gtol)[0]
+
+
+def lbfgsb_many_known(fg_many, x0s, known, maxiter, ftol, gtol):
+    """:func:`lbfgsb_many`, told what is already known: ``known[k]``, if not None, is
+    ``(f, g)`` of problem k at its start ``x0s[k]`` (an evaluation made before, at that point
+    exactly: a k-means round's barycentre starts where the last round's ended, and when the
+    cluster kept its series the objective there is the one the last round's run ended on), so
+    that evaluation is not asked of ``fg_many``. The run is otherwise the same, so each final
+    ``x`` is the one :func:`lbfgsb_many` gives (tested). Returns ``(xs, finals)``:
+    ``finals[k]`` is ``(f, g)`` at ``xs[k]`` when the run ended at the point it last evaluated
+    (as it does when it converges or reaches ``maxiter``), else None; on an untested scipy
+    ``known`` is not used and every final is None."""
+    if len(known) != len(x0s):
+        raise ValueError(f"known must give one entry per start, got {len(known)} for "
+                         f"{len(x0s)} starts")
     if not scipy_supported():
-        return [lbfgsb(lambda x, k=k: fg_many([(k, x)])[0], x0, maxiter, ftol, gtol)
-                for k, x0 in enumerate(x0s)]
+        return ([lbfgsb(lambda x, k=k: fg_many([(k, x)])[0], x0, maxiter, ftol, gtol)
+                 for k, x0 in enumerate(x0s)], [None] * len(x0s))
     runs = [_lbfgsb_steps(x0, maxiter, ftol, gtol) for x0 in x0s]
     asked = {k: next(run) for k, run in enumerate(runs)}
-    out = [None] * len(runs)
+    out, finals = [None] * len(runs), [None] * len(runs)
+
+    def answer(k, fg):
+        try:
+            asked[k] = runs[k].send(fg)
+        except StopIteration as done:
+            out[k], finals[k] = done.value
+            del asked[k]
+
+    for k, fg in enumerate(known):
+        if fg is not None:  # the first point asked is the start itself
+            answer(k, fg)
     while asked:
         order = list(asked)
         for k, fg in zip(order, fg_many([(k, asked[k]) for k in order])):
-            try:
-                asked[k] = runs[k].send(fg)
-            except StopIteration as done:
-                out[k] = done.value
-                del asked[k]
-    return out
+            answer(k, fg)
+    return out, finals
 
 
 def _lbfgsb(fg, x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
@@ -76,14 +99,15 @@ def _lbfgsb(fg, x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
         while True:
             x = run.send(fg(x))
     except StopIteration as done:
-        return done.value
+        return done.value[0]
 
 
 def _lbfgsb_steps(x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
     """Unconstrained L-BFGS-B: the loop of scipy's ``_minimize_lbfgsb`` without
     the ``minimize`` / ``ScalarFunction`` / ``MemoizeJac`` layers around it, as a
     generator: it yields each point to evaluate (a copy) and is sent ``(f, g)`` there;
-    it returns the final ``x``.
+    it returns ``(x, fg)``: the final ``x``, and the ``(f, g)`` it was sent at ``x`` when
+    ``x`` is the point it last evaluated (else None: setulb restored an earlier point).
 
     Calls the same Fortran-derived ``setulb`` with the same arguments, feeds it
     the same (f, g) at the same points (an evaluation is reused when ``setulb``
@@ -131,4 +155,4 @@ def _lbfgsb_steps(x0, maxiter, ftol, gtol, maxcor=10, maxls=20):
                 task[1] = 504
         else:
             break
-    return x
+    return x, ((last_f, last_g) if (x == last_x).all() else None)

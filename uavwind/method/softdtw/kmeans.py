@@ -22,7 +22,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._checks import _as_dataset, _check_gamma, _same_features, _use_parallel
 from ._consts import env_flag
 from ._dispatch import ObjgradBatch, _sdtw_cross
-from ._lbfgsb import lbfgsb_many
+from ._lbfgsb import lbfgsb_many_known
 from ._libm import _libm_selfcheck
 
 
@@ -83,7 +83,7 @@ def _k_init_metric(X, n_clusters, cdist_metric, random_state):
 
 
 
-def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3):
+def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3, known=None):
     """``[tslearn.barycenters.softdtw_barycenter(X=Xks[k], gamma, max_iter, init=inits[k])]``
     with unit weights and no constraint: ``scipy.optimize.minimize(method="L-BFGS-B",
     tol=tol, jac=True, options={"maxiter": max_iter})``, i.e. ``ftol = gtol = tol``, run by
@@ -91,9 +91,16 @@ def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3):
     side, so each round's objectives and gradients are one call of
     ``objgrad_batch(Xks)`` (an :class:`~uavwind.method.softdtw._dispatch.ObjgradBatch`). A
     barycentre depends only on its own series and start, so this is tslearn's
-    one-after-another update, value for value."""
+    one-after-another update, value for value.
+
+    ``known[k]``, if given and not None, is the objective and gradient of cluster k at
+    ``inits[k]`` over ``Xks[k]`` (:func:`~uavwind.method.softdtw._lbfgsb.lbfgsb_many_known`:
+    what the last round's run of the same series ended on), so it is not computed again.
+    Returns ``(centres, finals)``: ``finals[k]`` the objective and gradient at centre k where
+    the run ended on an evaluated point, else None (:func:`_fit_steps` keeps them for the
+    next round)."""
     if max_iter <= 0:
-        return list(inits)
+        return list(inits), [None] * len(inits)
     m, d = inits[0].shape
     batch = objgrad_batch(Xks)
 
@@ -101,8 +108,10 @@ def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3):
         done = batch([x.reshape(m, d) for _, x in asked], [k for k, _ in asked])
         return [(float(obj), G.ravel()) for obj, G in done]
 
-    xs = lbfgsb_many(fg_many, [init.ravel() for init in inits], max_iter, ftol=tol, gtol=tol)
-    return [x.reshape(m, d) for x in xs]
+    xs, finals = lbfgsb_many_known(fg_many, [init.ravel() for init in inits],
+                                   [None] * len(inits) if known is None else known,
+                                   max_iter, ftol=tol, gtol=tol)
+    return [x.reshape(m, d) for x in xs], finals
 
 
 _TP_CONTROLLER = None
@@ -228,14 +237,15 @@ def _drive(fits, gamma, max_iter_barycenter, parallel):
             out[i] = done.value
     while asked:
         order = list(asked)
-        new = _softdtw_barycenters([Xk for i in order for Xk in asked[i][0]],
-                                   [c for i in order for c in asked[i][1]], gamma,
-                                   max_iter_barycenter, objgrad_batch)
+        new, finals = _softdtw_barycenters([Xk for i in order for Xk in asked[i][0]],
+                                           [c for i in order for c in asked[i][1]], gamma,
+                                           max_iter_barycenter, objgrad_batch,
+                                           known=[fg for i in order for fg in asked[i][2]])
         at = 0
         for i in order:
             k = len(asked[i][0])
             try:
-                asked[i] = fits[i].send(new[at:at + k])
+                asked[i] = fits[i].send((new[at:at + k], finals[at:at + k]))
             except StopIteration as done:
                 out[i] = done.value
                 del asked[i]
@@ -246,8 +256,17 @@ def _drive(fits, gamma, max_iter_barycenter, parallel):
 def _fit_steps(X, n_clusters, gamma, max_iter, tol, n_init, random_state, parallel,
                init="k-means++"):
     """tslearn's ``TimeSeriesKMeans.fit`` loop as a generator: it yields each barycentre
-    update it needs, ``(Xks, inits)`` (the clusters' series and starting centres), is sent
-    the new centres, and returns the :class:`KMeansResult` (:func:`_drive` runs it)."""
+    update it needs, ``(Xks, inits, known)`` (the clusters' series, starting centres, and
+    what is known of each start: the objective and gradient there when the cluster kept the
+    series of the last round, whose run ended at this start, else None), is sent ``(new
+    centres, finals)`` (:func:`_softdtw_barycenters`), and returns the
+    :class:`KMeansResult` (:func:`_drive` runs it).
+
+    Why ``known``: a barycentre's L-BFGS-B takes about three evaluations a round, the first
+    at its start; where the labels settle early and the round cap is reached (100 rounds),
+    that first one is the same objective at the same point over the same series as the last
+    evaluation of the round before, so it is reused instead of computed (the same doubles:
+    the kernels give one pair the same values in any batch)."""
     par = _use_parallel(parallel)
     fx = _libm_selfcheck()
     n_ts = X.shape[0]
@@ -288,6 +307,7 @@ def _fit_steps(X, n_clusters, gamma, max_iter, tol, n_init, random_state, parall
         old_inertia = np.inf
         failed = False
         it = 0
+        last_labels, finals = None, [None] * n_clusters
         for it in range(max_iter):
             labels, inertia = assign(centers)
             state_labels = labels
@@ -296,9 +316,13 @@ def _fit_steps(X, n_clusters, gamma, max_iter, tol, n_init, random_state, parall
                 break
             # _update_centroids: the clusters' barycentres side by side
             Xks = [np.ascontiguousarray(X[labels == k]) for k in range(n_clusters)]
-            new = yield Xks, [centers[k] for k in range(n_clusters)]
+            known = [finals[k] if last_labels is not None
+                     and np.array_equal(labels == k, last_labels == k) else None
+                     for k in range(n_clusters)]
+            new, finals = yield Xks, [centers[k] for k in range(n_clusters)], known
             for k in range(n_clusters):
                 centers[k] = new[k]
+            last_labels = labels
             if np.abs(old_inertia - inertia) < tol:
                 break
             old_inertia = inertia
