@@ -83,7 +83,7 @@ def _k_init_metric(X, n_clusters, cdist_metric, random_state):
 
 
 
-def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3, known=None):
+def _softdtw_barycenters(Xks, inits, known, gamma, max_iter, objgrad_batch, tol=1e-3):
     """``[tslearn.barycenters.softdtw_barycenter(X=Xks[k], gamma, max_iter, init=inits[k])]``
     with unit weights and no constraint: ``scipy.optimize.minimize(method="L-BFGS-B",
     tol=tol, jac=True, options={"maxiter": max_iter})``, i.e. ``ftol = gtol = tol``, run by
@@ -93,7 +93,7 @@ def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3, k
     barycentre depends only on its own series and start, so this is tslearn's
     one-after-another update, value for value.
 
-    ``known[k]``, if given and not None, is the objective and gradient of cluster k at
+    ``known[k]``, if not None, is the objective and gradient of cluster k at
     ``inits[k]`` over ``Xks[k]`` (:func:`~uavwind.method.softdtw._lbfgsb.lbfgsb_many_known`:
     what the last round's run of the same series ended on), so it is not computed again.
     Returns ``(centres, finals)``: ``finals[k]`` the objective and gradient at centre k where
@@ -108,8 +108,7 @@ def _softdtw_barycenters(Xks, inits, gamma, max_iter, objgrad_batch, tol=1e-3, k
         done = batch([x.reshape(m, d) for _, x in asked], [k for k, _ in asked])
         return [(float(obj), G.ravel()) for obj, G in done]
 
-    xs, finals = lbfgsb_many_known(fg_many, [init.ravel() for init in inits],
-                                   [None] * len(inits) if known is None else known,
+    xs, finals = lbfgsb_many_known(fg_many, [init.ravel() for init in inits], known,
                                    max_iter, ftol=tol, gtol=tol)
     return [x.reshape(m, d) for x in xs], finals
 
@@ -238,9 +237,9 @@ def _drive(fits, gamma, max_iter_barycenter, parallel):
     while asked:
         order = list(asked)
         new, finals = _softdtw_barycenters([Xk for i in order for Xk in asked[i][0]],
-                                           [c for i in order for c in asked[i][1]], gamma,
-                                           max_iter_barycenter, objgrad_batch,
-                                           known=[fg for i in order for fg in asked[i][2]])
+                                           [c for i in order for c in asked[i][1]],
+                                           [fg for i in order for fg in asked[i][2]], gamma,
+                                           max_iter_barycenter, objgrad_batch)
         at = 0
         for i in order:
             k = len(asked[i][0])
